@@ -1,0 +1,41 @@
+// kcrig: thin entry point. Parses the command line, runs one subcommand.
+#include <cstdio>
+#include <functional>
+#include <string>
+
+#include "CLI/CLI.hpp"
+#include "apps/simulate_command.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "kcrig: real-time HIL controller and offline tools for a hydraulic "
+      "kinematics-and-compliance suspension rig"};
+  app.require_subcommand(1);
+  std::function<int()> run;
+  kcrig::AddSimulateCommand(&app, &run);
+  // CLI11 would call an unknown subcommand an "extra argument"; say it plainly.
+  const auto is_subcommand = [&app](const std::string& name) {
+    for (const CLI::App* sub : app.get_subcommands({})) {
+      if (sub->get_name() == name) return true;
+    }
+    return false;
+  };
+  if (argc > 1 && argv[1][0] != '-' && !is_subcommand(argv[1])) {
+    std::fprintf(stderr,
+                 "kcrig: error: unknown subcommand '%s' (see kcrig --help)\n",
+                 argv[1]);
+    return 2;
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    // One line, whatever CLI11 would have printed.
+    std::fprintf(stderr, "kcrig: error: %s (see kcrig --help)\n", e.what());
+    return 2;
+  }
+  return run();
+}

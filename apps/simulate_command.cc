@@ -1,0 +1,248 @@
+#include "apps/simulate_command.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "io_drivers/config_loader.h"
+#include "io_drivers/run_log.h"
+#include "rt_core/measurement_noise.h"
+#include "rt_core/simulation.h"
+
+namespace kcrig {
+namespace {
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+// Effects of the true plant (DESIGN.md §4); implemented with the emulator.
+constexpr const char* kEffectNames[] = {
+    "bushing_damping", "hysteresis",     "progressive_stiffness",
+    "actuator_lag",    "rig_compliance", "sensor_offset"};
+
+struct SimulateArgs {
+  std::string config_dir;
+  double phi_deg = NAN, z_a = NAN, fmax = NAN, duration = NAN, rate = NAN;
+  std::vector<std::string> sets;
+  std::vector<std::string> effects;
+  bool noise = false;
+  std::uint64_t seed = 1;
+  std::string out;
+};
+
+bool ParseDouble(const std::string& text, double* value) {
+  const char* end = text.data() + text.size();
+  const auto result = std::from_chars(text.data(), end, *value);
+  return result.ec == std::errc() && result.ptr == end;
+}
+
+Status ApplySet(const std::string& assignment,
+                SuspensionParameters<double>* model) {
+  const size_t eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    return Status::Error("--set " + assignment + ": expected NAME=VALUE");
+  }
+  const std::string name = assignment.substr(0, eq);
+  double value = 0;
+  if (!ParseDouble(assignment.substr(eq + 1), &value)) {
+    return Status::Error("--set " + assignment + ": '" +
+                         assignment.substr(eq + 1) + "' is not a number");
+  }
+  if (!std::isfinite(value)) {
+    return Status::Error("--set " + assignment + ": value must be finite");
+  }
+  for (const NamedParameter<double>& p : ListParameters(model)) {
+    if (p.name == name) {
+      *p.value = value;
+      return Status::Ok();
+    }
+  }
+  return Status::Error("--set " + assignment + ": unknown parameter '" + name +
+                       "' (e.g. c_O1, d_P, k_spring, mass, O1.x)");
+}
+
+Status CheckEffect(const std::string& spec) {
+  const std::string name = spec.substr(0, spec.find(':'));
+  for (const char* known : kEffectNames) {
+    if (name == known) {
+      return Status::Error("--effect " + spec +
+                           ": unmodelled effects are not available yet "
+                           "(they arrive with the emulator)");
+    }
+  }
+  return Status::Error("--effect " + spec + ": unknown effect '" + name +
+                       "' (bushing_damping, hysteresis, progressive_stiffness, "
+                       "actuator_lag, rig_compliance, sensor_offset)");
+}
+
+// Resolves command-line values over the config defaults and checks them.
+Status ResolveExcitation(const SimulateArgs& args,
+                         const ExperimentConfig& experiment,
+                         RampExcitation<double>* excitation, double* rate,
+                         SimulationOptions* options) {
+  auto pick = [](double given, double fallback) {
+    return std::isnan(given) ? fallback : given;
+  };
+  excitation->phi = pick(args.phi_deg * kDegree, experiment.phi);
+  excitation->z_a = pick(args.z_a, experiment.z_a);
+  excitation->fmax = pick(args.fmax, experiment.fmax);
+  excitation->duration = pick(args.duration, experiment.duration);
+  *rate = pick(args.rate, experiment.rate);
+  if (!std::isfinite(excitation->phi))
+    return Status::Error("--phi: must be finite");
+  if (!std::isfinite(excitation->z_a) || std::abs(excitation->z_a) > 2.0) {
+    return Status::Error(
+        "--z: must be a finite height within +-2 m of the wheel centre");
+  }
+  if (!std::isfinite(excitation->fmax) || excitation->fmax < 0) {
+    return Status::Error("--fmax: must be a finite force >= 0 N");
+  }
+  if (!std::isfinite(excitation->duration) || excitation->duration <= 0) {
+    return Status::Error("--duration: must be > 0 s");
+  }
+  if (!std::isfinite(*rate) || *rate <= 0) {
+    return Status::Error("--rate: must be > 0 Hz");
+  }
+  options->step = experiment.step;
+  const double ratio = 1.0 / (*rate * experiment.step);
+  options->steps_per_sample = static_cast<int>(std::lround(ratio));
+  if (options->steps_per_sample < 1 ||
+      std::abs(ratio - options->steps_per_sample) > 1e-9 * ratio) {
+    return Status::Error(
+        "--rate " + std::to_string(*rate) +
+        ": the sample period must be a whole multiple of the integrator step " +
+        std::to_string(experiment.step) + " s (integrator.step)");
+  }
+  if (excitation->duration * *rate > 1e7) {
+    return Status::Error("--duration x --rate: more than 1e7 samples");
+  }
+  return Status::Ok();
+}
+
+void PrintSummary(const SimulateArgs& args, const RunLog& log,
+                  const RampExcitation<double>& excitation) {
+  const LogSample& first = log.samples.front();
+  const LogSample& last = log.samples.back();
+  std::printf(
+      "kcrig simulate: phi %.2f deg, z_a %.3f m, Fmax %.3f kN, tf %.2f s, "
+      "%zu samples at %.0f Hz%s\n",
+      excitation.phi / kDegree, excitation.z_a, excitation.fmax / 1e3,
+      excitation.duration, log.samples.size(), log.metadata.rate,
+      args.noise ? ", with sensor noise" : "");
+  const char* names[6] = {"x", "y", "z", "toe", "camber", "caster"};
+  const double magnitude_span =
+      excitation.fmax * (excitation.Profile(last.t) - excitation.Profile(0.0));
+  std::printf("  %-8s %12s %12s %14s\n", "channel", "at start", "at end",
+              "compliance");
+  for (int k = 0; k < 6; ++k) {
+    const bool angle = k >= 3;
+    const double scale = angle ? 1.0 / kDegree : 1e3;
+    const double span = (last.y(k) - first.y(k)) * scale;
+    const double per_kn =
+        magnitude_span > 0 ? span / (magnitude_span / 1e3) : 0;
+    std::printf("  %-8s %9.4f %-3s%9.4f %-3s%9.4f %s/kN\n", names[k],
+                first.y(k) * scale, angle ? "deg" : "mm", last.y(k) * scale,
+                angle ? "deg" : "mm", per_kn, angle ? "deg" : "mm");
+  }
+  if (!args.out.empty()) {
+    std::printf("  wrote %s and %s\n", args.out.c_str(),
+                SidecarPath(args.out).c_str());
+  }
+}
+
+int RunSimulate(const SimulateArgs& args) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "kcrig simulate: %s\n", status.message().c_str());
+    return 1;
+  };
+  KcrigConfig config;
+  const std::string dir =
+      args.config_dir.empty() ? DefaultConfigDirectory() : args.config_dir;
+  Status status = LoadConfig(dir, &config);
+  if (!status.ok()) return fail(status);
+  for (const std::string& set : args.sets) {
+    status = ApplySet(set, &config.model);
+    if (!status.ok()) return fail(status);
+  }
+  status = ValidateModel(config.model, "--set");
+  if (!status.ok()) return fail(status);
+  for (const std::string& effect : args.effects) {
+    status = CheckEffect(effect);
+    if (!status.ok()) return fail(status);
+  }
+
+  RampExcitation<double> excitation;
+  SimulationOptions options;
+  double rate = 0;
+  status =
+      ResolveExcitation(args, config.experiment, &excitation, &rate, &options);
+  if (!status.ok()) return fail(status);
+
+  std::vector<TrajectorySample<double>> trajectory;
+  status = SimulateTrajectory(SuspensionModel<double>(config.model), excitation,
+                              options, &trajectory);
+  if (!status.ok()) return fail(status);
+
+  RunLog log;
+  RunMetadata& m = log.metadata;
+  m.rate = rate;
+  m.phi = excitation.phi;
+  m.z_a = excitation.z_a;
+  m.fmax = excitation.fmax;
+  m.duration = excitation.duration;
+  m.sigma_position = config.experiment.sigma_position;
+  m.sigma_angle = config.experiment.sigma_angle;
+  m.transport = "simulation";
+  m.noise_added = args.noise;
+  m.seed = args.seed;
+  m.synthetic = true;
+  for (const NamedParameter<double>& p : ListParameters(&config.model)) {
+    m.truth_parameters.emplace_back(p.name, *p.value);
+  }
+  MeasurementNoise noise(m.sigma_position, m.sigma_angle, args.seed);
+  log.samples.reserve(trajectory.size());
+  for (const TrajectorySample<double>& s : trajectory) {
+    LogSample sample{s.t, s.force, s.y, Vec3<double>::Zero()};
+    if (args.noise) noise.Apply(&sample.y);
+    log.samples.push_back(sample);
+  }
+  if (!args.out.empty()) {
+    status = WriteRunLog(args.out, log);
+    if (!status.ok()) return fail(status);
+  }
+  PrintSummary(args, log, excitation);
+  return 0;
+}
+
+}  // namespace
+
+void AddSimulateCommand(CLI::App* app, std::function<int()>* run) {
+  auto args = std::make_shared<SimulateArgs>();
+  CLI::App* cmd = app->add_subcommand(
+      "simulate",
+      "Run the suspension model for one ramp excitation and write a run log");
+  cmd->add_option("--config", args->config_dir,
+                  "Config directory (default: installed or source config/)");
+  cmd->add_option("--phi", args->phi_deg,
+                  "Force direction in the x-y plane [deg] (default: config)");
+  cmd->add_option("--z", args->z_a,
+                  "Acting point height relative to the wheel centre [m]");
+  cmd->add_option("--fmax", args->fmax, "Ramp amplitude [N]");
+  cmd->add_option("--duration", args->duration, "Ramp time tf [s]");
+  cmd->add_option("--rate", args->rate, "Sample rate [Hz]");
+  cmd->add_option("--set", args->sets,
+                  "Override a model parameter, NAME=VALUE in SI (repeatable)");
+  cmd->add_flag("--noise", args->noise,
+                "Add Gaussian sensor noise (config sigmas)");
+  cmd->add_option("--seed", args->seed, "Noise seed");
+  cmd->add_option("--effect", args->effects,
+                  "Unmodelled effect of the true plant, NAME[:k=v,...] "
+                  "(repeatable)");
+  cmd->add_option("--out", args->out,
+                  "Run log to write (run.csv; the sidecar run.json beside it)");
+  cmd->callback([args, run] { *run = [args] { return RunSimulate(*args); }; });
+}
+
+}  // namespace kcrig

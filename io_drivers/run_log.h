@@ -1,0 +1,60 @@
+// The decoded run log: CSV with header t,Fx,Fy,Fz,x,y,z,toe,camber,caster
+// (s, N, m, rad), optionally followed by Fx_cmd,Fy_cmd,Fz_cmd, and a JSON
+// sidecar with the same stem (run.csv -> run.json). Both files appear
+// together or not at all: they are written to temporaries and renamed.
+#ifndef KCRIG_IO_DRIVERS_RUN_LOG_H_
+#define KCRIG_IO_DRIVERS_RUN_LOG_H_
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "rt_core/rotation.h"
+#include "rt_core/status.h"
+
+namespace kcrig {
+
+struct LogSample {
+  double t = 0;                                   // [s]
+  Vec3<double> force = Vec3<double>::Zero();      // on the wheel [N]
+  Vec6<double> y = Vec6<double>::Zero();          // x, y, z [m], angles [rad]
+  Vec3<double> commanded = Vec3<double>::Zero();  // only with commanded force
+};
+
+struct RunMetadata {
+  double rate = 0;  // [Hz]
+  // Excitation: direction [rad], acting height [m], amplitude [N], tf [s].
+  double phi = 0, z_a = 0, fmax = 0, duration = 0;
+  double sigma_position = 0;  // [m]
+  double sigma_angle = 0;     // [rad]
+  std::string transport;      // "simulation", "modbus-tcp://...", "can:vcan0"
+  bool noise_added = false;
+  std::uint64_t seed = 0;
+  // Synthetic data only: the true parameter values and the plant's effects.
+  bool synthetic = false;
+  std::vector<std::pair<std::string, double>> truth_parameters;
+  std::vector<std::string> truth_effects;
+};
+
+struct RunLog {
+  std::vector<LogSample> samples;
+  bool has_commanded_force = false;
+  RunMetadata metadata;
+};
+
+// run.csv -> run.json
+std::string SidecarPath(const std::string& csv_path);
+
+// Writes csv_path and its sidecar atomically; on failure neither exists.
+Status WriteRunLog(const std::string& csv_path, const RunLog& log);
+
+// Writes each (path, content) through a temporary in the same directory and
+// renames them all only when every temporary was written; on failure no
+// target is left half-written or newly created.
+Status WriteFilesAtomically(
+    const std::vector<std::pair<std::string, std::string>>& files);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_IO_DRIVERS_RUN_LOG_H_

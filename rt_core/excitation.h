@@ -1,0 +1,47 @@
+// The K&C rig excitation of the paper's section 5: a horizontal force whose
+// magnitude ramps linearly from -Fmax to +Fmax over [0, tf], in the direction
+// phi of the x-y plane, acting at height z_a relative to the wheel centre:
+//   Fx = ((2t - tf)/tf) Fmax cos(phi),  Fy = ((2t - tf)/tf) Fmax sin(phi).
+// Before 0 and after tf the end values hold. Templated so that phi and z_a can
+// carry derivatives for the experimental design.
+#ifndef KCRIG_RT_CORE_EXCITATION_H_
+#define KCRIG_RT_CORE_EXCITATION_H_
+
+#include <algorithm>
+#include <cmath>
+
+#include "rt_core/suspension_model.h"
+
+namespace kcrig {
+
+template <typename T>
+struct RampExcitation {
+  T phi = T(0);         // force direction from +x towards +y [rad]
+  T z_a = T(0);         // acting point height above the wheel centre [m]
+  T fmax = T(0);        // ramp amplitude [N]
+  double duration = 0;  // tf [s], > 0
+
+  // The ramp's normalised value (2t - tf)/tf, held at -1 and +1 outside.
+  double Profile(double t) const {
+    return std::clamp((2.0 * t - duration) / duration, -1.0, 1.0);
+  }
+
+  RigLoad<T> LoadAt(double t) const {
+    using std::cos;
+    using std::sin;
+    RigLoad<T> load;
+    const T magnitude = fmax * Profile(t);
+    load.force << magnitude * cos(phi), magnitude * sin(phi), T(0);
+    load.point << T(0), T(0), z_a;
+    return load;
+  }
+
+  template <typename U>
+  RampExcitation<U> Cast() const {
+    return {U(phi), U(z_a), U(fmax), duration};
+  }
+};
+
+}  // namespace kcrig
+
+#endif  // KCRIG_RT_CORE_EXCITATION_H_
