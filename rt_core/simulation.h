@@ -73,9 +73,12 @@ Status SolveStaticEquilibrium(const SuspensionModel<T>& model,
 // equilibrium under the load at t = 0 (the rig has settled at -Fmax before
 // the logged ramp starts). Writes one sample at t = 0 and one every
 // steps_per_sample steps after.
-template <typename T>
+//
+// `Excitation` is RampExcitation<T> or anything else with
+// `double duration` and `RigLoad<T> LoadAt(double t) const`.
+template <typename T, typename Excitation>
 Status SimulateTrajectory(const SuspensionModel<T>& model,
-                          const RampExcitation<T>& excitation,
+                          const Excitation& excitation,
                           const SimulationOptions& options,
                           std::vector<TrajectorySample<T>>* samples) {
   if (!(options.step > 0) || options.steps_per_sample < 1) {

@@ -1,0 +1,26 @@
+// The source tree's config/, loaded once for tests.
+#ifndef KCRIG_TESTS_SUPPORT_TEST_CONFIG_H_
+#define KCRIG_TESTS_SUPPORT_TEST_CONFIG_H_
+
+#include "gtest/gtest.h"
+#include "io_drivers/config_loader.h"
+#include "rt_core/excitation.h"
+
+namespace kcrig {
+
+inline KcrigConfig SourceConfig() {
+  KcrigConfig config;
+  const Status status = LoadConfig(KCRIG_TEST_CONFIG_DIR, &config);
+  EXPECT_TRUE(status.ok()) << status.message();
+  return config;
+}
+
+// The paper's initial experiment with the config's defaults.
+inline RampExcitation<double> PaperInitialExcitation(
+    const ExperimentConfig& experiment) {
+  return {experiment.phi, experiment.z_a, experiment.fmax, experiment.duration};
+}
+
+}  // namespace kcrig
+
+#endif  // KCRIG_TESTS_SUPPORT_TEST_CONFIG_H_
