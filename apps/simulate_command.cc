@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,8 @@ constexpr const char* kEffectNames[] = {
 
 struct SimulateArgs {
   std::string config_dir;
-  double phi_deg = NAN, z_a = NAN, fmax = NAN, duration = NAN, rate = NAN;
+  // Unset means "the config's default".
+  std::optional<double> phi_deg, z_a, fmax, duration, rate;
   std::vector<std::string> sets;
   std::vector<std::string> effects;
   bool noise = false;
@@ -82,14 +84,11 @@ Status ResolveExcitation(const SimulateArgs& args,
                          const ExperimentConfig& experiment,
                          RampExcitation<double>* excitation, double* rate,
                          SimulationOptions* options) {
-  auto pick = [](double given, double fallback) {
-    return std::isnan(given) ? fallback : given;
-  };
-  excitation->phi = pick(args.phi_deg * kDegree, experiment.phi);
-  excitation->z_a = pick(args.z_a, experiment.z_a);
-  excitation->fmax = pick(args.fmax, experiment.fmax);
-  excitation->duration = pick(args.duration, experiment.duration);
-  *rate = pick(args.rate, experiment.rate);
+  excitation->phi = args.phi_deg ? *args.phi_deg * kDegree : experiment.phi;
+  excitation->z_a = args.z_a.value_or(experiment.z_a);
+  excitation->fmax = args.fmax.value_or(experiment.fmax);
+  excitation->duration = args.duration.value_or(experiment.duration);
+  *rate = args.rate.value_or(experiment.rate);
   if (!std::isfinite(excitation->phi))
     return Status::Error("--phi: must be finite");
   if (!std::isfinite(excitation->z_a) || std::abs(excitation->z_a) > 2.0) {
@@ -225,13 +224,19 @@ void AddSimulateCommand(CLI::App* app, std::function<int()>* run) {
       "Run the suspension model for one ramp excitation and write a run log");
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");
-  cmd->add_option("--phi", args->phi_deg,
+  // Sets the optional only when the option is given.
+  auto optional_number = [cmd](const char* name, std::optional<double>* target,
+                               const char* help) {
+    cmd->add_option_function<double>(
+        name, [target](const double& value) { *target = value; }, help);
+  };
+  optional_number("--phi", &args->phi_deg,
                   "Force direction in the x-y plane [deg] (default: config)");
-  cmd->add_option("--z", args->z_a,
+  optional_number("--z", &args->z_a,
                   "Acting point height relative to the wheel centre [m]");
-  cmd->add_option("--fmax", args->fmax, "Ramp amplitude [N]");
-  cmd->add_option("--duration", args->duration, "Ramp time tf [s]");
-  cmd->add_option("--rate", args->rate, "Sample rate [Hz]");
+  optional_number("--fmax", &args->fmax, "Ramp amplitude [N]");
+  optional_number("--duration", &args->duration, "Ramp time tf [s]");
+  optional_number("--rate", &args->rate, "Sample rate [Hz]");
   cmd->add_option("--set", args->sets,
                   "Override a model parameter, NAME=VALUE in SI (repeatable)");
   cmd->add_flag("--noise", args->noise,

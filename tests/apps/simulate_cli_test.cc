@@ -1,0 +1,183 @@
+// Acceptance 5 (foundation issue) and the CLI contract: the real kcrig
+// binary, run as a user runs it.
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "gtest/gtest.h"
+#include "nlohmann/json.hpp"
+
+namespace kcrig {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+Result RunKcrig(const std::string& arguments, const std::string& prefix = "") {
+  const std::string command =
+      prefix + std::string(KCRIG_BINARY) + " " + arguments + " 2>&1";
+  Result result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer;
+  size_t n = 0;
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) {
+    result.output.append(buffer.data(), n);
+  }
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+int CountLines(const std::string& text) {
+  return static_cast<int>(std::count(text.begin(), text.end(), '\n'));
+}
+
+class SimulateCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           (std::string("kcrig_cli_test_") +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    fs::permissions(dir_, fs::perms::owner_all);
+    fs::remove_all(dir_);
+  }
+  // A failed run: non-zero exit, one line naming `expected`, and nothing
+  // written into the output directory.
+  void ExpectCleanFailure(const Result& result, const std::string& expected) {
+    EXPECT_NE(result.exit_code, 0) << result.output;
+    EXPECT_EQ(CountLines(result.output), 1) << result.output;
+    EXPECT_NE(result.output.find(expected), std::string::npos) << result.output;
+    EXPECT_TRUE(fs::is_empty(dir_)) << "partial output left behind";
+  }
+  std::string Out() const { return (dir_ / "run.csv").string(); }
+
+  fs::path dir_;
+};
+
+TEST_F(SimulateCliTest, HelpListsTheSubcommand) {
+  const Result result = RunKcrig("--help");
+  EXPECT_EQ(result.exit_code, 0);
+  EXPECT_NE(result.output.find("simulate"), std::string::npos);
+  const Result sub = RunKcrig("simulate --help");
+  EXPECT_EQ(sub.exit_code, 0);
+  EXPECT_NE(sub.output.find("--phi"), std::string::npos);
+}
+
+TEST_F(SimulateCliTest, UnknownSubcommandAndOptionFailInOneLine) {
+  ExpectCleanFailure(RunKcrig("frobnicate"), "unknown subcommand 'frobnicate'");
+  ExpectCleanFailure(RunKcrig("simulate --bogus"), "--bogus");
+  ExpectCleanFailure(RunKcrig("simulate --phi abc"), "--phi");
+  ExpectCleanFailure(RunKcrig(""), "subcommand");
+}
+
+TEST_F(SimulateCliTest, WritesCsvAndSidecarPerContract) {
+  const Result result = RunKcrig(
+      "simulate --phi 85 --z -0.45 --fmax 3000 "
+      "--duration 0.5 --rate 500 --set c_O1=4.2e6 "
+      "--noise --seed 3 --out " +
+      Out());
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_NE(result.output.find("mm/kN"), std::string::npos) << result.output;
+
+  std::ifstream csv(Out());
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "t,Fx,Fy,Fz,x,y,z,toe,camber,caster");
+  int rows = 0;
+  std::string last;
+  while (std::getline(csv, line)) {
+    ++rows;
+    last = line;
+  }
+  EXPECT_EQ(rows, 251);  // 0.5 s at 500 Hz, both ends included
+  EXPECT_EQ(last.substr(0, last.find(',')), "0.5");
+
+  const nlohmann::json sidecar =
+      nlohmann::json::parse(std::ifstream(dir_ / "run.json"));
+  EXPECT_EQ(sidecar["units"]["t"], "s");
+  EXPECT_EQ(sidecar["units"]["Fx"], "N");
+  EXPECT_EQ(sidecar["units"]["z"], "m");
+  EXPECT_EQ(sidecar["units"]["camber"], "rad");
+  EXPECT_EQ(sidecar["rate_hz"], 500.0);
+  EXPECT_NEAR(sidecar["excitation"]["phi_rad"].get<double>(),
+              85.0 * M_PI / 180.0, 1e-12);
+  EXPECT_EQ(sidecar["excitation"]["z_a_m"], -0.45);
+  EXPECT_EQ(sidecar["excitation"]["fmax_n"], 3000.0);
+  EXPECT_EQ(sidecar["excitation"]["tf_s"], 0.5);
+  EXPECT_EQ(sidecar["truth"]["parameters"]["c_O1"], 4.2e6);
+  EXPECT_EQ(sidecar["noise"]["seed"], 3);
+  EXPECT_EQ(sidecar["noise"]["added"], true);
+  EXPECT_EQ(sidecar["transport"], "simulation");
+}
+
+TEST_F(SimulateCliTest, SameSeedSameNoise) {
+  ASSERT_EQ(RunKcrig("simulate --duration 0.1 --noise --seed 9 --out " + Out())
+                .exit_code,
+            0);
+  std::ifstream a(Out());
+  const std::string first((std::istreambuf_iterator<char>(a)), {});
+  ASSERT_EQ(RunKcrig("simulate --duration 0.1 --noise --seed 9 --out " + Out())
+                .exit_code,
+            0);
+  std::ifstream b(Out());
+  const std::string second((std::istreambuf_iterator<char>(b)), {});
+  EXPECT_EQ(first, second);
+}
+
+TEST_F(SimulateCliTest, ReadOnlyOutputDirectoryFailsCleanly) {
+  fs::permissions(dir_, fs::perms::owner_read | fs::perms::owner_exec |
+                            fs::perms::group_read | fs::perms::group_exec |
+                            fs::perms::others_read | fs::perms::others_exec);
+  // Root ignores permission bits; in a user namespace it is an ordinary
+  // user towards files it does not own there.
+  const std::string prefix = geteuid() == 0 ? "unshare --user " : "";
+  const Result result =
+      RunKcrig("simulate --duration 0.1 --out " + Out(), prefix);
+  ExpectCleanFailure(result, Out() + ": cannot write: Permission denied");
+}
+
+TEST_F(SimulateCliTest, MalformedSetFailsCleanly) {
+  ExpectCleanFailure(RunKcrig("simulate --set c_O1 --out " + Out()),
+                     "--set c_O1: expected NAME=VALUE");
+  ExpectCleanFailure(RunKcrig("simulate --set c_O1=4e6N --out " + Out()),
+                     "'4e6N' is not a number");
+  ExpectCleanFailure(RunKcrig("simulate --set c_X9=4e6 --out " + Out()),
+                     "unknown parameter 'c_X9'");
+  ExpectCleanFailure(RunKcrig("simulate --set mass=-1 --out " + Out()),
+                     "--set: mass: must be > 0");
+}
+
+TEST_F(SimulateCliTest, NanParameterFailsCleanly) {
+  ExpectCleanFailure(RunKcrig("simulate --set c_P=nan --out " + Out()),
+                     "--set c_P=nan: value must be finite");
+  ExpectCleanFailure(RunKcrig("simulate --fmax nan --out " + Out()), "--fmax");
+}
+
+TEST_F(SimulateCliTest, InconsistentRateAndEffectsFailCleanly) {
+  ExpectCleanFailure(RunKcrig("simulate --rate 300 --out " + Out()),
+                     "whole multiple of the integrator step");
+  ExpectCleanFailure(RunKcrig("simulate --effect hysteresis --out " + Out()),
+                     "not available yet");
+  ExpectCleanFailure(RunKcrig("simulate --effect wobble --out " + Out()),
+                     "unknown effect 'wobble'");
+  ExpectCleanFailure(RunKcrig("simulate --config /nonexistent --out " + Out()),
+                     "/nonexistent: config directory not found");
+}
+
+}  // namespace
+}  // namespace kcrig
