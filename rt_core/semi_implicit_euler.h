@@ -16,16 +16,24 @@ template <typename T>
 void SemiImplicitEulerStep(const SuspensionModel<T>& model,
                            const RigLoad<T>& load_next, double h,
                            ModelState<T>* state) {
-  const Mat6<T> v = model.KinematicMatrix(state->y);
-  const Vec6<T> y_predicted = state->y + h * (v * state->z);
+  // V = diag(I, G^-1): only the rotational block is ever multiplied out.
+  const Mat3<T> g_inv =
+      InverseAngularRateMatrix<T>(state->y.template tail<3>());
+  Vec6<T> y_rate;
+  y_rate << state->z.template head<3>(), g_inv * state->z.template tail<3>();
+  const Vec6<T> y_predicted = state->y + h * y_rate;
   GeneralizedForce<T> g;
   model.Evaluate(load_next, y_predicted, state->z, /*with_jacobians=*/true, &g);
-  const Mat6<T> iteration_matrix =
-      model.mass_matrix() - h * g.dq_dz - (h * h) * (g.dq_dy * v);
+  Mat6<T> iteration_matrix = model.mass_matrix() - h * g.dq_dz;
+  iteration_matrix.template leftCols<3>() -=
+      (h * h) * g.dq_dy.template leftCols<3>();
+  iteration_matrix.template rightCols<3>() -=
+      (h * h) * (g.dq_dy.template rightCols<3>() * g_inv);
   const Vec6<T> dz =
       Eigen::PartialPivLU<Mat6<T>>(iteration_matrix).solve(h * g.q);
   state->z += dz;
-  state->y += h * (v * state->z);
+  state->y.template head<3>() += h * state->z.template head<3>();
+  state->y.template tail<3>() += h * (g_inv * state->z.template tail<3>());
 }
 
 }  // namespace kcrig

@@ -65,6 +65,7 @@ class SuspensionModel {
     for (int i = 0; i < kNumElements; ++i) {
       const AxialElement<T>& e = Element(i);
       free_length_[i] = (e.chassis_point - e.carrier_point).norm();
+      skew_carrier_point_[i] = Skew<T>(e.carrier_point);
     }
     mass_matrix_.setZero();
     mass_matrix_.template topLeftCorner<3, 3>() =
@@ -85,90 +86,94 @@ class SuspensionModel {
   }
 
   // Q(y, z) under `load`; with `with_jacobians` also dQ/dy and dQ/dz.
+  //
+  // Derivatives are first taken with respect to q = (r, small body-frame
+  // rotation theta) and mapped to Cardan angles through G at the end. For an
+  // element with carrier point b, l = |c - r - R b|, u = (c - r - R b) / l
+  // and u_b = R^T u, the generalized direction a = [u; b x u_b] gives
+  //   dl = -a^T dq,  dl/dt = -a^T z,  Q_e = m a,  m = k (l - l0) + d dl/dt,
+  // so dQ_e/dz = -d a a^T and dQ_e/dq = a (d g - k a)^T + m H with
+  //   g = [e; b x e_b - w x u_b],  e = (I - u u^T) pdot / l,  e_b = R^T e,
+  //   H = [ -W/l       R W_b B/l           ]   W = I - u u^T, B = [b]x,
+  //       [ (.)^T      B W_b B/l + B[u_b]x ]   W_b = I - u_b u_b^T.
   void Evaluate(const RigLoad<T>& load, const Vec6<T>& y, const Vec6<T>& z,
                 bool with_jacobians, GeneralizedForce<T>* out) const {
     const Vec3<T> r = y.template head<3>();
     const Vec3<T> angles = y.template tail<3>();
     const Vec3<T> v = z.template head<3>();
     const Vec3<T> omega = z.template tail<3>();
-    const Mat3<T> rot = CardanRotation<T>(angles);
+    const CardanAngles<T> cardan(angles);
+    const Mat3<T> rot = cardan.Rotation();
     const Mat3<T> rot_t = rot.transpose();
 
-    // Derivatives are first taken with respect to q = (r, small body-frame
-    // rotation); the rotation columns map to Cardan angles through G below.
-    Eigen::Matrix<T, 6, 6> dq_dq;
+    Mat6<T> dq_dq;  // with respect to (r, theta)
     if (with_jacobians) {
       dq_dq.setZero();
       out->dq_dz.setZero();
     }
-    Vec3<T> force = load.force;
     const Vec3<T> load_body = rot_t * load.force;
-    Vec3<T> moment = load.point.cross(load_body);
+    out->q.template head<3>() = load.force;
+    out->q.template tail<3>() = load.point.cross(load_body);
     if (with_jacobians) {
-      dq_dq.template block<3, 3>(3, 3) +=
-          Skew<T>(load.point) * Skew<T>(load_body);
+      dq_dq.template block<3, 3>(3, 3) =
+          SkewTimes<T>(load.point, Skew<T>(load_body));
     }
 
     for (int i = 0; i < kNumElements; ++i) {
       const AxialElement<T>& e = Element(i);
-      const Vec3<T> lever = rot * e.carrier_point;
-      const Vec3<T> d = e.chassis_point - (r + lever);
+      const Vec3<T>& b = e.carrier_point;
+      const Vec3<T> d = e.chassis_point - r - rot * b;
       const T length = d.norm();
-      const Vec3<T> u = d / length;  // carrier point -> chassis point
-      const Vec3<T> w = omega.cross(e.carrier_point);  // body frame
-      const Vec3<T> point_velocity = v + rot * w;
-      const T length_rate = -u.dot(point_velocity);
+      const Vec3<T> u = d / length;
+      const Vec3<T> u_body = rot_t * u;
+      const Vec3<T> w = omega.cross(b);  // carrier-point velocity, body frame
+      Vec6<T> a;
+      a << u, b.cross(u_body);
+      const T length_rate = -a.dot(z);
       const T magnitude =
           e.stiffness * (length - free_length_[i]) + e.damping * length_rate;
-      const Vec3<T> f = magnitude * u;  // on the carrier, rig frame
-      const Vec3<T> f_body = rot_t * f;
-      force += f;
-      moment += e.carrier_point.cross(f_body);
+      out->q += magnitude * a;
       if (!with_jacobians) continue;
 
-      // With l = |d|, u = d/l and f = (c (l - l0) + d_e dl/dt) u:
-      //   dl = -u.dp, du = -(I - u u^T) dp / l,
-      //   d(dl/dt) = pdot^T (I - u u^T) dp / l + u^T R [w]x dtheta.
-      const Mat3<T> skew_b = Skew<T>(e.carrier_point);
-      // dp/dq = [I, -R [b]x] for the carrier point p = r + R b.
-      Eigen::Matrix<T, 3, 6> dp_dq;
-      dp_dq.template leftCols<3>().setIdentity();
-      dp_dq.template rightCols<3>() = -rot * skew_b;
-      const Mat3<T> transverse = Mat3<T>::Identity() - u * u.transpose();
-      const Mat3<T> k_point = -(e.stiffness * u * u.transpose() +
-                                (magnitude / length) * transverse);
-      Eigen::Matrix<T, 1, 6> dlength_rate_dq =
-          (point_velocity.transpose() * transverse * dp_dq) / length;
-      dlength_rate_dq.template rightCols<3>() +=
-          u.transpose() * rot * Skew<T>(w);
-      const Eigen::Matrix<T, 3, 6> df_dq =
-          k_point * dp_dq + (e.damping * u) * dlength_rate_dq;
-      dq_dq.template topRows<3>() += df_dq;
-      Eigen::Matrix<T, 3, 6> dfbody_dq = rot_t * df_dq;
-      dfbody_dq.template rightCols<3>() += Skew<T>(f_body);
-      dq_dq.template bottomRows<3>() += skew_b * dfbody_dq;
+      const Vec3<T> point_velocity = v + rot * w;
+      const Vec3<T> e_world =
+          (point_velocity - u * u.dot(point_velocity)) / length;
+      Vec6<T> g;
+      g << e_world, b.cross(rot_t * e_world) - w.cross(u_body);
+      const Vec6<T> dmagnitude_dq = e.damping * g - e.stiffness * a;
+      const Vec6<T> damped_a = e.damping * a;
+      // Rank-one updates as plain loops: Eigen's generic outer product costs
+      // several times more per Jet multiply.
+      for (int col = 0; col < 6; ++col) {
+        for (int row = 0; row < 6; ++row) {
+          dq_dq(row, col) += a(row) * dmagnitude_dq(col);
+          out->dq_dz(row, col) -= damped_a(row) * a(col);
+        }
+      }
 
-      Eigen::Matrix<T, 1, 6> dlength_rate_dz;
-      dlength_rate_dz.template leftCols<3>() = -u.transpose();
-      dlength_rate_dz.template rightCols<3>() = u.transpose() * rot * skew_b;
-      const Eigen::Matrix<T, 3, 6> df_dz = (e.damping * u) * dlength_rate_dz;
-      out->dq_dz.template topRows<3>() += df_dz;
-      out->dq_dz.template bottomRows<3>() += skew_b * rot_t * df_dz;
+      const Mat3<T>& skew_b = skew_carrier_point_[i];
+      const T m_over_l = magnitude / length;
+      // W_b B = B - u_b (u_b^T B), and u_b^T B = (u_b x b)^T.
+      const Mat3<T> w_body_b = skew_b - u_body * u_body.cross(b).transpose();
+      const Mat3<T> h12 = (rot * w_body_b) * m_over_l;
+      dq_dq.template block<3, 3>(0, 0) -=
+          m_over_l * (Mat3<T>::Identity() - u * u.transpose());
+      dq_dq.template block<3, 3>(0, 3) += h12;
+      dq_dq.template block<3, 3>(3, 0) += h12.transpose();
+      dq_dq.template block<3, 3>(3, 3) +=
+          SkewTimes<T>(b, m_over_l * w_body_b + magnitude * Skew<T>(u_body));
     }
 
     // Gyroscopic moment of the body-frame Euler equations.
     const Vec3<T> angular_momentum = parameters_.inertia.cwiseProduct(omega);
-    moment -= omega.cross(angular_momentum);
-
-    out->q.template head<3>() = force;
-    out->q.template tail<3>() = moment;
+    out->q.template tail<3>() -= omega.cross(angular_momentum);
     if (!with_jacobians) return;
     out->dq_dz.template block<3, 3>(3, 3) -=
         Skew<T>(omega) * Mat3<T>(parameters_.inertia.asDiagonal()) -
         Skew<T>(angular_momentum);
     out->dq_dy.template leftCols<3>() = dq_dq.template leftCols<3>();
     out->dq_dy.template rightCols<3>() =
-        dq_dq.template rightCols<3>() * AngularRateMatrix<T>(angles);
+        dq_dq.template rightCols<3>() * cardan.RateMatrix();
   }
 
  private:
@@ -180,6 +185,7 @@ class SuspensionModel {
 
   SuspensionParameters<T> parameters_;
   std::array<T, kNumElements> free_length_;
+  std::array<Mat3<T>, kNumElements> skew_carrier_point_;
   Mat6<T> mass_matrix_;
 };
 

@@ -81,6 +81,16 @@ TEST(SuspensionModelTest, DesignPositionIsUnloadedEquilibrium) {
   EXPECT_GT(eigen.eigenvalues().minCoeff(), 0.0);
 }
 
+TEST(RotationTest, CardanRotationIsRzRxRy) {
+  const Vec3<double> angles(0.1, -0.2, 0.3);
+  const Mat3<double> expected =
+      (Eigen::AngleAxisd(angles(0), Eigen::Vector3d::UnitZ()) *
+       Eigen::AngleAxisd(angles(1), Eigen::Vector3d::UnitX()) *
+       Eigen::AngleAxisd(angles(2), Eigen::Vector3d::UnitY()))
+          .toRotationMatrix();
+  EXPECT_LT((CardanRotation(angles) - expected).norm(), 1e-15);
+}
+
 TEST(RotationTest, AngularRateMatrixAndInverse) {
   const Vec3<double> angles(0.1, -0.2, 0.3);
   EXPECT_LT((AngularRateMatrix(angles) * InverseAngularRateMatrix(angles) -
