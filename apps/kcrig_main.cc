@@ -4,6 +4,7 @@
 #include <string>
 
 #include "CLI/CLI.hpp"
+#include "apps/estimate_command.h"
 #include "apps/simulate_command.h"
 
 int main(int argc, char** argv) {
@@ -13,6 +14,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   std::function<int()> run;
   kcrig::AddSimulateCommand(&app, &run);
+  kcrig::AddEstimateCommand(&app, &run);
   // CLI11 would call an unknown subcommand an "extra argument"; say it plainly.
   const auto is_subcommand = [&app](const std::string& name) {
     for (const CLI::App* sub : app.get_subcommands({})) {

@@ -1,6 +1,5 @@
 #include "apps/simulate_command.h"
 
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -8,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "apps/cli_util.h"
 #include "io_drivers/config_loader.h"
 #include "io_drivers/run_log.h"
 #include "rt_core/measurement_noise.h"
@@ -34,27 +34,12 @@ struct SimulateArgs {
   std::string out;
 };
 
-bool ParseDouble(const std::string& text, double* value) {
-  const char* end = text.data() + text.size();
-  const auto result = std::from_chars(text.data(), end, *value);
-  return result.ec == std::errc() && result.ptr == end;
-}
-
 Status ApplySet(const std::string& assignment,
                 SuspensionParameters<double>* model) {
-  const size_t eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0) {
-    return Status::Error("--set " + assignment + ": expected NAME=VALUE");
-  }
-  const std::string name = assignment.substr(0, eq);
+  std::string name;
   double value = 0;
-  if (!ParseDouble(assignment.substr(eq + 1), &value)) {
-    return Status::Error("--set " + assignment + ": '" +
-                         assignment.substr(eq + 1) + "' is not a number");
-  }
-  if (!std::isfinite(value)) {
-    return Status::Error("--set " + assignment + ": value must be finite");
-  }
+  const Status status = ParseAssignment("--set", assignment, &name, &value);
+  if (!status.ok()) return status;
   for (const NamedParameter<double>& p : ListParameters(model)) {
     if (p.name == name) {
       *p.value = value;

@@ -2,12 +2,15 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "nlohmann/json.hpp"
 
@@ -82,7 +85,193 @@ std::string FormatSidecar(const RunLog& log) {
   return doc.dump(2) + "\n";
 }
 
+constexpr const char* kChannels[] = {"t", "Fx", "Fy",  "Fz",     "x",
+                                     "y", "z",  "toe", "camber", "caster"};
+constexpr const char* kCommandedChannels[] = {"Fx_cmd", "Fy_cmd", "Fz_cmd"};
+
+std::vector<std::string_view> SplitFields(std::string_view line) {
+  std::vector<std::string_view> fields;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = line.find(',', start);
+    fields.push_back(line.substr(start, comma - start));
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  return fields;
+}
+
+bool ParseFinite(std::string_view text, double* value) {
+  while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\r')) {
+    text.remove_suffix(1);
+  }
+  const char* end = text.data() + text.size();
+  const auto result = std::from_chars(text.data(), end, *value);
+  return result.ec == std::errc() && result.ptr == end && std::isfinite(*value);
+}
+
+Status ReadSidecar(const std::string& path, size_t rows, double first_t,
+                   double last_t, RunMetadata* m) {
+  std::ifstream in(path);
+  if (!in) return Status::Error(path + ": cannot open the sidecar");
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    return Status::Error(path + ": malformed JSON at byte " +
+                         std::to_string(e.byte));
+  }
+  auto number = [&](const nlohmann::json& parent, const char* section,
+                    const char* key, double* out) -> Status {
+    if (!parent.contains(key) || !parent[key].is_number()) {
+      return Status::Error(path + ": " + section + key +
+                           ": missing or not a number");
+    }
+    *out = parent[key].get<double>();
+    if (!std::isfinite(*out)) {
+      return Status::Error(path + ": " + section + key + ": not finite");
+    }
+    return Status::Ok();
+  };
+  if (!doc.is_object() || !doc.contains("excitation") ||
+      !doc["excitation"].is_object() || !doc.contains("measurement_sigma") ||
+      !doc["measurement_sigma"].is_object()) {
+    return Status::Error(path +
+                         ": not a kcrig run sidecar (no excitation or "
+                         "measurement_sigma)");
+  }
+  const nlohmann::json& ex = doc["excitation"];
+  const nlohmann::json& sigma = doc["measurement_sigma"];
+  for (const Status& status :
+       {number(doc, "", "rate_hz", &m->rate),
+        number(ex, "excitation.", "phi_rad", &m->phi),
+        number(ex, "excitation.", "z_a_m", &m->z_a),
+        number(ex, "excitation.", "fmax_n", &m->fmax),
+        number(ex, "excitation.", "tf_s", &m->duration),
+        number(sigma, "measurement_sigma.", "position_m", &m->sigma_position),
+        number(sigma, "measurement_sigma.", "angle_rad", &m->sigma_angle)}) {
+    if (!status.ok()) return status;
+  }
+  if (!(m->rate > 0) || !(m->sigma_position > 0) || !(m->sigma_angle > 0)) {
+    return Status::Error(path + ": rate_hz and measurement sigmas must be > 0");
+  }
+  if (doc.contains("samples") && doc["samples"].is_number_unsigned() &&
+      doc["samples"].get<size_t>() != rows) {
+    return Status::Error(path + ": says " +
+                         std::to_string(doc["samples"].get<size_t>()) +
+                         " samples, the CSV has " + std::to_string(rows) +
+                         " (mismatched sidecar)");
+  }
+  const double expected_span = (rows - 1) / m->rate;
+  if (std::abs((last_t - first_t) - expected_span) > 0.5 / m->rate) {
+    return Status::Error(path + ": rate " + std::to_string(m->rate) +
+                         " Hz does not match the CSV's time column "
+                         "(mismatched sidecar)");
+  }
+  if (doc.contains("transport") && doc["transport"].is_string()) {
+    m->transport = doc["transport"].get<std::string>();
+  }
+  return Status::Ok();
+}
+
 }  // namespace
+
+Status ReadRunLog(const std::string& csv_path, RunLog* log) {
+  std::ifstream in(csv_path, std::ios::binary);
+  if (!in) return Status::Error(csv_path + ": cannot open");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  if (text.empty()) return Status::Error(csv_path + ": empty file");
+  if (text.back() != '\n') {
+    const long line = 1 + std::count(text.begin(), text.end(), '\n');
+    return Status::Error(csv_path + ":" + std::to_string(line) +
+                         ": truncated (the last line is incomplete)");
+  }
+
+  std::string_view rest(text);
+  auto next_line = [&rest]() {
+    const size_t end = rest.find('\n');
+    std::string_view line = rest.substr(0, end);
+    rest.remove_prefix(end + 1);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    return line;
+  };
+  const std::vector<std::string_view> header = SplitFields(next_line());
+  // Column index of each channel; -1 when absent.
+  auto find = [&header](std::string_view name) {
+    for (size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == name) return static_cast<int>(i);
+    }
+    return -1;
+  };
+  int column[10];
+  for (int k = 0; k < 10; ++k) {
+    column[k] = find(kChannels[k]);
+    if (column[k] < 0) {
+      return Status::Error(csv_path + ":1: missing column '" +
+                           std::string(kChannels[k]) + "'");
+    }
+  }
+  int commanded[3];
+  int commanded_found = 0;
+  for (int k = 0; k < 3; ++k) {
+    commanded[k] = find(kCommandedChannels[k]);
+    commanded_found += commanded[k] >= 0;
+  }
+  if (commanded_found != 0 && commanded_found != 3) {
+    return Status::Error(csv_path +
+                         ":1: Fx_cmd, Fy_cmd, Fz_cmd must appear together");
+  }
+  log->has_commanded_force = commanded_found == 3;
+  log->samples.clear();
+
+  long line_number = 1;
+  while (!rest.empty()) {
+    ++line_number;
+    const std::string_view line = next_line();
+    const std::string where = csv_path + ":" + std::to_string(line_number);
+    const std::vector<std::string_view> fields = SplitFields(line);
+    if (fields.size() != header.size()) {
+      return Status::Error(where + ": expected " +
+                           std::to_string(header.size()) + " fields, got " +
+                           std::to_string(fields.size()));
+    }
+    double values[10];
+    for (int k = 0; k < 10; ++k) {
+      if (!ParseFinite(fields[column[k]], &values[k])) {
+        return Status::Error(where + ": column '" + kChannels[k] +
+                             "': not a finite number ('" +
+                             std::string(fields[column[k]]) + "')");
+      }
+    }
+    LogSample sample;
+    sample.t = values[0];
+    sample.force << values[1], values[2], values[3];
+    sample.y << values[4], values[5], values[6], values[7], values[8],
+        values[9];
+    if (log->has_commanded_force) {
+      for (int k = 0; k < 3; ++k) {
+        if (!ParseFinite(fields[commanded[k]], &sample.commanded(k))) {
+          return Status::Error(where + ": column '" + kCommandedChannels[k] +
+                               "': not a finite number");
+        }
+      }
+    }
+    if (!log->samples.empty() && !(sample.t > log->samples.back().t)) {
+      return Status::Error(where + ": time " + std::string(fields[column[0]]) +
+                           " s does not increase");
+    }
+    log->samples.push_back(sample);
+  }
+  if (log->samples.size() < 2) {
+    return Status::Error(csv_path + ": fewer than 2 samples");
+  }
+  return ReadSidecar(SidecarPath(csv_path), log->samples.size(),
+                     log->samples.front().t, log->samples.back().t,
+                     &log->metadata);
+}
 
 std::string SidecarPath(const std::string& csv_path) {
   return std::filesystem::path(csv_path).replace_extension(".json").string();

@@ -49,6 +49,14 @@ std::string SidecarPath(const std::string& csv_path);
 // Writes csv_path and its sidecar atomically; on failure neither exists.
 Status WriteRunLog(const std::string& csv_path, const RunLog& log);
 
+// Reads a run log and its sidecar, checking everything an estimator relies
+// on: the header has every channel, each row is complete and finite, time
+// increases strictly, the file ends with a complete line, and the sidecar
+// agrees with the CSV (sample count, rate). Errors name file and line.
+// The truth block of a synthetic sidecar is not read: estimation never sees
+// it.
+Status ReadRunLog(const std::string& csv_path, RunLog* log);
+
 // Writes each (path, content) through a temporary in the same directory and
 // renames them all only when every temporary was written; on failure no
 // target is left half-written or newly created.

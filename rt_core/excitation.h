@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "rt_core/suspension_model.h"
 
@@ -39,6 +40,30 @@ struct RampExcitation {
   template <typename U>
   RampExcitation<U> Cast() const {
     return {U(phi), U(z_a), U(fmax), duration};
+  }
+};
+
+// A load given by forces sampled at a fixed period (a rig log's load cell),
+// linearly interpolated between samples and held after the last one, acting
+// at height z_a. Times are relative to the first sample.
+template <typename T>
+struct SampledLoad {
+  const std::vector<Vec3<double>>* forces = nullptr;  // at t = j * period
+  double period = 0;                                  // [s]
+  T z_a = T(0);                                       // [m]
+  double duration = 0;                                // (n - 1) * period
+
+  RigLoad<T> LoadAt(double t) const {
+    const double position =
+        std::clamp(t / period, 0.0, static_cast<double>(forces->size() - 1));
+    const size_t j =
+        std::min(static_cast<size_t>(position), forces->size() - 2);
+    const double w = position - static_cast<double>(j);
+    RigLoad<T> load;
+    load.force =
+        ((1.0 - w) * (*forces)[j] + w * (*forces)[j + 1]).template cast<T>();
+    load.point << T(0), T(0), z_a;
+    return load;
   }
 };
 

@@ -176,6 +176,26 @@ class SuspensionModel {
         dq_dq.template rightCols<3>() * cardan.RateMatrix();
   }
 
+  // Axial force of each element (the five bushings in BushingIndex order,
+  // then the spring-damper), positive in tension [N].
+  Vec6<T> ElementForces(const Vec6<T>& y, const Vec6<T>& z) const {
+    const Mat3<T> rot = CardanAngles<T>(y.template tail<3>()).Rotation();
+    Vec6<T> forces;
+    for (int i = 0; i < kNumElements; ++i) {
+      const AxialElement<T>& e = Element(i);
+      const Vec3<T> d =
+          e.chassis_point - y.template head<3>() - rot * e.carrier_point;
+      const T length = d.norm();
+      const Vec3<T> u = d / length;
+      const Vec3<T> velocity =
+          z.template head<3>() +
+          rot * Vec3<T>(z.template tail<3>()).cross(e.carrier_point);
+      forces(i) = e.stiffness * (length - free_length_[i]) -
+                  e.damping * u.dot(velocity);
+    }
+    return forces;
+  }
+
  private:
   static constexpr int kNumElements = kNumBushings + 1;  // + spring-damper
 

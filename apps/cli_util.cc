@@ -1,0 +1,49 @@
+#include "apps/cli_util.h"
+
+#include <charconv>
+#include <cmath>
+
+namespace kcrig {
+
+bool ParseFiniteDouble(const std::string& text, double* value) {
+  const char* end = text.data() + text.size();
+  const auto result = std::from_chars(text.data(), end, *value);
+  return result.ec == std::errc() && result.ptr == end && std::isfinite(*value);
+}
+
+Status ParseAssignment(const std::string& option, const std::string& text,
+                       std::string* name, double* value) {
+  const size_t eq = text.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    return Status::Error(option + " " + text + ": expected NAME=VALUE");
+  }
+  *name = text.substr(0, eq);
+  const std::string number = text.substr(eq + 1);
+  if (!ParseFiniteDouble(number, value)) {
+    double parsed = 0;
+    const auto result =
+        std::from_chars(number.data(), number.data() + number.size(), parsed);
+    if (result.ec == std::errc() &&
+        result.ptr == number.data() + number.size()) {
+      return Status::Error(option + " " + text + ": value must be finite");
+    }
+    return Status::Error(option + " " + text + ": '" + number +
+                         "' is not a number");
+  }
+  return Status::Ok();
+}
+
+std::vector<std::string> SplitList(const std::string& text) {
+  std::vector<std::string> items;
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = text.find(',', start);
+    const std::string item = text.substr(start, comma - start);
+    if (!item.empty()) items.push_back(item);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return items;
+}
+
+}  // namespace kcrig

@@ -1,0 +1,135 @@
+#include "apps/estimate_command.h"
+
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "apps/cli_util.h"
+#include "estimator/estimate_io.h"
+#include "estimator/estimator.h"
+#include "io_drivers/config_loader.h"
+#include "io_drivers/run_log.h"
+
+namespace kcrig {
+namespace {
+
+struct EstimateArgs {
+  std::string config_dir;
+  std::vector<std::string> logs;
+  std::string params;
+  std::string channels;
+  double init_scale = 1.0;
+  std::vector<std::string> inits;
+  std::string out;
+};
+
+Status ParseChannels(const std::string& text, std::vector<int>* channels) {
+  channels->clear();
+  for (const std::string& name : SplitList(text)) {
+    int found = -1;
+    for (int k = 0; k < 6; ++k) {
+      if (name == kChannelNames[k]) found = k;
+    }
+    if (found < 0) {
+      return Status::Error("--channels: unknown channel '" + name +
+                           "' (x, y, z, toe, camber, caster)");
+    }
+    channels->push_back(found);
+  }
+  if (channels->empty()) return Status::Error("--channels: empty list");
+  return Status::Ok();
+}
+
+int RunEstimate(const EstimateArgs& args) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "kcrig estimate: %s\n", status.message().c_str());
+    return 1;
+  };
+  KcrigConfig config;
+  Status status = LoadConfig(
+      args.config_dir.empty() ? DefaultConfigDirectory() : args.config_dir,
+      &config);
+  if (!status.ok()) return fail(status);
+
+  EstimatorOptions options;
+  if (!args.params.empty()) options.parameters = SplitList(args.params);
+  if (!args.channels.empty()) {
+    status = ParseChannels(args.channels, &options.channels);
+    if (!status.ok()) return fail(status);
+  }
+  std::vector<int> indices;
+  status = ResolveParameters(config.model, options.parameters, &indices);
+  if (!status.ok()) return fail(Status::Error("--params: " + status.message()));
+  if (!(args.init_scale > 0)) {
+    return fail(Status::Error("--init-scale: must be > 0"));
+  }
+  std::vector<double> initial;
+  SuspensionParameters<double> copy = config.model;
+  const std::vector<NamedParameter<double>> list = ListParameters(&copy);
+  for (int index : indices)
+    initial.push_back(*list[index].value * args.init_scale);
+  for (const std::string& init : args.inits) {
+    std::string name;
+    double value = 0;
+    status = ParseAssignment("--init", init, &name, &value);
+    if (!status.ok()) return fail(status);
+    bool matched = false;
+    for (size_t i = 0; i < indices.size(); ++i) {
+      if (list[indices[i]].name == name) {
+        initial[i] = value;
+        matched = true;
+      }
+    }
+    if (!matched) {
+      return fail(Status::Error("--init " + init + ": '" + name +
+                                "' is not among the estimated parameters"));
+    }
+  }
+
+  std::vector<Experiment> experiments(args.logs.size());
+  for (size_t i = 0; i < args.logs.size(); ++i) {
+    status =
+        LoadExperiment(args.logs[i], config.experiment.step, &experiments[i]);
+    if (!status.ok()) return fail(status);
+  }
+  EstimationResult result;
+  status = Estimate(config.model, experiments, options, initial,
+                    config.experiment.step, &result);
+  if (!status.ok()) return fail(status);
+  if (!args.out.empty()) {
+    status = WriteFilesAtomically(
+        {{args.out, EstimationResultToJson(result, args.logs)}});
+    if (!status.ok()) return fail(status);
+  }
+  std::fputs(EstimationSummary(result).c_str(), stdout);
+  if (!args.out.empty()) std::printf("  wrote %s\n", args.out.c_str());
+  return 0;
+}
+
+}  // namespace
+
+void AddEstimateCommand(CLI::App* app, std::function<int()>* run) {
+  auto args = std::make_shared<EstimateArgs>();
+  CLI::App* cmd = app->add_subcommand(
+      "estimate", "Fit model parameters to run logs (Levenberg-Marquardt)");
+  cmd->add_option("--config", args->config_dir,
+                  "Config directory (default: installed or source config/)");
+  cmd->add_option("--log", args->logs,
+                  "Run log run.csv (repeatable: experiments fitted jointly)")
+      ->required();
+  cmd->add_option("--params", args->params,
+                  "Comma-separated parameters to estimate (default: "
+                  "c_O1,c_O2,c_V1,c_V2,c_P)");
+  cmd->add_option("--channels", args->channels,
+                  "Comma-separated channels in the fit (default: all of "
+                  "x,y,z,toe,camber,caster)");
+  cmd->add_option("--init-scale", args->init_scale,
+                  "Start every parameter at this multiple of its config value");
+  cmd->add_option("--init", args->inits,
+                  "Start value NAME=VALUE in SI (repeatable)");
+  cmd->add_option("--out", args->out, "est.json to write");
+  cmd->callback([args, run] { *run = [args] { return RunEstimate(*args); }; });
+}
+
+}  // namespace kcrig

@@ -1,0 +1,156 @@
+#include "estimator/estimate_io.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "nlohmann/json.hpp"
+
+namespace kcrig {
+namespace {
+
+nlohmann::ordered_json Number(double value) {
+  if (std::isfinite(value)) return value;
+  return nullptr;
+}
+
+nlohmann::ordered_json Matrix(const Eigen::MatrixXd& m) {
+  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+  for (int i = 0; i < m.rows(); ++i) {
+    nlohmann::ordered_json row = nlohmann::ordered_json::array();
+    for (int k = 0; k < m.cols(); ++k) row.push_back(Number(m(i, k)));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// Stiffnesses read best in N/mm, everything else in its SI unit.
+double DisplayScale(const ParameterEstimate& p) {
+  return p.unit == "N/m" ? 1e-3 : 1.0;
+}
+std::string DisplayUnit(const ParameterEstimate& p) {
+  return p.unit == "N/m" ? "N/mm" : p.unit;
+}
+
+}  // namespace
+
+std::string EstimationResultToJson(const EstimationResult& result,
+                                   const std::vector<std::string>& logs) {
+  nlohmann::ordered_json doc;
+  doc["format"] = "kcrig estimate 1";
+  doc["logs"] = logs;
+  nlohmann::ordered_json parameters = nlohmann::ordered_json::array();
+  for (const ParameterEstimate& p : result.parameters) {
+    parameters.push_back(
+        {{"name", p.name},
+         {"unit", p.unit},
+         {"nominal", p.nominal},
+         {"initial", p.initial},
+         {"value", p.value},
+         {"standard_error", Number(p.standard_error)},
+         {"ci95", {Number(p.ci95_low), Number(p.ci95_high)}},
+         {"log10_diag_inv_jtj", Number(p.log10_inverse_information)},
+         {"identifiable", p.identifiable},
+         {"at_bound", p.at_bound}});
+  }
+  doc["parameters"] = parameters;
+  doc["covariance"] = Matrix(result.covariance);
+  doc["correlation"] = Matrix(result.correlation);
+  std::vector<double> singular(
+      result.singular_values.data(),
+      result.singular_values.data() + result.singular_values.size());
+  doc["singular_values"] = singular;
+  doc["condition_number"] = Number(result.condition_number);
+  doc["rank"] = result.rank;
+  doc["ill_conditioned"] = result.ill_conditioned;
+  doc["unidentifiable_combinations"] = result.unidentifiable_combinations;
+  doc["dependent_parameters"] = result.dependent_parameters;
+  nlohmann::ordered_json rms;
+  for (int k = 0; k < 6; ++k) {
+    rms[kChannelNames[k]] =
+        result.channel_used[k] ? Number(result.residual_rms(k)) : nullptr;
+  }
+  doc["residual_rms"] = rms;
+  doc["residual_rms_units"] = "m for x, y, z; rad for toe, camber, caster";
+  doc["num_residuals"] = result.num_residuals;
+  doc["cost"] = result.cost;
+  doc["sigma_hat"] = result.sigma_hat;
+  doc["iterations"] = result.iterations;
+  doc["seconds"] = result.seconds;
+  doc["converged"] = result.converged;
+  doc["termination"] = result.termination;
+  return doc.dump(2) + "\n";
+}
+
+std::string EstimationSummary(const EstimationResult& result) {
+  std::string out;
+  char line[256];
+  std::snprintf(line, sizeof(line),
+                "kcrig estimate: %d residuals, %zu parameters, %s after %d "
+                "iterations (%.2f s); sigma_hat %.3f\n",
+                result.num_residuals, result.parameters.size(),
+                result.converged ? "converged" : "NOT converged",
+                result.iterations, result.seconds, result.sigma_hat);
+  out += line;
+  std::snprintf(line, sizeof(line), "  %-10s %14s %12s %-6s  %s\n", "parameter",
+                "estimate", "+- 95 %", "", "log10 diag((J^T J)^-1)");
+  out += line;
+  // Bars from the smallest to each value, like the paper's Fig. 4.
+  double low = 0, high = 0;
+  bool any = false;
+  for (const ParameterEstimate& p : result.parameters) {
+    if (!std::isfinite(p.log10_inverse_information)) continue;
+    low = any ? std::min(low, p.log10_inverse_information)
+              : p.log10_inverse_information;
+    high = any ? std::max(high, p.log10_inverse_information)
+               : p.log10_inverse_information;
+    any = true;
+  }
+  low = std::floor(low) - 0.5;
+  high = std::max(high, low + 1.0);
+  for (const ParameterEstimate& p : result.parameters) {
+    const double scale = DisplayScale(p);
+    std::string bar;
+    if (std::isfinite(p.log10_inverse_information)) {
+      const int width = static_cast<int>(std::lround(
+          30.0 * (p.log10_inverse_information - low) / (high - low)));
+      bar = std::string(width, '#');
+      std::snprintf(
+          line, sizeof(line), "  %-10s %14.3f %12.3f %-6s  %-30s %6.2f\n",
+          p.name.c_str(), p.value * scale, (p.ci95_high - p.value) * scale,
+          DisplayUnit(p).c_str(), bar.c_str(), p.log10_inverse_information);
+    } else {
+      std::snprintf(line, sizeof(line), "  %-10s %14.3f %12s %-6s  %s\n",
+                    p.name.c_str(), p.value * scale, "n/a",
+                    DisplayUnit(p).c_str(), "not identifiable");
+    }
+    out += line;
+  }
+  for (const ParameterEstimate& p : result.parameters) {
+    if (p.at_bound)
+      out += "  " + p.name +
+             " ended on its bound: the box, not the data, set it\n";
+  }
+  for (const std::string& combination : result.unidentifiable_combinations) {
+    out += "  not identifiable from these data: " + combination + "\n";
+  }
+  if (result.ill_conditioned) {
+    std::snprintf(line, sizeof(line),
+                  "  ill-conditioned: condition number of J %.3g\n",
+                  result.condition_number);
+    out += line;
+  }
+  out += "  residual RMS:";
+  for (int k = 0; k < 6; ++k) {
+    if (!result.channel_used[k]) continue;
+    const bool angle = k >= 3;
+    std::snprintf(line, sizeof(line), " %s %.4f %s", kChannelNames[k],
+                  result.residual_rms(k) * (angle ? 180.0 / M_PI : 1e3),
+                  angle ? "deg" : "mm");
+    out += line;
+  }
+  out += "\n";
+  return out;
+}
+
+}  // namespace kcrig

@@ -1,0 +1,25 @@
+// est.json (DESIGN.md §4): per parameter value, standard error and 95 %
+// interval; covariance, correlation, log10 diag((J^T J)^-1), singular values
+// of J; residual RMS per channel; cost, iterations, seconds, convergence.
+// Quantities that do not exist (a non-identifiable parameter's standard
+// error) are written as null, never as huge numbers.
+#ifndef KCRIG_ESTIMATOR_ESTIMATE_IO_H_
+#define KCRIG_ESTIMATOR_ESTIMATE_IO_H_
+
+#include <string>
+#include <vector>
+
+#include "estimator/estimator.h"
+
+namespace kcrig {
+
+std::string EstimationResultToJson(const EstimationResult& result,
+                                   const std::vector<std::string>& logs);
+
+// A short human summary: estimates with 95 % intervals (N/mm for
+// stiffnesses) and log10 diag((J^T J)^-1) as a text bar chart (paper Fig. 4).
+std::string EstimationSummary(const EstimationResult& result);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_ESTIMATOR_ESTIMATE_IO_H_

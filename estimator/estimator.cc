@@ -1,0 +1,288 @@
+#include "estimator/estimator.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <sstream>
+
+#include "Eigen/QR"
+#include "Eigen/SVD"
+#include "ceres/ceres.h"
+#include "estimator/trajectory_residual.h"
+
+namespace kcrig {
+namespace {
+
+constexpr double kZ95 = 1.959963984540054;  // two-sided 95 % normal quantile
+
+// Dense weighted Jacobian (scaled parameters) and residuals at the solution.
+bool EvaluateAtSolution(ceres::Problem* problem,
+                        const std::vector<double*>& blocks,
+                        Eigen::MatrixXd* jacobian, Eigen::VectorXd* residuals) {
+  ceres::Problem::EvaluateOptions options;
+  options.parameter_blocks = blocks;
+  options.apply_loss_function = false;
+  double cost = 0;
+  std::vector<double> r;
+  ceres::CRSMatrix crs;
+  if (!problem->Evaluate(options, &cost, &r, nullptr, &crs)) return false;
+  jacobian->setZero(crs.num_rows, crs.num_cols);
+  for (int row = 0; row < crs.num_rows; ++row) {
+    for (int k = crs.rows[row]; k < crs.rows[row + 1]; ++k) {
+      (*jacobian)(row, crs.cols[k]) = crs.values[k];
+    }
+  }
+  *residuals = Eigen::Map<Eigen::VectorXd>(r.data(), r.size());
+  return true;
+}
+
+std::string Combination(const Eigen::VectorXd& direction,
+                        const std::vector<ParameterEstimate>& parameters) {
+  std::ostringstream text;
+  text.precision(3);
+  bool first = true;
+  for (int i = 0; i < direction.size(); ++i) {
+    if (std::abs(direction(i)) < 0.05) continue;
+    const double c = direction(i);
+    text << (first ? (c < 0 ? "-" : "") : (c < 0 ? " - " : " + "))
+         << std::abs(c) << " " << parameters[i].name;
+    first = false;
+  }
+  return text.str();
+}
+
+}  // namespace
+
+Status ResolveParameters(const SuspensionParameters<double>& nominal,
+                         const std::vector<std::string>& names,
+                         std::vector<int>* indices) {
+  if (names.empty()) return Status::Error("no parameters to estimate");
+  if (names.size() > kMaxEstimatedParameters) {
+    return Status::Error("at most " + std::to_string(kMaxEstimatedParameters) +
+                         " parameters can be estimated at once");
+  }
+  SuspensionParameters<double> copy = nominal;
+  const std::vector<NamedParameter<double>> list = ListParameters(&copy);
+  indices->clear();
+  for (const std::string& name : names) {
+    int found = -1;
+    for (size_t i = 0; i < list.size(); ++i) {
+      if (list[i].name == name) found = static_cast<int>(i);
+    }
+    if (found < 0) return Status::Error("unknown parameter '" + name + "'");
+    for (int previous : *indices) {
+      if (previous == found) {
+        return Status::Error("parameter '" + name + "' given twice");
+      }
+    }
+    if (*list[found].value == 0) {
+      return Status::Error("parameter '" + name +
+                           "' has nominal value 0 and cannot be scaled");
+    }
+    indices->push_back(found);
+  }
+  return Status::Ok();
+}
+
+Status Estimate(const SuspensionParameters<double>& nominal,
+                const std::vector<Experiment>& experiments,
+                const EstimatorOptions& options,
+                const std::vector<double>& initial, double integrator_step,
+                EstimationResult* result) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<int> indices;
+  Status status = ResolveParameters(nominal, options.parameters, &indices);
+  if (!status.ok()) return status;
+  if (experiments.empty()) return Status::Error("no experiments to fit");
+  if (options.channels.empty()) return Status::Error("no channels selected");
+  if (initial.size() != indices.size()) {
+    return Status::Error("one initial value per parameter is needed");
+  }
+  if (!(options.lower_scale > 0 && options.lower_scale < 1.0 &&
+        options.upper_scale > 1.0)) {
+    return Status::Error("scale bounds must satisfy 0 < lower < 1 < upper");
+  }
+  const int n = static_cast<int>(indices.size());
+  SuspensionParameters<double> copy = nominal;
+  const std::vector<NamedParameter<double>> list = ListParameters(&copy);
+
+  *result = EstimationResult();
+  std::vector<double> scaled(n);
+  for (int i = 0; i < n; ++i) {
+    ParameterEstimate p;
+    p.name = list[indices[i]].name;
+    p.unit = list[indices[i]].unit;
+    p.nominal = *list[indices[i]].value;
+    p.initial = initial[i];
+    scaled[i] = initial[i] / p.nominal;
+    if (!(scaled[i] >= options.lower_scale &&
+          scaled[i] <= options.upper_scale)) {
+      return Status::Error(
+          "initial " + p.name + " = " + std::to_string(initial[i]) +
+          " is outside the bounds [" + std::to_string(options.lower_scale) +
+          ", " + std::to_string(options.upper_scale) + "] x nominal");
+    }
+    result->parameters.push_back(p);
+  }
+
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  std::vector<double*> blocks;
+  for (int i = 0; i < n; ++i) blocks.push_back(&scaled[i]);
+  for (const Experiment& experiment : experiments) {
+    problem.AddResidualBlock(
+        new TrajectoryResidual(&nominal, indices, options.channels, &experiment,
+                               integrator_step, options.lower_scale,
+                               options.upper_scale),
+        nullptr, blocks);
+  }
+
+  ceres::Solver::Options solver_options;
+  solver_options.minimizer_type = ceres::TRUST_REGION;
+  solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.gradient_tolerance = options.gradient_tolerance;
+  solver_options.parameter_tolerance = options.parameter_tolerance;
+  solver_options.num_threads = options.num_threads;
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  if (summary.termination_type == ceres::FAILURE ||
+      !std::isfinite(summary.final_cost)) {
+    return Status::Error("estimation failed: " + summary.message);
+  }
+  result->converged = summary.termination_type == ceres::CONVERGENCE;
+  result->termination = summary.message;
+  result->iterations = static_cast<int>(summary.iterations.size()) - 1;
+  result->cost = summary.final_cost;
+
+  Eigen::MatrixXd jacobian;
+  Eigen::VectorXd residuals;
+  if (!EvaluateAtSolution(&problem, blocks, &jacobian, &residuals)) {
+    return Status::Error("the model cannot be evaluated at the solution");
+  }
+  const int m = static_cast<int>(residuals.size());
+  result->num_residuals = m;
+  result->sigma_hat = m > n ? std::sqrt(2.0 * result->cost / (m - n)) : 0.0;
+
+  // Residual RMS per channel in SI units.
+  const size_t channels = options.channels.size();
+  Vec6<double> sum_squares = Vec6<double>::Zero();
+  Vec6<double> counts = Vec6<double>::Zero();
+  int row = 0;
+  for (const Experiment& experiment : experiments) {
+    for (size_t j = 0; j < experiment.measured.size(); ++j) {
+      for (size_t c = 0; c < channels; ++c, ++row) {
+        const int k = options.channels[c];
+        const double r = residuals(row) * experiment.sigma(k);
+        sum_squares(k) += r * r;
+        counts(k) += 1;
+      }
+    }
+  }
+  for (int k = 0; k < 6; ++k) {
+    result->channel_used[k] = counts(k) > 0;
+    result->residual_rms(k) =
+        counts(k) > 0 ? std::sqrt(sum_squares(k) / counts(k)) : 0.0;
+  }
+
+  // Identifiability: SVD of J through its R factor (J = QR, sigma(J) =
+  // sigma(R)), and pivoted QR for which parameters fall beyond the rank.
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(jacobian);
+  const Eigen::MatrixXd r_factor =
+      qr.matrixQR().topRows(n).triangularView<Eigen::Upper>();
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(r_factor, Eigen::ComputeFullV);
+  result->singular_values = svd.singularValues();
+  const double largest = svd.singularValues()(0);
+  const double smallest = svd.singularValues()(n - 1);
+  result->condition_number = smallest > 0
+                                 ? largest / smallest
+                                 : std::numeric_limits<double>::infinity();
+  result->ill_conditioned =
+      result->condition_number > options.ill_conditioned_above;
+  result->rank = 0;
+  Eigen::VectorXd null_involvement = Eigen::VectorXd::Zero(n);
+  Eigen::VectorXd weak_involvement = Eigen::VectorXd::Zero(n);
+  for (int i = 0; i < n; ++i) {
+    const double s = svd.singularValues()(i);
+    const Eigen::VectorXd direction = svd.matrixV().col(i);
+    if (s <= options.rank_tolerance * largest) {
+      result->unidentifiable_combinations.push_back(
+          Combination(direction, result->parameters) +
+          " (not determined by these data)");
+      null_involvement = null_involvement.cwiseMax(direction.cwiseAbs());
+      continue;
+    }
+    ++result->rank;
+    if (1.0 / s > options.max_relative_standard_error) {
+      char why[96];
+      std::snprintf(why, sizeof(why),
+                    " (standard error %.0f %% of nominal at the stated sensor "
+                    "noise)",
+                    100.0 / s);
+      result->unidentifiable_combinations.push_back(
+          Combination(direction, result->parameters) + why);
+      weak_involvement = weak_involvement.cwiseMax(direction.cwiseAbs());
+    }
+  }
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> pivoted(jacobian);
+  pivoted.setThreshold(options.rank_tolerance);
+  for (int i = pivoted.rank(); i < n; ++i) {
+    result->dependent_parameters.push_back(
+        result->parameters[pivoted.colsPermutation().indices()(i)].name);
+  }
+
+  // Covariance sigma_hat^2 (J^T J)^-1 = sigma_hat^2 V S^-2 V^T on the
+  // identifiable subspace; parameters touching a null direction get no
+  // numbers at all rather than huge ones.
+  Eigen::MatrixXd inverse_information = Eigen::MatrixXd::Zero(n, n);
+  for (int i = 0; i < result->rank; ++i) {
+    const Eigen::VectorXd v = svd.matrixV().col(i);
+    inverse_information +=
+        v * v.transpose() / (svd.singularValues()(i) * svd.singularValues()(i));
+  }
+  Eigen::VectorXd scale(n);
+  for (int i = 0; i < n; ++i) scale(i) = result->parameters[i].nominal;
+  result->covariance = result->sigma_hat * result->sigma_hat *
+                       scale.asDiagonal() * inverse_information *
+                       scale.asDiagonal();
+  result->correlation = Eigen::MatrixXd::Zero(n, n);
+  const double inf = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < n; ++i) {
+    ParameterEstimate& p = result->parameters[i];
+    p.value = scaled[i] * p.nominal;
+    // Within 0.1 % of a bound the box, not the data, decided the value.
+    p.at_bound = scaled[i] < options.lower_scale * 1.001 ||
+                 scaled[i] > options.upper_scale * 0.999;
+    const bool determined = null_involvement(i) < 0.05;
+    p.identifiable = determined && weak_involvement(i) < 0.05;
+    const double variance = result->covariance(i, i);
+    p.standard_error = determined ? std::sqrt(variance) : inf;
+    p.ci95_low = p.value - kZ95 * p.standard_error;
+    p.ci95_high = p.value + kZ95 * p.standard_error;
+    p.log10_inverse_information =
+        determined ? std::log10(inverse_information(i, i)) : inf;
+  }
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < n; ++k) {
+      const double d =
+          std::sqrt(result->covariance(i, i) * result->covariance(k, k));
+      result->correlation(i, k) =
+          (std::isfinite(result->parameters[i].standard_error) &&
+           std::isfinite(result->parameters[k].standard_error) && d > 0)
+              ? result->covariance(i, k) / d
+              : (i == k ? 1.0 : 0.0);
+    }
+  }
+  result->seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
+  return Status::Ok();
+}
+
+}  // namespace kcrig

@@ -1,0 +1,106 @@
+// Weighted nonlinear least squares for the suspension parameters (paper
+// eq. 6), solved with Ceres' Levenberg-Marquardt on exact discrete
+// sensitivities, with the linearized uncertainty and an identifiability
+// analysis of the Jacobian at the solution.
+#ifndef KCRIG_ESTIMATOR_ESTIMATOR_H_
+#define KCRIG_ESTIMATOR_ESTIMATOR_H_
+
+#include <string>
+#include <vector>
+
+#include "Eigen/Core"
+#include "estimator/experiment.h"
+#include "rt_core/status.h"
+#include "rt_core/suspension_parameters.h"
+
+namespace kcrig {
+
+inline constexpr const char* kChannelNames[6] = {"x",   "y",      "z",
+                                                 "toe", "camber", "caster"};
+
+struct EstimatorOptions {
+  // Parameters to estimate, by name (see ListParameters); the others keep
+  // their config values. Default: the five bushing stiffnesses.
+  std::vector<std::string> parameters = {"c_O1", "c_O2", "c_V1", "c_V2", "c_P"};
+  // Channels in the residual, indices into x, y, z, toe, camber, caster.
+  std::vector<int> channels = {0, 1, 2, 3, 4, 5};
+  // Box on the scaled parameters p / p_nominal.
+  double lower_scale = 0.1;
+  double upper_scale = 10.0;
+  // Levenberg-Marquardt limits. Tolerances are tight because synthetic data
+  // are re-identified to ~1e-9; Ceres stops earlier when nothing changes.
+  int max_iterations = 100;
+  double function_tolerance = 1e-14;
+  double gradient_tolerance = 1e-16;
+  double parameter_tolerance = 1e-12;
+  // Residual blocks (experiments) are evaluated on this many threads.
+  int num_threads = 2;
+  // A direction of parameter space whose singular value is below this
+  // fraction of the largest is not determined by the data at all (numerical
+  // rank); its parameters get no standard errors.
+  double rank_tolerance = 1e-8;
+  // A direction whose standard error at the stated sensor sigmas, 1 / s_i
+  // in scaled parameters, exceeds this fraction of the nominal values is
+  // practically not identifiable: its 95 % interval would be wider than
+  // +-20 % of nominal, useless for a bushing rate.
+  double max_relative_standard_error = 0.1;
+  // Condition numbers above this are reported as ill-conditioned.
+  double ill_conditioned_above = 1e6;
+};
+
+struct ParameterEstimate {
+  std::string name;
+  std::string unit;
+  double nominal = 0;         // config value, the scale [unit]
+  double initial = 0;         // start of the fit [unit]
+  double value = 0;           // estimate [unit]
+  double standard_error = 0;  // [unit]; infinite when not identifiable
+  double ci95_low = 0, ci95_high = 0;
+  // log10 of the diagonal of (J^T J)^-1 in scaled parameters (paper Fig. 4).
+  double log10_inverse_information = 0;
+  bool identifiable = true;
+  bool at_bound = false;  // the estimate sits on the scale bounds
+};
+
+struct EstimationResult {
+  std::vector<ParameterEstimate> parameters;
+  Eigen::MatrixXd covariance;  // sigma_hat^2 (J^T J)^-1, physical units
+  Eigen::MatrixXd correlation;
+  Eigen::VectorXd singular_values;  // of the weighted J, scaled parameters
+  double condition_number = 0;
+  int rank = 0;
+  bool ill_conditioned = false;
+  // Directions of parameter space the data cannot resolve, as text like
+  // "0.707 c_V1 - 0.707 c_V2 (...why...)" (from the SVD), and the parameters
+  // pivoted QR puts beyond the numerical rank.
+  std::vector<std::string> unidentifiable_combinations;
+  std::vector<std::string> dependent_parameters;
+  Vec6<double> residual_rms = Vec6<double>::Zero();  // per channel, SI units
+  std::vector<bool> channel_used = std::vector<bool>(6, false);
+  int num_residuals = 0;
+  double cost = 0;       // 0.5 * sum of squared weighted residuals
+  double sigma_hat = 0;  // sqrt(2 cost / (m - n)); ~1 when sigmas are right
+  int iterations = 0;
+  double seconds = 0;
+  bool converged = false;
+  std::string termination;
+};
+
+// Fits options.parameters to all `experiments` jointly, starting from
+// `initial` (physical values, one per parameter).
+Status Estimate(const SuspensionParameters<double>& nominal,
+                const std::vector<Experiment>& experiments,
+                const EstimatorOptions& options,
+                const std::vector<double>& initial, double integrator_step,
+                EstimationResult* result);
+
+// Indices into ListParameters() of `names`, checking that they exist, are
+// distinct, number at most kMaxEstimatedParameters and have non-zero
+// nominal values.
+Status ResolveParameters(const SuspensionParameters<double>& nominal,
+                         const std::vector<std::string>& names,
+                         std::vector<int>* indices);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_ESTIMATOR_ESTIMATOR_H_

@@ -1,0 +1,50 @@
+#include "estimator/experiment.h"
+
+#include <cmath>
+
+namespace kcrig {
+
+Status MakeExperiment(const std::string& source, const RunLog& log,
+                      double integrator_step, Experiment* experiment) {
+  const RunMetadata& m = log.metadata;
+  const double period = 1.0 / m.rate;
+  const double t0 = log.samples.front().t;
+  for (size_t j = 0; j < log.samples.size(); ++j) {
+    const double expected = t0 + j * period;
+    if (std::abs(log.samples[j].t - expected) > 0.01 * period) {
+      return Status::Error(source + ":" + std::to_string(j + 2) +
+                           ": sample times are not evenly spaced at " +
+                           std::to_string(m.rate) + " Hz");
+    }
+  }
+  const double ratio = period / integrator_step;
+  const long steps = std::lround(ratio);
+  if (steps < 1 || std::abs(ratio - steps) > 1e-9 * ratio) {
+    return Status::Error(source + ": sample period " + std::to_string(period) +
+                         " s is not a whole multiple of the integrator step " +
+                         std::to_string(integrator_step) + " s");
+  }
+  experiment->source = source;
+  experiment->sample_period = period;
+  experiment->steps_per_sample = static_cast<int>(steps);
+  experiment->z_a = m.z_a;
+  experiment->sigma << Vec3<double>::Constant(m.sigma_position),
+      Vec3<double>::Constant(m.sigma_angle);
+  experiment->forces.clear();
+  experiment->measured.clear();
+  for (const LogSample& s : log.samples) {
+    experiment->forces.push_back(s.force);
+    experiment->measured.push_back(s.y);
+  }
+  return Status::Ok();
+}
+
+Status LoadExperiment(const std::string& csv_path, double integrator_step,
+                      Experiment* experiment) {
+  RunLog log;
+  const Status status = ReadRunLog(csv_path, &log);
+  if (!status.ok()) return status;
+  return MakeExperiment(csv_path, log, integrator_step, experiment);
+}
+
+}  // namespace kcrig

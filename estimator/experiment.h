@@ -1,0 +1,37 @@
+// One logged experiment, prepared for the model: the measured load (forces
+// interpolated between samples, at the sidecar's acting height), the six
+// measured channels and their sensor sigmas.
+#ifndef KCRIG_ESTIMATOR_EXPERIMENT_H_
+#define KCRIG_ESTIMATOR_EXPERIMENT_H_
+
+#include <string>
+#include <vector>
+
+#include "io_drivers/run_log.h"
+#include "rt_core/rotation.h"
+#include "rt_core/status.h"
+
+namespace kcrig {
+
+struct Experiment {
+  std::string source;                  // file name, for messages
+  std::vector<Vec3<double>> forces;    // load on the wheel at t_j [N]
+  std::vector<Vec6<double>> measured;  // x, y, z [m], angles [rad] at t_j
+  double sample_period = 0;            // [s]
+  double z_a = 0;                      // acting height [m]
+  Vec6<double> sigma = Vec6<double>::Ones();
+  int steps_per_sample = 1;  // integrator steps per sample
+};
+
+// Checks that the samples are evenly spaced at the sidecar's rate and that
+// the sample period is a whole multiple of the integrator step.
+Status MakeExperiment(const std::string& source, const RunLog& log,
+                      double integrator_step, Experiment* experiment);
+
+// ReadRunLog + MakeExperiment.
+Status LoadExperiment(const std::string& csv_path, double integrator_step,
+                      Experiment* experiment);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_ESTIMATOR_EXPERIMENT_H_

@@ -1,0 +1,72 @@
+// The weighted residuals of eq. (6) of the paper for one experiment,
+//   f_jk(s) = (x_k(t_j, p(s)) - eta_jk) / sigma_k,
+// over the selected channels k, as a Ceres cost function whose Jacobian is
+// the exact sensitivity of the discrete semi-implicit Euler solution
+// (ceres::Jet through the whole trajectory, no finite differences).
+// Parameters are scaled, s_i = p_i / p_i,nominal, one parameter block of
+// size 1 each so that any of them can be held constant (profiles).
+//
+// The box lower <= s_i <= upper is enforced here: a point outside it is an
+// invalid step, which makes the trust region shrink. (Ceres' own bounds run
+// a projected line search that evaluates the Jacobian, i.e. a whole
+// trajectory with sensitivities, once more per iteration.)
+#ifndef KCRIG_ESTIMATOR_TRAJECTORY_RESIDUAL_H_
+#define KCRIG_ESTIMATOR_TRAJECTORY_RESIDUAL_H_
+
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "ceres/cost_function.h"
+#include "estimator/experiment.h"
+#include "rt_core/suspension_parameters.h"
+
+namespace kcrig {
+
+// Most parameters estimated at once (the Jet size is chosen per problem).
+inline constexpr int kMaxEstimatedParameters = 8;
+
+class TrajectoryResidual : public ceres::CostFunction {
+ public:
+  // `parameter_names` index into ListParameters(); their nominal values
+  // (non-zero) come from `nominal`. `channels` are indices 0..5 of
+  // x, y, z, toe, camber, caster. All pointers must outlive this object.
+  TrajectoryResidual(const SuspensionParameters<double>* nominal,
+                     std::vector<int> parameter_indices,
+                     std::vector<int> channels, const Experiment* experiment,
+                     double integrator_step, double lower_scale,
+                     double upper_scale);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  int num_samples() const {
+    return static_cast<int>(experiment_->measured.size());
+  }
+
+ private:
+  template <int N>
+  bool EvaluateWithJets(double const* const* parameters, double* residuals,
+                        double** jacobians) const;
+
+  const SuspensionParameters<double>* nominal_;
+  std::vector<int> parameter_indices_;
+  std::vector<int> channels_;
+  const Experiment* experiment_;
+  double integrator_step_;
+  double lower_scale_;
+  double upper_scale_;
+
+  // The last residuals and Jacobian columns with the parameters they were
+  // evaluated at. Ceres evaluates the Jacobian at every accepted point, and
+  // the covariance analysis asks again at the final one: that second
+  // trajectory with sensitivities is served from here.
+  mutable std::mutex cache_mutex_;
+  mutable std::vector<double> cached_parameters_;
+  mutable std::vector<double> cached_residuals_;
+  mutable std::vector<std::vector<double>> cached_jacobian_;
+};
+
+}  // namespace kcrig
+
+#endif  // KCRIG_ESTIMATOR_TRAJECTORY_RESIDUAL_H_
