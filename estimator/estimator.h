@@ -27,10 +27,11 @@ struct EstimatorOptions {
   // Box on the scaled parameters p / p_nominal.
   double lower_scale = 0.1;
   double upper_scale = 10.0;
-  // Levenberg-Marquardt limits. Tolerances are tight because synthetic data
-  // are re-identified to ~1e-9; Ceres stops earlier when nothing changes.
+  // Levenberg-Marquardt limits. The relative cost change of 1e-10 moves a
+  // noisy fit by ~1e-5 standard errors, and noise-free synthetic data still
+  // come back to ~1e-15 (quadratic convergence at zero residual).
   int max_iterations = 100;
-  double function_tolerance = 1e-14;
+  double function_tolerance = 1e-10;
   double gradient_tolerance = 1e-16;
   double parameter_tolerance = 1e-12;
   // Residual blocks (experiments) are evaluated on this many threads.

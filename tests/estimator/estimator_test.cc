@@ -108,5 +108,22 @@ TEST(EstimatorTest, ReportsTheBushingOfAnUnloadedLink) {
   EXPECT_TRUE(result.unidentifiable_combinations.empty());
 }
 
+TEST(EstimatorTest, ParameterSelectionIsChecked) {
+  KcrigConfig config = SourceConfig();
+  std::vector<int> indices;
+  EXPECT_TRUE(
+      ResolveParameters(config.model, {"c_P", "k_spring"}, &indices).ok());
+  EXPECT_EQ(indices.size(), 2u);
+  config.model.bushings[kO1].damping = 0.0;
+  const Status zero = ResolveParameters(config.model, {"d_O1"}, &indices);
+  EXPECT_EQ(zero.message(),
+            "parameter 'd_O1' has nominal value 0 and cannot be scaled");
+  EXPECT_FALSE(ResolveParameters(config.model,
+                                 {"c_O1", "c_O2", "c_V1", "c_V2", "c_P",
+                                  "k_spring", "d_damper", "mass", "Jxx"},
+                                 &indices)
+                   .ok());
+}
+
 }  // namespace
 }  // namespace kcrig

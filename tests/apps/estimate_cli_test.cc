@@ -1,0 +1,116 @@
+// `kcrig estimate` as a user runs it: on a log written by `kcrig simulate`,
+// and on bad input, which must leave no est.json behind.
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "gtest/gtest.h"
+#include "nlohmann/json.hpp"
+#include "tests/support/cli_runner.h"
+
+namespace kcrig {
+namespace {
+
+namespace fs = std::filesystem;
+
+class EstimateCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           (std::string("kcrig_estimate_cli_") +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string Path(const std::string& name) const {
+    return (dir_ / name).string();
+  }
+  void Simulate(const std::string& extra) {
+    const CliResult r = RunKcrig("simulate --duration 1 " + extra + " --out " +
+                                 Path("run.csv"));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  void ExpectCleanFailure(const CliResult& result,
+                          const std::string& expected) {
+    EXPECT_EQ(result.exit_code, 1) << result.output;
+    EXPECT_EQ(CountLines(result.output), 1) << result.output;
+    EXPECT_NE(result.output.find(expected), std::string::npos) << result.output;
+    EXPECT_FALSE(fs::exists(Path("est.json")));
+  }
+  fs::path dir_;
+};
+
+TEST_F(EstimateCliTest, RecoversTheSimulatedStiffnesses) {
+  Simulate("--set c_O1=3.7e6 --set c_V2=4.3e6");
+  const CliResult r = RunKcrig("estimate --log " + Path("run.csv") +
+                               " --init-scale 1.05 --out " + Path("est.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("N/mm"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("log10 diag"), std::string::npos) << r.output;
+  const nlohmann::json est =
+      nlohmann::json::parse(std::ifstream(Path("est.json")));
+  EXPECT_EQ(est["converged"], true);
+  const double truth[] = {3.7e6, 4.0e6, 4.0e6, 4.3e6, 4.0e6};
+  ASSERT_EQ(est["parameters"].size(), 5u);
+  for (int i = 0; i < 5; ++i) {
+    const double value = est["parameters"][i]["value"];
+    EXPECT_NEAR(value / truth[i], 1.0, 1e-6) << est["parameters"][i]["name"];
+  }
+  for (const char* key : {"covariance", "correlation", "singular_values",
+                          "residual_rms", "cost", "iterations", "seconds"}) {
+    EXPECT_TRUE(est.contains(key)) << key;
+  }
+  EXPECT_EQ(est["parameters"][0]["log10_diag_inv_jtj"].is_number(), true);
+}
+
+TEST_F(EstimateCliTest, SubsetOfParametersAndChannels) {
+  Simulate("--set c_P=3.8e6 --noise --seed 5");
+  const CliResult r = RunKcrig("estimate --log " + Path("run.csv") +
+                               " --params c_P,c_O2 --channels y,toe,camber " +
+                               "--init c_P=4.1e6 --out " + Path("est.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json est =
+      nlohmann::json::parse(std::ifstream(Path("est.json")));
+  ASSERT_EQ(est["parameters"].size(), 2u);
+  EXPECT_EQ(est["parameters"][0]["name"], "c_P");
+  const double low = est["parameters"][0]["ci95"][0];
+  const double high = est["parameters"][0]["ci95"][1];
+  EXPECT_LT(low, 3.8e6);
+  EXPECT_GT(high, 3.8e6);
+  EXPECT_TRUE(est["residual_rms"]["x"].is_null());
+  EXPECT_TRUE(est["residual_rms"]["toe"].is_number());
+}
+
+TEST_F(EstimateCliTest, BadInputFailsCleanly) {
+  Simulate("");
+  const std::string log = " --log " + Path("run.csv");
+  const std::string out = " --out " + Path("est.json");
+  ExpectCleanFailure(RunKcrig("estimate --log " + Path("none.csv") + out),
+                     "none.csv: cannot open");
+  ExpectCleanFailure(RunKcrig("estimate" + log + " --params c_X1" + out),
+                     "--params: unknown parameter 'c_X1'");
+  ExpectCleanFailure(RunKcrig("estimate" + log + " --params c_O1,c_O1" + out),
+                     "given twice");
+  ExpectCleanFailure(RunKcrig("estimate" + log + " --channels x,yaw" + out),
+                     "unknown channel 'yaw'");
+  ExpectCleanFailure(RunKcrig("estimate" + log + " --init c_O1=abc" + out),
+                     "'abc' is not a number");
+  ExpectCleanFailure(RunKcrig("estimate" + log + " --init k_spring=1e5" + out),
+                     "not among the estimated parameters");
+  ExpectCleanFailure(RunKcrig("estimate" + log + " --init-scale 20" + out),
+                     "outside the bounds");
+  // A corrupt log: a NaN in the middle.
+  {
+    std::ifstream in(Path("run.csv"));
+    std::string text((std::istreambuf_iterator<char>(in)), {});
+    const size_t line_start = text.find("\n0.5,") + 1;
+    text.replace(line_start, text.find(',', line_start + 4) - line_start,
+                 "0.5,nan");
+    std::ofstream(Path("run.csv")) << text;
+  }
+  ExpectCleanFailure(RunKcrig("estimate" + log + out), "not a finite number");
+}
+
+}  // namespace
+}  // namespace kcrig
