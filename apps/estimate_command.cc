@@ -8,6 +8,7 @@
 #include "apps/cli_util.h"
 #include "estimator/estimate_io.h"
 #include "estimator/estimator.h"
+#include "estimator/profile_likelihood.h"
 #include "io_drivers/config_loader.h"
 #include "io_drivers/run_log.h"
 
@@ -21,6 +22,7 @@ struct EstimateArgs {
   std::string channels;
   double init_scale = 1.0;
   std::vector<std::string> inits;
+  bool profile = false;
   std::string out;
 };
 
@@ -97,12 +99,19 @@ int RunEstimate(const EstimateArgs& args) {
   status = Estimate(config.model, experiments, options, initial,
                     config.experiment.step, &result);
   if (!status.ok()) return fail(status);
-  if (!args.out.empty()) {
-    status = WriteFilesAtomically(
-        {{args.out, EstimationResultToJson(result, args.logs)}});
+  std::vector<ParameterProfile> profiles;
+  if (args.profile) {
+    status =
+        ProfileLikelihood(config.model, experiments, options, result,
+                          config.experiment.step, ProfileOptions{}, &profiles);
     if (!status.ok()) return fail(status);
   }
-  std::fputs(EstimationSummary(result).c_str(), stdout);
+  if (!args.out.empty()) {
+    status = WriteFilesAtomically(
+        {{args.out, EstimationResultToJson(result, args.logs, profiles)}});
+    if (!status.ok()) return fail(status);
+  }
+  std::fputs(EstimationSummary(result, profiles).c_str(), stdout);
   if (!args.out.empty()) std::printf("  wrote %s\n", args.out.c_str());
   return 0;
 }
@@ -128,6 +137,9 @@ void AddEstimateCommand(CLI::App* app, std::function<int()>* run) {
                   "Start every parameter at this multiple of its config value");
   cmd->add_option("--init", args->inits,
                   "Start value NAME=VALUE in SI (repeatable)");
+  cmd->add_flag("--profile", args->profile,
+                "Also compute the profile likelihood of every parameter "
+                "(re-optimizing the others; slower)");
   cmd->add_option("--out", args->out, "est.json to write");
   cmd->callback([args, run] { *run = [args] { return RunEstimate(*args); }; });
 }

@@ -34,8 +34,9 @@ std::string DisplayUnit(const ParameterEstimate& p) {
 
 }  // namespace
 
-std::string EstimationResultToJson(const EstimationResult& result,
-                                   const std::vector<std::string>& logs) {
+std::string EstimationResultToJson(
+    const EstimationResult& result, const std::vector<std::string>& logs,
+    const std::vector<ParameterProfile>& profiles) {
   nlohmann::ordered_json doc;
   doc["format"] = "kcrig estimate 1";
   doc["logs"] = logs;
@@ -79,10 +80,25 @@ std::string EstimationResultToJson(const EstimationResult& result,
   doc["seconds"] = result.seconds;
   doc["converged"] = result.converged;
   doc["termination"] = result.termination;
+  if (!profiles.empty()) {
+    nlohmann::ordered_json list = nlohmann::ordered_json::array();
+    for (const ParameterProfile& p : profiles) {
+      nlohmann::ordered_json delta = nlohmann::ordered_json::array();
+      for (double d : p.delta_chi2) delta.push_back(Number(d));
+      list.push_back(
+          {{"name", p.name},
+           {"identifiability", IdentifiabilityName(p.identifiability)},
+           {"ci95_profile", {Number(p.lower), Number(p.upper)}},
+           {"values", p.values},
+           {"delta_chi2", delta}});
+    }
+    doc["profiles"] = list;
+  }
   return doc.dump(2) + "\n";
 }
 
-std::string EstimationSummary(const EstimationResult& result) {
+std::string EstimationSummary(const EstimationResult& result,
+                              const std::vector<ParameterProfile>& profiles) {
   std::string out;
   char line[256];
   std::snprintf(line, sizeof(line),
@@ -139,6 +155,18 @@ std::string EstimationSummary(const EstimationResult& result) {
                   "  ill-conditioned: condition number of J %.3g\n",
                   result.condition_number);
     out += line;
+  }
+  for (const ParameterProfile& p : profiles) {
+    std::snprintf(line, sizeof(line), "  profile %-8s %s", p.name.c_str(),
+                  IdentifiabilityName(p.identifiability));
+    out += line;
+    if (std::isfinite(p.lower) && std::isfinite(p.upper)) {
+      const double scale = p.name.rfind("c_", 0) == 0 ? 1e-3 : 1.0;
+      std::snprintf(line, sizeof(line), ", 95 %% profile interval [%.3f, %.3f]",
+                    p.lower * scale, p.upper * scale);
+      out += line;
+    }
+    out += "\n";
   }
   out += "  residual RMS:";
   for (int k = 0; k < 6; ++k) {

@@ -10,15 +10,19 @@
 #include <vector>
 
 #include "estimator/estimator.h"
+#include "estimator/profile_likelihood.h"
 
 namespace kcrig {
 
-std::string EstimationResultToJson(const EstimationResult& result,
-                                   const std::vector<std::string>& logs);
+// `profiles` may be empty (not computed).
+std::string EstimationResultToJson(
+    const EstimationResult& result, const std::vector<std::string>& logs,
+    const std::vector<ParameterProfile>& profiles);
 
 // A short human summary: estimates with 95 % intervals (N/mm for
 // stiffnesses) and log10 diag((J^T J)^-1) as a text bar chart (paper Fig. 4).
-std::string EstimationSummary(const EstimationResult& result);
+std::string EstimationSummary(const EstimationResult& result,
+                              const std::vector<ParameterProfile>& profiles);
 
 }  // namespace kcrig
 

@@ -9,34 +9,13 @@
 
 #include "Eigen/QR"
 #include "Eigen/SVD"
-#include "ceres/ceres.h"
+#include "estimator/fit_problem.h"
 #include "estimator/trajectory_residual.h"
 
 namespace kcrig {
 namespace {
 
 constexpr double kZ95 = 1.959963984540054;  // two-sided 95 % normal quantile
-
-// Dense weighted Jacobian (scaled parameters) and residuals at the solution.
-bool EvaluateAtSolution(ceres::Problem* problem,
-                        const std::vector<double*>& blocks,
-                        Eigen::MatrixXd* jacobian, Eigen::VectorXd* residuals) {
-  ceres::Problem::EvaluateOptions options;
-  options.parameter_blocks = blocks;
-  options.apply_loss_function = false;
-  double cost = 0;
-  std::vector<double> r;
-  ceres::CRSMatrix crs;
-  if (!problem->Evaluate(options, &cost, &r, nullptr, &crs)) return false;
-  jacobian->setZero(crs.num_rows, crs.num_cols);
-  for (int row = 0; row < crs.num_rows; ++row) {
-    for (int k = crs.rows[row]; k < crs.rows[row + 1]; ++k) {
-      (*jacobian)(row, crs.cols[k]) = crs.values[k];
-    }
-  }
-  *residuals = Eigen::Map<Eigen::VectorXd>(r.data(), r.size());
-  return true;
-}
 
 std::string Combination(const Eigen::VectorXd& direction,
                         const std::vector<ParameterEstimate>& parameters) {
@@ -127,43 +106,14 @@ Status Estimate(const SuspensionParameters<double>& nominal,
     result->parameters.push_back(p);
   }
 
-  ceres::Problem::Options problem_options;
-  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  std::vector<double*> blocks;
-  for (int i = 0; i < n; ++i) blocks.push_back(&scaled[i]);
-  for (const Experiment& experiment : experiments) {
-    problem.AddResidualBlock(
-        new TrajectoryResidual(&nominal, indices, options.channels, &experiment,
-                               integrator_step, options.lower_scale,
-                               options.upper_scale),
-        nullptr, blocks);
-  }
-
-  ceres::Solver::Options solver_options;
-  solver_options.minimizer_type = ceres::TRUST_REGION;
-  solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations = options.max_iterations;
-  solver_options.function_tolerance = options.function_tolerance;
-  solver_options.gradient_tolerance = options.gradient_tolerance;
-  solver_options.parameter_tolerance = options.parameter_tolerance;
-  solver_options.num_threads = options.num_threads;
-  solver_options.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
-  if (summary.termination_type == ceres::FAILURE ||
-      !std::isfinite(summary.final_cost)) {
-    return Status::Error("estimation failed: " + summary.message);
-  }
-  result->converged = summary.termination_type == ceres::CONVERGENCE;
-  result->termination = summary.message;
-  result->iterations = static_cast<int>(summary.iterations.size()) - 1;
-  result->cost = summary.final_cost;
-
+  FitProblem problem(nominal, experiments, options, integrator_step, indices);
+  status = problem.Minimize(std::vector<bool>(n, false), &scaled, &result->cost,
+                            &result->converged, &result->iterations,
+                            &result->termination);
+  if (!status.ok()) return status;
   Eigen::MatrixXd jacobian;
   Eigen::VectorXd residuals;
-  if (!EvaluateAtSolution(&problem, blocks, &jacobian, &residuals)) {
+  if (!problem.Evaluate(scaled, &jacobian, &residuals)) {
     return Status::Error("the model cannot be evaluated at the solution");
   }
   const int m = static_cast<int>(residuals.size());

@@ -66,9 +66,10 @@ TEST_F(EstimateCliTest, RecoversTheSimulatedStiffnesses) {
 
 TEST_F(EstimateCliTest, SubsetOfParametersAndChannels) {
   Simulate("--set c_P=3.8e6 --noise --seed 5");
-  const CliResult r = RunKcrig("estimate --log " + Path("run.csv") +
-                               " --params c_P,c_O2 --channels y,toe,camber " +
-                               "--init c_P=4.1e6 --out " + Path("est.json"));
+  const CliResult r =
+      RunKcrig("estimate --log " + Path("run.csv") +
+               " --params c_P,c_O2 --channels y,toe,camber " +
+               "--init c_P=4.1e6 --profile --out " + Path("est.json"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json est =
       nlohmann::json::parse(std::ifstream(Path("est.json")));
@@ -80,6 +81,11 @@ TEST_F(EstimateCliTest, SubsetOfParametersAndChannels) {
   EXPECT_GT(high, 3.8e6);
   EXPECT_TRUE(est["residual_rms"]["x"].is_null());
   EXPECT_TRUE(est["residual_rms"]["toe"].is_number());
+  ASSERT_EQ(est["profiles"].size(), 2u);
+  EXPECT_EQ(est["profiles"][0]["identifiability"], "identifiable");
+  const double profile_low = est["profiles"][0]["ci95_profile"][0];
+  EXPECT_LT(profile_low, 3.8e6);
+  EXPECT_NE(r.output.find("profile c_P"), std::string::npos) << r.output;
 }
 
 TEST_F(EstimateCliTest, BadInputFailsCleanly) {
