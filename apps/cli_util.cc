@@ -46,4 +46,23 @@ std::vector<std::string> SplitList(const std::string& text) {
   return items;
 }
 
+Status ParseChannels(const std::string& text, std::vector<int>* channels) {
+  static constexpr const char* kNames[6] = {"x",   "y",      "z",
+                                            "toe", "camber", "caster"};
+  channels->clear();
+  for (const std::string& name : SplitList(text)) {
+    int found = -1;
+    for (int k = 0; k < 6; ++k) {
+      if (name == kNames[k]) found = k;
+    }
+    if (found < 0) {
+      return Status::Error("--channels: unknown channel '" + name +
+                           "' (x, y, z, toe, camber, caster)");
+    }
+    channels->push_back(found);
+  }
+  if (channels->empty()) return Status::Error("--channels: empty list");
+  return Status::Ok();
+}
+
 }  // namespace kcrig

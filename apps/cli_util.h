@@ -16,6 +16,9 @@ bool ParseFiniteDouble(const std::string& text, double* value);
 Status ParseAssignment(const std::string& option, const std::string& text,
                        std::string* name, double* value);
 
+// "x,toe" -> channel indices into x, y, z, toe, camber, caster.
+Status ParseChannels(const std::string& text, std::vector<int>* channels);
+
 // "a,b,c" -> {"a", "b", "c"}; empty items are dropped.
 std::vector<std::string> SplitList(const std::string& text);
 

@@ -26,23 +26,6 @@ struct EstimateArgs {
   std::string out;
 };
 
-Status ParseChannels(const std::string& text, std::vector<int>* channels) {
-  channels->clear();
-  for (const std::string& name : SplitList(text)) {
-    int found = -1;
-    for (int k = 0; k < 6; ++k) {
-      if (name == kChannelNames[k]) found = k;
-    }
-    if (found < 0) {
-      return Status::Error("--channels: unknown channel '" + name +
-                           "' (x, y, z, toe, camber, caster)");
-    }
-    channels->push_back(found);
-  }
-  if (channels->empty()) return Status::Error("--channels: empty list");
-  return Status::Ok();
-}
-
 int RunEstimate(const EstimateArgs& args) {
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig estimate: %s\n", status.message().c_str());

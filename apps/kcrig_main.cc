@@ -5,6 +5,7 @@
 
 #include "CLI/CLI.hpp"
 #include "apps/estimate_command.h"
+#include "apps/screen_command.h"
 #include "apps/simulate_command.h"
 
 int main(int argc, char** argv) {
@@ -15,6 +16,7 @@ int main(int argc, char** argv) {
   std::function<int()> run;
   kcrig::AddSimulateCommand(&app, &run);
   kcrig::AddEstimateCommand(&app, &run);
+  kcrig::AddScreenCommand(&app, &run);
   // CLI11 would call an unknown subcommand an "extra argument"; say it plainly.
   const auto is_subcommand = [&app](const std::string& name) {
     for (const CLI::App* sub : app.get_subcommands({})) {

@@ -88,6 +88,25 @@ TEST_F(EstimateCliTest, SubsetOfParametersAndChannels) {
   EXPECT_NE(r.output.find("profile c_P"), std::string::npos) << r.output;
 }
 
+TEST_F(EstimateCliTest, ScreenWritesRankingAndProposal) {
+  Simulate("");
+  const CliResult r =
+      RunKcrig("screen --log " + Path("run.csv") + " --trajectories 6 --out " +
+               Path("screen.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("proposed estimable subset"), std::string::npos);
+  const nlohmann::json screen =
+      nlohmann::json::parse(std::ifstream(Path("screen.json")));
+  EXPECT_EQ(screen["ranking"].size(), 5u);
+  EXPECT_EQ(screen["ranking"][0]["rank"], 1);
+  EXPECT_EQ(screen["evaluations"], 6 * 6);
+  const CliResult bad = RunKcrig("screen --log " + Path("run.csv") +
+                                 " --range-low 2 --out " + Path("bad.json"));
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_EQ(CountLines(bad.output), 1) << bad.output;
+  EXPECT_FALSE(fs::exists(Path("bad.json")));
+}
+
 TEST_F(EstimateCliTest, BadInputFailsCleanly) {
   Simulate("");
   const std::string log = " --log " + Path("run.csv");
