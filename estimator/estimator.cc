@@ -65,6 +65,96 @@ Status ResolveParameters(const SuspensionParameters<double>& nominal,
   return Status::Ok();
 }
 
+void AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
+                        const EstimatorOptions& options,
+                        EstimationResult* result) {
+  const int n = static_cast<int>(jacobian.cols());
+  // Identifiability: SVD of J through its R factor (J = QR, sigma(J) =
+  // sigma(R)), and pivoted QR for which parameters fall beyond the rank.
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(jacobian);
+  const Eigen::MatrixXd r_factor =
+      qr.matrixQR().topRows(n).triangularView<Eigen::Upper>();
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(r_factor, Eigen::ComputeFullV);
+  result->singular_values = svd.singularValues();
+  const double largest = svd.singularValues()(0);
+  const double smallest = svd.singularValues()(n - 1);
+  result->condition_number = smallest > 0
+                                 ? largest / smallest
+                                 : std::numeric_limits<double>::infinity();
+  result->ill_conditioned =
+      result->condition_number > options.ill_conditioned_above;
+  result->rank = 0;
+  Eigen::VectorXd null_involvement = Eigen::VectorXd::Zero(n);
+  Eigen::VectorXd weak_involvement = Eigen::VectorXd::Zero(n);
+  for (int i = 0; i < n; ++i) {
+    const double s = svd.singularValues()(i);
+    const Eigen::VectorXd direction = svd.matrixV().col(i);
+    if (s <= options.rank_tolerance * largest) {
+      result->unidentifiable_combinations.push_back(
+          Combination(direction, result->parameters) +
+          " (not determined by these data)");
+      null_involvement = null_involvement.cwiseMax(direction.cwiseAbs());
+      continue;
+    }
+    ++result->rank;
+    if (1.0 / s > options.max_relative_standard_error) {
+      char why[96];
+      std::snprintf(why, sizeof(why),
+                    " (standard error %.0f %% of nominal at the stated sensor "
+                    "noise)",
+                    100.0 / s);
+      result->unidentifiable_combinations.push_back(
+          Combination(direction, result->parameters) + why);
+      weak_involvement = weak_involvement.cwiseMax(direction.cwiseAbs());
+    }
+  }
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> pivoted(jacobian);
+  pivoted.setThreshold(options.rank_tolerance);
+  for (int i = pivoted.rank(); i < n; ++i) {
+    result->dependent_parameters.push_back(
+        result->parameters[pivoted.colsPermutation().indices()(i)].name);
+  }
+
+  // Covariance sigma_hat^2 (J^T J)^-1 = sigma_hat^2 V S^-2 V^T on the
+  // identifiable subspace; parameters touching a null direction get no
+  // numbers at all rather than huge ones.
+  Eigen::MatrixXd inverse_information = Eigen::MatrixXd::Zero(n, n);
+  for (int i = 0; i < result->rank; ++i) {
+    const Eigen::VectorXd v = svd.matrixV().col(i);
+    inverse_information +=
+        v * v.transpose() / (svd.singularValues()(i) * svd.singularValues()(i));
+  }
+  Eigen::VectorXd scale(n);
+  for (int i = 0; i < n; ++i) scale(i) = result->parameters[i].nominal;
+  result->covariance = result->sigma_hat * result->sigma_hat *
+                       scale.asDiagonal() * inverse_information *
+                       scale.asDiagonal();
+  result->correlation = Eigen::MatrixXd::Zero(n, n);
+  const double inf = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < n; ++i) {
+    ParameterEstimate& p = result->parameters[i];
+    const bool determined = null_involvement(i) < 0.05;
+    p.identifiable = determined && weak_involvement(i) < 0.05;
+    const double variance = result->covariance(i, i);
+    p.standard_error = determined ? std::sqrt(variance) : inf;
+    p.ci95_low = p.value - kZ95 * p.standard_error;
+    p.ci95_high = p.value + kZ95 * p.standard_error;
+    p.log10_inverse_information =
+        determined ? std::log10(inverse_information(i, i)) : inf;
+  }
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < n; ++k) {
+      const double d =
+          std::sqrt(result->covariance(i, i) * result->covariance(k, k));
+      result->correlation(i, k) =
+          (std::isfinite(result->parameters[i].standard_error) &&
+           std::isfinite(result->parameters[k].standard_error) && d > 0)
+              ? result->covariance(i, k) / d
+              : (i == k ? 1.0 : 0.0);
+    }
+  }
+}
+
 Status Estimate(const SuspensionParameters<double>& nominal,
                 const std::vector<Experiment>& experiments,
                 const EstimatorOptions& options,
@@ -141,94 +231,14 @@ Status Estimate(const SuspensionParameters<double>& nominal,
         counts(k) > 0 ? std::sqrt(sum_squares(k) / counts(k)) : 0.0;
   }
 
-  // Identifiability: SVD of J through its R factor (J = QR, sigma(J) =
-  // sigma(R)), and pivoted QR for which parameters fall beyond the rank.
-  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(jacobian);
-  const Eigen::MatrixXd r_factor =
-      qr.matrixQR().topRows(n).triangularView<Eigen::Upper>();
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(r_factor, Eigen::ComputeFullV);
-  result->singular_values = svd.singularValues();
-  const double largest = svd.singularValues()(0);
-  const double smallest = svd.singularValues()(n - 1);
-  result->condition_number = smallest > 0
-                                 ? largest / smallest
-                                 : std::numeric_limits<double>::infinity();
-  result->ill_conditioned =
-      result->condition_number > options.ill_conditioned_above;
-  result->rank = 0;
-  Eigen::VectorXd null_involvement = Eigen::VectorXd::Zero(n);
-  Eigen::VectorXd weak_involvement = Eigen::VectorXd::Zero(n);
-  for (int i = 0; i < n; ++i) {
-    const double s = svd.singularValues()(i);
-    const Eigen::VectorXd direction = svd.matrixV().col(i);
-    if (s <= options.rank_tolerance * largest) {
-      result->unidentifiable_combinations.push_back(
-          Combination(direction, result->parameters) +
-          " (not determined by these data)");
-      null_involvement = null_involvement.cwiseMax(direction.cwiseAbs());
-      continue;
-    }
-    ++result->rank;
-    if (1.0 / s > options.max_relative_standard_error) {
-      char why[96];
-      std::snprintf(why, sizeof(why),
-                    " (standard error %.0f %% of nominal at the stated sensor "
-                    "noise)",
-                    100.0 / s);
-      result->unidentifiable_combinations.push_back(
-          Combination(direction, result->parameters) + why);
-      weak_involvement = weak_involvement.cwiseMax(direction.cwiseAbs());
-    }
-  }
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> pivoted(jacobian);
-  pivoted.setThreshold(options.rank_tolerance);
-  for (int i = pivoted.rank(); i < n; ++i) {
-    result->dependent_parameters.push_back(
-        result->parameters[pivoted.colsPermutation().indices()(i)].name);
-  }
-
-  // Covariance sigma_hat^2 (J^T J)^-1 = sigma_hat^2 V S^-2 V^T on the
-  // identifiable subspace; parameters touching a null direction get no
-  // numbers at all rather than huge ones.
-  Eigen::MatrixXd inverse_information = Eigen::MatrixXd::Zero(n, n);
-  for (int i = 0; i < result->rank; ++i) {
-    const Eigen::VectorXd v = svd.matrixV().col(i);
-    inverse_information +=
-        v * v.transpose() / (svd.singularValues()(i) * svd.singularValues()(i));
-  }
-  Eigen::VectorXd scale(n);
-  for (int i = 0; i < n; ++i) scale(i) = result->parameters[i].nominal;
-  result->covariance = result->sigma_hat * result->sigma_hat *
-                       scale.asDiagonal() * inverse_information *
-                       scale.asDiagonal();
-  result->correlation = Eigen::MatrixXd::Zero(n, n);
-  const double inf = std::numeric_limits<double>::infinity();
   for (int i = 0; i < n; ++i) {
     ParameterEstimate& p = result->parameters[i];
     p.value = scaled[i] * p.nominal;
     // Within 0.1 % of a bound the box, not the data, decided the value.
     p.at_bound = scaled[i] < options.lower_scale * 1.001 ||
                  scaled[i] > options.upper_scale * 0.999;
-    const bool determined = null_involvement(i) < 0.05;
-    p.identifiable = determined && weak_involvement(i) < 0.05;
-    const double variance = result->covariance(i, i);
-    p.standard_error = determined ? std::sqrt(variance) : inf;
-    p.ci95_low = p.value - kZ95 * p.standard_error;
-    p.ci95_high = p.value + kZ95 * p.standard_error;
-    p.log10_inverse_information =
-        determined ? std::log10(inverse_information(i, i)) : inf;
   }
-  for (int i = 0; i < n; ++i) {
-    for (int k = 0; k < n; ++k) {
-      const double d =
-          std::sqrt(result->covariance(i, i) * result->covariance(k, k));
-      result->correlation(i, k) =
-          (std::isfinite(result->parameters[i].standard_error) &&
-           std::isfinite(result->parameters[k].standard_error) && d > 0)
-              ? result->covariance(i, k) / d
-              : (i == k ? 1.0 : 0.0);
-    }
-  }
+  AnalyzeUncertainty(jacobian, options, result);
   result->seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();

@@ -95,6 +95,16 @@ Status Estimate(const SuspensionParameters<double>& nominal,
                 const std::vector<double>& initial, double integrator_step,
                 EstimationResult* result);
 
+// The uncertainty and identifiability part of Estimate, for a weighted
+// Jacobian (scaled parameters) at a solution: fills singular values, rank,
+// condition, unidentifiable combinations, dependent parameters, covariance,
+// correlation and each parameter's standard error, interval and
+// log10 diag((J^T J)^-1). Needs result->parameters (names, nominal, value)
+// and result->sigma_hat.
+void AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
+                        const EstimatorOptions& options,
+                        EstimationResult* result);
+
 // Indices into ListParameters() of `names`, checking that they exist, are
 // distinct, number at most kMaxEstimatedParameters and have non-zero
 // nominal values.

@@ -8,7 +8,7 @@ packages=(
   libeigen3-dev libceres-dev libnlopt-dev libnlopt-cxx-dev libmodbus-dev
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libsundials-dev can-utils
+  libsundials-dev can-utils minpack-dev
 )
 
 missing=()
