@@ -32,9 +32,7 @@ int RunEstimate(const EstimateArgs& args) {
     return 1;
   };
   KcrigConfig config;
-  Status status = LoadConfig(
-      args.config_dir.empty() ? DefaultConfigDirectory() : args.config_dir,
-      &config);
+  Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);
 
   EstimatorOptions options;
@@ -72,12 +70,9 @@ int RunEstimate(const EstimateArgs& args) {
     }
   }
 
-  std::vector<Experiment> experiments(args.logs.size());
-  for (size_t i = 0; i < args.logs.size(); ++i) {
-    status =
-        LoadExperiment(args.logs[i], config.experiment.step, &experiments[i]);
-    if (!status.ok()) return fail(status);
-  }
+  std::vector<Experiment> experiments;
+  status = LoadExperiments(args.logs, config.experiment.step, &experiments);
+  if (!status.ok()) return fail(status);
   EstimationResult result;
   status = Estimate(config.model, experiments, options, initial,
                     config.experiment.step, &result);

@@ -67,9 +67,7 @@ int RunScreen(const ScreenArgs& args) {
     return 1;
   };
   KcrigConfig config;
-  Status status = LoadConfig(
-      args.config_dir.empty() ? DefaultConfigDirectory() : args.config_dir,
-      &config);
+  Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);
   EstimatorOptions estimator_options;
   if (!args.channels.empty()) {
@@ -83,12 +81,9 @@ int RunScreen(const ScreenArgs& args) {
   options.trajectories = args.trajectories;
   options.levels = args.levels;
   options.seed = args.seed;
-  std::vector<Experiment> experiments(args.logs.size());
-  for (size_t i = 0; i < args.logs.size(); ++i) {
-    status =
-        LoadExperiment(args.logs[i], config.experiment.step, &experiments[i]);
-    if (!status.ok()) return fail(status);
-  }
+  std::vector<Experiment> experiments;
+  status = LoadExperiments(args.logs, config.experiment.step, &experiments);
+  if (!status.ok()) return fail(status);
   ScreeningResult result;
   status = Screen(config.model, experiments, estimator_options, options,
                   config.experiment.step, &result);

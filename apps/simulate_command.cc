@@ -142,9 +142,7 @@ int RunSimulate(const SimulateArgs& args) {
     return 1;
   };
   KcrigConfig config;
-  const std::string dir =
-      args.config_dir.empty() ? DefaultConfigDirectory() : args.config_dir;
-  Status status = LoadConfig(dir, &config);
+  Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);
   for (const std::string& set : args.sets) {
     status = ApplySet(set, &config.model);

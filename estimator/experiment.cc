@@ -41,10 +41,28 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
 
 Status LoadExperiment(const std::string& csv_path, double integrator_step,
                       Experiment* experiment) {
+  if (csv_path.size() >= 4 && csv_path.substr(csv_path.size() - 4) == ".log") {
+    return Status::Error(csv_path +
+                         ": candump logs are decoded with the DBC codec, which "
+                         "arrives with the SocketCAN transport; give the "
+                         "decoded run.csv");
+  }
   RunLog log;
   const Status status = ReadRunLog(csv_path, &log);
   if (!status.ok()) return status;
   return MakeExperiment(csv_path, log, integrator_step, experiment);
+}
+
+Status LoadExperiments(const std::vector<std::string>& csv_paths,
+                       double integrator_step,
+                       std::vector<Experiment>* experiments) {
+  experiments->assign(csv_paths.size(), Experiment());
+  for (size_t i = 0; i < csv_paths.size(); ++i) {
+    const Status status =
+        LoadExperiment(csv_paths[i], integrator_step, &(*experiments)[i]);
+    if (!status.ok()) return status;
+  }
+  return Status::Ok();
 }
 
 }  // namespace kcrig

@@ -32,6 +32,11 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
 Status LoadExperiment(const std::string& csv_path, double integrator_step,
                       Experiment* experiment);
 
+// LoadExperiment for each path, in order.
+Status LoadExperiments(const std::vector<std::string>& csv_paths,
+                       double integrator_step,
+                       std::vector<Experiment>* experiments);
+
 }  // namespace kcrig
 
 #endif  // KCRIG_ESTIMATOR_EXPERIMENT_H_

@@ -51,30 +51,34 @@ TrajectoryResidual::TrajectoryResidual(
       static_cast<int>(experiment_->measured.size() * channels_.size()));
 }
 
-template <int N>
-bool TrajectoryResidual::EvaluateWithJets(double const* const* parameters,
-                                          double* residuals,
-                                          double** jacobians) const {
-  using Jet = ceres::Jet<double, N>;
-  const SuspensionModel<Jet> model(ScaledParameters<Jet>(
+template <typename T>
+bool TrajectoryResidual::SimulateAndFill(double const* const* parameters,
+                                         double* residuals,
+                                         double** jacobians) const {
+  const SuspensionModel<T> model(ScaledParameters<T>(
       *nominal_, parameter_indices_, parameters, /*seed_derivatives=*/true));
-  const SampledLoad<Jet> load{
-      &experiment_->forces, experiment_->sample_period, Jet(experiment_->z_a),
+  const SampledLoad<T> load{
+      &experiment_->forces, experiment_->sample_period, T(experiment_->z_a),
       experiment_->sample_period * (experiment_->forces.size() - 1)};
   SimulationOptions options;
   options.step = integrator_step_;
   options.steps_per_sample = experiment_->steps_per_sample;
-  std::vector<TrajectorySample<Jet>> samples;
+  std::vector<TrajectorySample<T>> samples;
   if (!SimulateTrajectory(model, load, options, &samples).ok()) return false;
   const int n = static_cast<int>(parameter_indices_.size());
   int row = 0;
   for (size_t j = 0; j < samples.size(); ++j) {
     for (int k : channels_) {
       const double inverse_sigma = 1.0 / experiment_->sigma(k);
-      const Jet& x = samples[j].y(k);
-      residuals[row] = (x.a - experiment_->measured[j](k)) * inverse_sigma;
-      for (int i = 0; i < n; ++i) {
-        if (jacobians[i] != nullptr) jacobians[i][row] = x.v[i] * inverse_sigma;
+      const T& x = samples[j].y(k);
+      residuals[row] =
+          (ValueOf(x) - experiment_->measured[j](k)) * inverse_sigma;
+      if constexpr (!std::is_same_v<T, double>) {
+        for (int i = 0; i < n; ++i) {
+          if (jacobians[i] != nullptr) {
+            jacobians[i][row] = x.v[i] * inverse_sigma;
+          }
+        }
       }
       ++row;
     }
@@ -103,34 +107,31 @@ bool TrajectoryResidual::Evaluate(double const* const* parameters,
       std::vector<double*> columns(n);
       for (size_t i = 0; i < n; ++i) columns[i] = cached_jacobian_[i].data();
       bool ok = false;
+      double* r = cached_residuals_.data();
+      double** c = columns.data();
+      // The Jet size follows the number of parameters.
       switch (n) {
         case 1:
-          ok = EvaluateWithJets<1>(parameters, cached_residuals_.data(),
-                                   columns.data());
+          ok = SimulateAndFill<ceres::Jet<double, 1>>(parameters, r, c);
           break;
         case 2:
-          ok = EvaluateWithJets<2>(parameters, cached_residuals_.data(),
-                                   columns.data());
+          ok = SimulateAndFill<ceres::Jet<double, 2>>(parameters, r, c);
           break;
         case 3:
-          ok = EvaluateWithJets<3>(parameters, cached_residuals_.data(),
-                                   columns.data());
+          ok = SimulateAndFill<ceres::Jet<double, 3>>(parameters, r, c);
           break;
         case 4:
-          ok = EvaluateWithJets<4>(parameters, cached_residuals_.data(),
-                                   columns.data());
+          ok = SimulateAndFill<ceres::Jet<double, 4>>(parameters, r, c);
           break;
         case 5:
-          ok = EvaluateWithJets<5>(parameters, cached_residuals_.data(),
-                                   columns.data());
+          ok = SimulateAndFill<ceres::Jet<double, 5>>(parameters, r, c);
           break;
         case 6:
-          ok = EvaluateWithJets<6>(parameters, cached_residuals_.data(),
-                                   columns.data());
+          ok = SimulateAndFill<ceres::Jet<double, 6>>(parameters, r, c);
           break;
         default:
-          ok = EvaluateWithJets<kMaxEstimatedParameters>(
-              parameters, cached_residuals_.data(), columns.data());
+          ok = SimulateAndFill<ceres::Jet<double, kMaxEstimatedParameters>>(
+              parameters, r, c);
       }
       if (!ok) {
         cached_parameters_.clear();
@@ -148,24 +149,7 @@ bool TrajectoryResidual::Evaluate(double const* const* parameters,
     }
     return true;
   }
-  const SuspensionModel<double> model(ScaledParameters<double>(
-      *nominal_, parameter_indices_, parameters, false));
-  const SampledLoad<double> load{
-      &experiment_->forces, experiment_->sample_period, experiment_->z_a,
-      experiment_->sample_period * (experiment_->forces.size() - 1)};
-  SimulationOptions options;
-  options.step = integrator_step_;
-  options.steps_per_sample = experiment_->steps_per_sample;
-  std::vector<TrajectorySample<double>> samples;
-  if (!SimulateTrajectory(model, load, options, &samples).ok()) return false;
-  int row = 0;
-  for (size_t j = 0; j < samples.size(); ++j) {
-    for (int k : channels_) {
-      residuals[row++] = (samples[j].y(k) - experiment_->measured[j](k)) /
-                         experiment_->sigma(k);
-    }
-  }
-  return true;
+  return SimulateAndFill<double>(parameters, residuals, nullptr);
 }
 
 }  // namespace kcrig

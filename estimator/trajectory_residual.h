@@ -45,9 +45,12 @@ class TrajectoryResidual : public ceres::CostFunction {
   }
 
  private:
-  template <int N>
-  bool EvaluateWithJets(double const* const* parameters, double* residuals,
-                        double** jacobians) const;
+  // Simulates the experiment at `parameters` with scalar T (double, or a Jet
+  // whose derivative slots are seeded with the scaled parameters) and writes
+  // the residuals and, for Jets, the Jacobian columns that are not null.
+  template <typename T>
+  bool SimulateAndFill(double const* const* parameters, double* residuals,
+                       double** jacobians) const;
 
   const SuspensionParameters<double>* nominal_;
   std::vector<int> parameter_indices_;

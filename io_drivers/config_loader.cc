@@ -268,8 +268,10 @@ Status ValidateModel(const SuspensionParameters<double>& model,
   return Status::Ok();
 }
 
-Status LoadConfig(const std::string& directory, KcrigConfig* config) {
+Status LoadConfig(const std::string& given_directory, KcrigConfig* config) {
   namespace fs = std::filesystem;
+  const std::string directory =
+      given_directory.empty() ? DefaultConfigDirectory() : given_directory;
   if (!fs::is_directory(directory)) {
     return Status::Error(directory + ": config directory not found");
   }

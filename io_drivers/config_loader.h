@@ -36,7 +36,8 @@ struct KcrigConfig {
   ExperimentConfig experiment;
 };
 
-// Reads model.yaml and experiment.yaml from `directory`.
+// Reads model.yaml and experiment.yaml from `directory`; an empty
+// `directory` means DefaultConfigDirectory().
 Status LoadConfig(const std::string& directory, KcrigConfig* config);
 
 // Physical plausibility of a parameter set, also after --set overrides:

@@ -49,25 +49,6 @@ TEST(EstimatorTest, ReidentifiesDistinctStiffnessesFromNoiseFreeData) {
   EXPECT_EQ(result.rank, kNumBushings);
 }
 
-// The horizontal force direction (at the paper's acting height) under which
-// the toe link P carries no load. The five links and the spring form a
-// statically determinate mount, so element forces follow from equilibrium
-// alone and are linear in the force: zero for one direction phi.
-double DirectionUnloadingLink(const KcrigConfig& config, int link) {
-  const SuspensionModel<double> model(config.model);
-  double force_per_axis[2];
-  for (int axis = 0; axis < 2; ++axis) {
-    RigLoad<double> load;
-    load.force = Vec3<double>::Zero();
-    load.force(axis) = 1000.0;
-    load.point << 0, 0, config.experiment.z_a;
-    Vec6<double> y;
-    EXPECT_TRUE(SolveStaticEquilibrium(model, load, 50, &y).ok());
-    force_per_axis[axis] = model.ElementForces(y, Vec6<double>::Zero())(link);
-  }
-  return std::atan2(-force_per_axis[0], force_per_axis[1]);
-}
-
 // Acceptance 3 (SVD part): an excitation that leaves link P unloaded cannot
 // identify its bushing; the estimator says so and still reports the others.
 TEST(EstimatorTest, ReportsTheBushingOfAnUnloadedLink) {

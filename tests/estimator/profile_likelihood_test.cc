@@ -39,21 +39,6 @@ TEST(ClassifyProfileTest, OneSidedOrWideProfileIsPractical) {
             Identifiability::kPracticallyNot);
 }
 
-double DirectionUnloadingLink(const KcrigConfig& config, int link) {
-  const SuspensionModel<double> model(config.model);
-  double force_per_axis[2];
-  for (int axis = 0; axis < 2; ++axis) {
-    RigLoad<double> load;
-    load.force = Vec3<double>::Zero();
-    load.force(axis) = 1000.0;
-    load.point << 0, 0, config.experiment.z_a;
-    Vec6<double> y;
-    EXPECT_TRUE(SolveStaticEquilibrium(model, load, 50, &y).ok());
-    force_per_axis[axis] = model.ElementForces(y, Vec6<double>::Zero())(link);
-  }
-  return std::atan2(-force_per_axis[0], force_per_axis[1]);
-}
-
 void PrintProfiles(const std::vector<ParameterProfile>& profiles) {
   for (const ParameterProfile& p : profiles) {
     std::printf("  %-5s %-30s interval [%.1f, %.1f] N/mm, %zu points\n",

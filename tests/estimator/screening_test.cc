@@ -14,21 +14,6 @@
 namespace kcrig {
 namespace {
 
-double DirectionUnloadingLink(const KcrigConfig& config, int link) {
-  const SuspensionModel<double> model(config.model);
-  double force_per_axis[2];
-  for (int axis = 0; axis < 2; ++axis) {
-    RigLoad<double> load;
-    load.force = Vec3<double>::Zero();
-    load.force(axis) = 1000.0;
-    load.point << 0, 0, config.experiment.z_a;
-    Vec6<double> y;
-    EXPECT_TRUE(SolveStaticEquilibrium(model, load, 50, &y).ok());
-    force_per_axis[axis] = model.ElementForces(y, Vec6<double>::Zero())(link);
-  }
-  return std::atan2(-force_per_axis[0], force_per_axis[1]);
-}
-
 ScreeningResult ScreenAt(const KcrigConfig& config, double phi) {
   const SyntheticSpec spec{phi, config.experiment.z_a, config.experiment.fmax,
                            config.experiment.duration};

@@ -4,6 +4,7 @@
 #ifndef KCRIG_TESTS_SUPPORT_SYNTHETIC_H_
 #define KCRIG_TESTS_SUPPORT_SYNTHETIC_H_
 
+#include <cmath>
 #include <cstdint>
 
 #include "estimator/experiment.h"
@@ -71,6 +72,25 @@ inline SuspensionParameters<double> DistinctBushingTruth(
   for (int i = 0; i < kNumBushings; ++i)
     truth.bushings[i].stiffness = values[i];
   return truth;
+}
+
+// The horizontal force direction (at the config's acting height) under which
+// `link` carries no load. The five links and the spring form a statically
+// determinate mount, so element forces follow from equilibrium alone, for
+// any stiffness values, and are linear in the force: zero for one phi.
+inline double DirectionUnloadingLink(const KcrigConfig& config, int link) {
+  const SuspensionModel<double> model(config.model);
+  double force_per_axis[2];
+  for (int axis = 0; axis < 2; ++axis) {
+    RigLoad<double> load;
+    load.force = Vec3<double>::Zero();
+    load.force(axis) = 1000.0;
+    load.point << 0, 0, config.experiment.z_a;
+    Vec6<double> y;
+    EXPECT_TRUE(SolveStaticEquilibrium(model, load, 50, &y).ok());
+    force_per_axis[axis] = model.ElementForces(y, Vec6<double>::Zero())(link);
+  }
+  return std::atan2(-force_per_axis[0], force_per_axis[1]);
 }
 
 }  // namespace kcrig
