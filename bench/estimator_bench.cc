@@ -140,7 +140,8 @@ void BM_MinpackLmderForwardDifference(benchmark::State& state) {
   EstimatorOptions options;
   TrajectoryResidual residual(&s.config.model, s.indices, options.channels,
                               &s.experiments[0], s.config.experiment.step,
-                              options.lower_scale, options.upper_scale);
+                              options.lower_scale, options.upper_scale,
+                              /*split_across_threads=*/false);
   g_residual = &residual;
   int m = residual.num_residuals(), n = kNumBushings;
   std::vector<double> x, fvec(m), fjac(static_cast<size_t>(m) * n), diag(n),
@@ -175,7 +176,8 @@ void BM_CeresNumericDiffLM(benchmark::State& state) {
   EstimatorOptions options;
   TrajectoryResidual residual(&s.config.model, s.indices, options.channels,
                               &s.experiments[0], s.config.experiment.step,
-                              options.lower_scale, options.upper_scale);
+                              options.lower_scale, options.upper_scale,
+                              /*split_across_threads=*/false);
   std::vector<double> x;
   int iterations = 0;
   for (auto _ : state) {

@@ -19,7 +19,8 @@ FitProblem::FitProblem(const SuspensionParameters<double>& nominal,
     problem_->AddResidualBlock(
         new TrajectoryResidual(&nominal, indices, options.channels, &experiment,
                                integrator_step, options.lower_scale,
-                               options.upper_scale),
+                               options.upper_scale,
+                               options.split_sensitivities),
         nullptr, blocks);
   }
 }

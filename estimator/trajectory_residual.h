@@ -6,6 +6,10 @@
 // Parameters are scaled, s_i = p_i / p_i,nominal, one parameter block of
 // size 1 each so that any of them can be held constant (profiles).
 //
+// With `split_across_threads` the sensitivity directions are divided over
+// two threads, each integrating its own Jet trajectory (two cores: a Jet<3>
+// and a Jet<2> side by side instead of one Jet<5>).
+//
 // The box lower <= s_i <= upper is enforced here: a point outside it is an
 // invalid step, which makes the trust region shrink. (Ceres' own bounds run
 // a projected line search that evaluates the Jacobian, i.e. a whole
@@ -35,7 +39,7 @@ class TrajectoryResidual : public ceres::CostFunction {
                      std::vector<int> parameter_indices,
                      std::vector<int> channels, const Experiment* experiment,
                      double integrator_step, double lower_scale,
-                     double upper_scale);
+                     double upper_scale, bool split_across_threads);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -46,11 +50,16 @@ class TrajectoryResidual : public ceres::CostFunction {
 
  private:
   // Simulates the experiment at `parameters` with scalar T (double, or a Jet
-  // whose derivative slots are seeded with the scaled parameters) and writes
-  // the residuals and, for Jets, the Jacobian columns that are not null.
+  // whose slot k < count is the derivative by parameter first + k) and
+  // writes the residuals and, for Jets, those of the columns first ..
+  // first + count - 1 that are not null.
   template <typename T>
-  bool SimulateAndFill(double const* const* parameters, double* residuals,
-                       double** jacobians) const;
+  bool SimulateAndFill(double const* const* parameters, int first, int count,
+                       double* residuals, double** jacobians) const;
+
+  // SimulateAndFill with a Jet carrying directions first .. first+count-1.
+  bool SimulateJetBlock(double const* const* parameters, int first, int count,
+                        double* residuals, double** jacobians) const;
 
   const SuspensionParameters<double>* nominal_;
   std::vector<int> parameter_indices_;
@@ -59,6 +68,7 @@ class TrajectoryResidual : public ceres::CostFunction {
   double integrator_step_;
   double lower_scale_;
   double upper_scale_;
+  bool split_across_threads_;
 
   // The last residuals and Jacobian columns with the parameters they were
   // evaluated at. Ceres evaluates the Jacobian at every accepted point, and
