@@ -89,6 +89,47 @@ TEST(EstimatorTest, ReportsTheBushingOfAnUnloadedLink) {
   EXPECT_TRUE(result.unidentifiable_combinations.empty());
 }
 
+// Several experiments are fitted jointly: two designs together determine the
+// stiffnesses better than either alone.
+TEST(EstimatorTest, JointFitOfTwoExperimentsIsTighterThanEither) {
+  const KcrigConfig config = SourceConfig();
+  const SuspensionParameters<double> truth = DistinctBushingTruth(config.model);
+  SyntheticSpec lateral = PaperInitialSpec(config);
+  lateral.noise = true;
+  lateral.seed = 21;
+  SyntheticSpec longitudinal = lateral;
+  longitudinal.phi = 10.0 * M_PI / 180.0;
+  longitudinal.seed = 22;
+  const Experiment a = SyntheticExperiment(config, truth, lateral);
+  const Experiment b = SyntheticExperiment(config, truth, longitudinal);
+  std::vector<double> initial;
+  for (int i = 0; i < kNumBushings; ++i) {
+    initial.push_back(truth.bushings[i].stiffness * 1.03);
+  }
+  EstimationResult only_a, only_b, joint;
+  ASSERT_TRUE(Estimate(config.model, {a}, EstimatorOptions{}, initial,
+                       config.experiment.step, &only_a)
+                  .ok());
+  ASSERT_TRUE(Estimate(config.model, {b}, EstimatorOptions{}, initial,
+                       config.experiment.step, &only_b)
+                  .ok());
+  ASSERT_TRUE(Estimate(config.model, {a, b}, EstimatorOptions{}, initial,
+                       config.experiment.step, &joint)
+                  .ok());
+  EXPECT_EQ(joint.num_residuals, only_a.num_residuals + only_b.num_residuals);
+  std::printf("  standard errors [N/mm]: phi 85 deg | phi 10 deg | joint\n");
+  for (int i = 0; i < kNumBushings; ++i) {
+    const double se_a = only_a.parameters[i].standard_error;
+    const double se_b = only_b.parameters[i].standard_error;
+    const double se_joint = joint.parameters[i].standard_error;
+    std::printf("  %-5s %8.3f %8.3f %8.3f\n", joint.parameters[i].name.c_str(),
+                se_a * 1e-3, se_b * 1e-3, se_joint * 1e-3);
+    EXPECT_LT(se_joint, std::min(se_a, se_b)) << joint.parameters[i].name;
+    EXPECT_LE(joint.parameters[i].ci95_low, truth.bushings[i].stiffness);
+    EXPECT_GE(joint.parameters[i].ci95_high, truth.bushings[i].stiffness);
+  }
+}
+
 TEST(EstimatorTest, ParameterSelectionIsChecked) {
   KcrigConfig config = SourceConfig();
   std::vector<int> indices;
