@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "rt_core/excitation.h"
+
 namespace kcrig {
 
 Status MakeExperiment(const std::string& source, const RunLog& log,
@@ -32,8 +34,12 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
       Vec3<double>::Constant(m.sigma_angle);
   experiment->forces.clear();
   experiment->measured.clear();
+  // The measured force when the rig has a load cell, else the commanded
+  // ramp of the sidecar (its time origin is the log's first sample).
+  const RampExcitation<double> commanded{m.phi, m.z_a, m.fmax, m.duration};
   for (const LogSample& s : log.samples) {
-    experiment->forces.push_back(s.force);
+    experiment->forces.push_back(
+        log.has_measured_force ? s.force : commanded.LoadAt(s.t - t0).force);
     experiment->measured.push_back(s.y);
   }
   return Status::Ok();

@@ -25,13 +25,15 @@ void AppendNumber(double value, std::string* out) {
 }
 
 std::string FormatCsv(const RunLog& log) {
-  std::string csv = "t,Fx,Fy,Fz,x,y,z,toe,camber,caster";
+  std::string csv = log.has_measured_force
+                        ? "t,Fx,Fy,Fz,x,y,z,toe,camber,caster"
+                        : "t,x,y,z,toe,camber,caster";
   if (log.has_commanded_force) csv += ",Fx_cmd,Fy_cmd,Fz_cmd";
   csv += '\n';
   csv.reserve(log.samples.size() * 200);
   for (const LogSample& s : log.samples) {
     AppendNumber(s.t, &csv);
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; log.has_measured_force && k < 3; ++k) {
       csv += ',';
       AppendNumber(s.force(k), &csv);
     }
@@ -206,14 +208,22 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
     }
     return -1;
   };
+  // Fx, Fy, Fz (columns 1-3) may be absent together: no load cell.
   int column[10];
+  int forces_found = 0;
   for (int k = 0; k < 10; ++k) {
     column[k] = find(kChannels[k]);
-    if (column[k] < 0) {
+    const bool force = k >= 1 && k <= 3;
+    forces_found += force && column[k] >= 0;
+    if (column[k] < 0 && !force) {
       return Status::Error(csv_path + ":1: missing column '" +
                            std::string(kChannels[k]) + "'");
     }
   }
+  if (forces_found != 0 && forces_found != 3) {
+    return Status::Error(csv_path + ":1: Fx, Fy, Fz must appear together");
+  }
+  log->has_measured_force = forces_found == 3;
   int commanded[3];
   int commanded_found = 0;
   for (int k = 0; k < 3; ++k) {
@@ -238,8 +248,9 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
                            std::to_string(header.size()) + " fields, got " +
                            std::to_string(fields.size()));
     }
-    double values[10];
+    double values[10] = {};
     for (int k = 0; k < 10; ++k) {
+      if (column[k] < 0) continue;
       if (!ParseFinite(fields[column[k]], &values[k])) {
         return Status::Error(where + ": column '" + kChannels[k] +
                              "': not a finite number ('" +

@@ -1,5 +1,6 @@
 // The decoded run log: CSV with header t,Fx,Fy,Fz,x,y,z,toe,camber,caster
-// (s, N, m, rad), optionally followed by Fx_cmd,Fy_cmd,Fz_cmd, and a JSON
+// (s, N, m, rad; Fx,Fy,Fz absent when the rig has no load cell), optionally
+// followed by Fx_cmd,Fy_cmd,Fz_cmd, and a JSON
 // sidecar with the same stem (run.csv -> run.json). Both files appear
 // together or not at all: they are written to temporaries and renamed.
 #ifndef KCRIG_IO_DRIVERS_RUN_LOG_H_
@@ -39,6 +40,9 @@ struct RunMetadata {
 
 struct RunLog {
   std::vector<LogSample> samples;
+  // Without a load cell the log has no Fx, Fy, Fz columns; the force is then
+  // the commanded excitation of the sidecar (LogSample::force stays zero).
+  bool has_measured_force = true;
   bool has_commanded_force = false;
   RunMetadata metadata;
 };

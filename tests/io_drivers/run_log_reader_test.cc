@@ -83,6 +83,12 @@ TEST_F(RunLogReaderTest, MissingColumn) {
   EXPECT_NE(Error().find(":1: missing column 'caster'"), std::string::npos);
 }
 
+TEST_F(RunLogReaderTest, PartialForceColumns) {
+  ReplaceLine(1, "t,Fx,Fy,x,y,z,toe,camber,caster,Fz_extra");
+  EXPECT_NE(Error().find(":1: Fx, Fy, Fz must appear together"),
+            std::string::npos);
+}
+
 TEST_F(RunLogReaderTest, NonMonotonicTime) {
   ReplaceLine(4, "0.001,20,-5,0,2e-06,2e-06,3e-06,1e-05,2e-05,3e-05");
   EXPECT_NE(Error().find(":4: time 0.001 s does not increase"),

@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Builds (Release) and runs the benchmarks; Google Benchmark JSON goes to
+# build/bench/<name>.json, the console table to stdout. Medians of 5.
+#   scripts/bench.sh [extra Google Benchmark flags]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+cmake --preset release >/dev/null
+cmake --build --preset release --target model_bench estimator_bench
+mkdir -p build/bench
+for bench in model_bench estimator_bench; do
+  build/bin/$bench --benchmark_repetitions=5 \
+    --benchmark_report_aggregates_only=true \
+    --benchmark_out=build/bench/$bench.json --benchmark_out_format=json "$@"
+done
+echo "bench: JSON in build/bench/"
