@@ -122,16 +122,13 @@ class SuspensionModel {
     for (int i = 0; i < kNumElements; ++i) {
       const AxialElement<T>& e = Element(i);
       const Vec3<T>& b = e.carrier_point;
-      const Vec3<T> d = e.chassis_point - r - rot * b;
-      const T length = d.norm();
-      const Vec3<T> u = d / length;
-      const Vec3<T> u_body = rot_t * u;
+      const ElementState element = StateOf(i, r, rot, rot_t, z);
+      const T& length = element.length;
+      const Vec3<T>& u = element.u;
+      const Vec3<T>& u_body = element.u_body;
+      const Vec6<T>& a = element.a;
+      const T& magnitude = element.magnitude;
       const Vec3<T> w = omega.cross(b);  // carrier-point velocity, body frame
-      Vec6<T> a;
-      a << u, b.cross(u_body);
-      const T length_rate = -a.dot(z);
-      const T magnitude =
-          e.stiffness * (length - free_length_[i]) + e.damping * length_rate;
       out->q += magnitude * a;
       if (!with_jacobians) continue;
 
@@ -180,18 +177,10 @@ class SuspensionModel {
   // then the spring-damper), positive in tension [N].
   Vec6<T> ElementForces(const Vec6<T>& y, const Vec6<T>& z) const {
     const Mat3<T> rot = CardanAngles<T>(y.template tail<3>()).Rotation();
+    const Mat3<T> rot_t = rot.transpose();
     Vec6<T> forces;
     for (int i = 0; i < kNumElements; ++i) {
-      const AxialElement<T>& e = Element(i);
-      const Vec3<T> d =
-          e.chassis_point - y.template head<3>() - rot * e.carrier_point;
-      const T length = d.norm();
-      const Vec3<T> u = d / length;
-      const Vec3<T> velocity =
-          z.template head<3>() +
-          rot * Vec3<T>(z.template tail<3>()).cross(e.carrier_point);
-      forces(i) = e.stiffness * (length - free_length_[i]) -
-                  e.damping * u.dot(velocity);
+      forces(i) = StateOf(i, y.template head<3>(), rot, rot_t, z).magnitude;
     }
     return forces;
   }
@@ -201,6 +190,32 @@ class SuspensionModel {
 
   const AxialElement<T>& Element(int i) const {
     return i < kNumBushings ? parameters_.bushings[i] : parameters_.spring;
+  }
+
+  // One element at the pose (r, R): length l, unit vector u from the carrier
+  // point to the chassis point (rig frame) and u_b = R^T u, the generalized
+  // direction a = [u; b x u_b] (dl/dt = -a^T z) and the axial force
+  // m = c (l - l0) + d dl/dt, positive in tension.
+  struct ElementState {
+    T length;
+    Vec3<T> u;
+    Vec3<T> u_body;
+    Vec6<T> a;
+    T magnitude;
+  };
+
+  ElementState StateOf(int i, const Vec3<T>& r, const Mat3<T>& rot,
+                       const Mat3<T>& rot_t, const Vec6<T>& z) const {
+    const AxialElement<T>& e = Element(i);
+    ElementState s;
+    const Vec3<T> d = e.chassis_point - r - rot * e.carrier_point;
+    s.length = d.norm();
+    s.u = d / s.length;
+    s.u_body = rot_t * s.u;
+    s.a << s.u, e.carrier_point.cross(s.u_body);
+    s.magnitude =
+        e.stiffness * (s.length - free_length_[i]) - e.damping * s.a.dot(z);
+    return s;
   }
 
   SuspensionParameters<T> parameters_;
