@@ -1,0 +1,125 @@
+#include "designer/design_objective.h"
+
+#include <algorithm>
+#include <atomic>
+#include <limits>
+#include <thread>
+#include <utility>
+
+namespace kcrig {
+
+DesignObjective::DesignObjective(const InformationEvaluator* evaluator,
+                                 Criterion criterion,
+                                 const DesignBounds& bounds,
+                                 ObjectiveOptions options)
+    : evaluator_(evaluator),
+      criterion_(criterion),
+      bounds_(bounds),
+      options_(std::move(options)),
+      start_(std::chrono::steady_clock::now()) {}
+
+Status DesignObjective::Validate(const DesignBounds& bounds,
+                                 const ObjectiveOptions& options) {
+  if (options.budget <= 0) {
+    return Status::Error("--budget " + std::to_string(options.budget) +
+                         ": must be at least 1 criterion evaluation");
+  }
+  if (options.num_threads < 1) {
+    return Status::Error("design: num_threads must be >= 1");
+  }
+  return ValidateBounds(bounds);
+}
+
+Design DesignObjective::ToDesign(const Eigen::Vector2d& unit) const {
+  const Eigen::Vector2d u = unit.cwiseMax(0.0).cwiseMin(1.0);
+  return {bounds_.phi.lower + u(0) * (bounds_.phi.upper - bounds_.phi.lower),
+          bounds_.z_a.lower + u(1) * (bounds_.z_a.upper - bounds_.z_a.lower)};
+}
+
+Eigen::Vector2d DesignObjective::ToUnit(const Design& design) const {
+  return Eigen::Vector2d((design.phi - bounds_.phi.lower) /
+                             (bounds_.phi.upper - bounds_.phi.lower),
+                         (design.z_a - bounds_.z_a.lower) /
+                             (bounds_.z_a.upper - bounds_.z_a.lower));
+}
+
+DesignEvaluation DesignObjective::EvaluateOne(const Eigen::Vector2d& unit,
+                                              bool split) const {
+  DesignEvaluation e;
+  e.unit = unit;
+  e.design = ToDesign(unit);
+  const int n = evaluator_->num_parameters();
+  // A diverged simulation carries no information (criteria.h penalty).
+  if (!evaluator_->Information(e.design, split, &e.information).ok()) {
+    e.information = Eigen::MatrixXd::Constant(
+        n, n, std::numeric_limits<double>::quiet_NaN());
+  }
+  const CriterionValue value = EvaluateCriterion(criterion_, e.information);
+  e.value = value.value;
+  e.singular = value.singular;
+  e.epigraph = EpigraphFunctions(criterion_, e.information);
+  return e;
+}
+
+std::vector<DesignEvaluation> DesignObjective::Evaluate(
+    const std::vector<Eigen::Vector2d>& points) {
+  std::vector<DesignEvaluation> results(points.size());
+  std::vector<int> to_run;  // indices of points not in the record
+  const int affordable = remaining();
+  size_t count = 0;  // points answered: up to the first one not affordable
+  for (; count < points.size(); ++count) {
+    const Eigen::Vector2d u = points[count].cwiseMax(0.0).cwiseMin(1.0);
+    const auto known =
+        std::find_if(record_.begin(), record_.end(),
+                     [&u](const DesignEvaluation& e) { return e.unit == u; });
+    if (known != record_.end()) {
+      results[count] = *known;
+      continue;
+    }
+    if (static_cast<int>(to_run.size()) >= affordable) break;
+    to_run.push_back(static_cast<int>(count));
+    results[count].unit = u;
+  }
+
+  const bool split = to_run.size() == 1;
+  std::atomic<size_t> next{0};
+  auto worker = [&] {
+    for (size_t k = next++; k < to_run.size(); k = next++) {
+      results[to_run[k]] = EvaluateOne(results[to_run[k]].unit, split);
+    }
+  };
+  const int threads = std::min<int>(options_.num_threads, to_run.size());
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+
+  const double now = elapsed_seconds();
+  for (int index : to_run) {
+    results[index].batch = batches_;
+    results[index].seconds = now;
+    record_.push_back(results[index]);
+  }
+  if (!to_run.empty()) {
+    ++batches_;
+    if (options_.on_batch) options_.on_batch(*this);
+  }
+  results.resize(count);
+  return results;
+}
+
+const DesignEvaluation& DesignObjective::best() const {
+  return *std::min_element(
+      record_.begin(), record_.end(),
+      [](const DesignEvaluation& a, const DesignEvaluation& b) {
+        return a.value < b.value;
+      });
+}
+
+double DesignObjective::elapsed_seconds() const {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                       start_)
+      .count();
+}
+
+}  // namespace kcrig

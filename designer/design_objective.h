@@ -1,0 +1,88 @@
+// The design problem as the optimizers see it: the criterion as a function
+// of the design, in unit coordinates u in [0, 1]^2 over the design bounds
+// (u0 along phi, u1 along z_a), with an evaluation budget, parallel batches
+// and a record of every evaluation.
+#ifndef KCRIG_DESIGNER_DESIGN_OBJECTIVE_H_
+#define KCRIG_DESIGNER_DESIGN_OBJECTIVE_H_
+
+#include <chrono>
+#include <functional>
+#include <vector>
+
+#include "Eigen/Core"
+#include "designer/criteria.h"
+#include "designer/information.h"
+
+namespace kcrig {
+
+struct DesignEvaluation {
+  Design design;
+  Eigen::Vector2d unit = Eigen::Vector2d::Zero();
+  Eigen::MatrixXd information;   // prior + J^T J at the design
+  double value = 0;              // the criterion
+  std::vector<double> epigraph;  // EpigraphFunctions of the criterion
+  bool singular = false;
+  int batch = 0;       // which batch evaluated it (0-based)
+  double seconds = 0;  // wall time since the objective was created
+};
+
+class DesignObjective;
+
+struct ObjectiveOptions {
+  // Most criterion evaluations (trajectory + sensitivities each); > 0.
+  int budget = 100;
+  // A batch of designs runs on this many threads, one design per thread; a
+  // single design splits its sensitivities over two threads instead.
+  int num_threads = 2;
+  // Called after every batch (progress display); may be empty.
+  std::function<void(const DesignObjective&)> on_batch;
+};
+
+class DesignObjective {
+ public:
+  // `evaluator` must outlive the objective. Bounds and budget must be valid
+  // (see Validate).
+  DesignObjective(const InformationEvaluator* evaluator, Criterion criterion,
+                  const DesignBounds& bounds, ObjectiveOptions options);
+
+  // Budget > 0 and bounds in order.
+  static Status Validate(const DesignBounds& bounds,
+                         const ObjectiveOptions& options);
+
+  Design ToDesign(const Eigen::Vector2d& unit) const;
+  Eigen::Vector2d ToUnit(const Design& design) const;
+
+  // Evaluates the points (clamped to the unit box), in parallel, in order,
+  // until the budget is spent; returns one evaluation per point evaluated,
+  // so fewer than asked means the budget ran out. A point evaluated before
+  // is served from the record without spending budget.
+  std::vector<DesignEvaluation> Evaluate(
+      const std::vector<Eigen::Vector2d>& points);
+
+  Criterion criterion() const { return criterion_; }
+  const DesignBounds& bounds() const { return bounds_; }
+  int budget() const { return options_.budget; }
+  int remaining() const {
+    return options_.budget - static_cast<int>(record_.size());
+  }
+  const std::vector<DesignEvaluation>& record() const { return record_; }
+  // The evaluation with the smallest criterion value; record must be
+  // non-empty.
+  const DesignEvaluation& best() const;
+  double elapsed_seconds() const;
+
+ private:
+  DesignEvaluation EvaluateOne(const Eigen::Vector2d& unit, bool split) const;
+
+  const InformationEvaluator* evaluator_;
+  Criterion criterion_;
+  DesignBounds bounds_;
+  ObjectiveOptions options_;
+  std::vector<DesignEvaluation> record_;
+  int batches_ = 0;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace kcrig
+
+#endif  // KCRIG_DESIGNER_DESIGN_OBJECTIVE_H_

@@ -1,0 +1,184 @@
+// Implicit filtering (C. T. Kelley, "Implicit Filtering", SIAM 2011):
+// a projected quasi-Newton method whose gradient comes from a
+// central-difference stencil of scale h in the unit box; when the centre is
+// better than every stencil point (stencil failure) or the stencil gradient
+// is small against h, the scale is halved. Like Kelley's imfil with an
+// explore function, the first iteration also evaluates a coarse lattice
+// over the box and moves to its best point, so that the local search starts
+// in the best basin rather than the nearest one.
+#include <cmath>
+#include <vector>
+
+#include "Eigen/Dense"
+#include "designer/optimizers.h"
+
+namespace kcrig {
+namespace {
+
+constexpr double kArmijo = 1e-4;       // sufficient-decrease constant
+constexpr double kBoundSlack = 1e-12;  // "on the bound" in unit coordinates
+constexpr int kMaxIterationsPerScale = 20;
+constexpr int kExplorePerAxis = 4;  // 4 x 4 lattice of cell centres
+
+struct Point {
+  Eigen::Vector2d u;
+  double f = 0;  // OptimizationScale of the criterion
+};
+
+Eigen::Vector2d Project(const Eigen::Vector2d& u) {
+  return u.cwiseMax(0.0).cwiseMin(1.0);
+}
+
+}  // namespace
+
+Status ImplicitFiltering(DesignObjective* objective,
+                         const OptimizerOptions& options,
+                         OptimizationResult* result) {
+  if (!(options.imfil_initial_scale > 0) || options.imfil_num_scales < 1) {
+    return Status::Error("imfil: initial scale must be > 0, scales >= 1");
+  }
+  const Criterion criterion = objective->criterion();
+  auto scaled = [criterion](const DesignEvaluation& e) {
+    return OptimizationScale(criterion, e.value);
+  };
+  const DesignEvaluation& start = objective->record().front();
+  Point x{start.unit, scaled(start)};
+
+  auto out_of_budget = [&](const char* where) {
+    result->message = std::string("budget exhausted (") + where + ")";
+    return Status::Ok();
+  };
+
+  // Exploration.
+  std::vector<Eigen::Vector2d> lattice;
+  for (int i = 0; i < kExplorePerAxis; ++i) {
+    for (int j = 0; j < kExplorePerAxis; ++j) {
+      lattice.emplace_back((i + 0.5) / kExplorePerAxis,
+                           (j + 0.5) / kExplorePerAxis);
+    }
+  }
+  const std::vector<DesignEvaluation> explored = objective->Evaluate(lattice);
+  for (const DesignEvaluation& e : explored) {
+    if (scaled(e) < x.f) x = {e.unit, scaled(e)};
+  }
+  if (explored.size() < lattice.size()) return out_of_budget("exploration");
+  result->path.push_back(objective->ToDesign(x.u));
+
+  Eigen::Matrix2d hessian = Eigen::Matrix2d::Identity();
+  bool hessian_scaled = false;
+  for (int k = 0; k < options.imfil_num_scales; ++k) {
+    const double h = options.imfil_initial_scale * std::ldexp(1.0, -k);
+    bool have_previous = false;
+    Eigen::Vector2d previous_u = x.u,
+                    previous_gradient = Eigen::Vector2d::Zero();
+    for (int iteration = 0; iteration < kMaxIterationsPerScale; ++iteration) {
+      // Stencil x +- h e_i, the points inside the box.
+      std::vector<Eigen::Vector2d> stencil;
+      int index[2][2] = {{-1, -1}, {-1, -1}};  // [axis][minus, plus]
+      for (int i = 0; i < 2; ++i) {
+        for (int side = 0; side < 2; ++side) {
+          Eigen::Vector2d p = x.u;
+          p(i) += side == 0 ? -h : h;
+          if (p(i) < -kBoundSlack || p(i) > 1 + kBoundSlack) continue;
+          index[i][side] = static_cast<int>(stencil.size());
+          stencil.push_back(Project(p));
+        }
+      }
+      const std::vector<DesignEvaluation> values = objective->Evaluate(stencil);
+      if (values.size() < stencil.size()) return out_of_budget("stencil");
+      Point best_stencil = x;
+      for (const DesignEvaluation& e : values) {
+        if (scaled(e) < best_stencil.f) best_stencil = {e.unit, scaled(e)};
+      }
+      Eigen::Vector2d gradient;
+      for (int i = 0; i < 2; ++i) {
+        const int minus = index[i][0], plus = index[i][1];
+        if (minus >= 0 && plus >= 0) {
+          gradient(i) =
+              (scaled(values[plus]) - scaled(values[minus])) / (2 * h);
+        } else if (plus >= 0) {
+          gradient(i) = (scaled(values[plus]) - x.f) / h;
+        } else if (minus >= 0) {
+          gradient(i) = (x.f - scaled(values[minus])) / h;
+        } else {
+          gradient(i) = 0;
+        }
+      }
+      // Stencil failure: the centre beats its whole stencil at this scale.
+      if (best_stencil.f >= x.f) break;
+
+      if (have_previous) {
+        const Eigen::Vector2d s = x.u - previous_u;
+        const Eigen::Vector2d y = gradient - previous_gradient;
+        const double ys = y.dot(s);
+        if (ys > 1e-10 * y.norm() * s.norm()) {
+          if (!hessian_scaled) {
+            hessian = Eigen::Matrix2d::Identity() * (y.dot(y) / ys);
+            hessian_scaled = true;
+          }
+          const Eigen::Vector2d hs = hessian * s;
+          hessian += y * y.transpose() / ys - hs * hs.transpose() / s.dot(hs);
+        }
+      }
+      // Projected quasi-Newton direction: variables on a bound with the
+      // gradient pushing outwards are held; the rest use the reduced model.
+      bool active[2];
+      for (int i = 0; i < 2; ++i) {
+        active[i] = (x.u(i) <= kBoundSlack && gradient(i) > 0) ||
+                    (x.u(i) >= 1 - kBoundSlack && gradient(i) < 0);
+      }
+      Eigen::Matrix2d reduced = hessian;
+      Eigen::Vector2d reduced_gradient = gradient;
+      for (int i = 0; i < 2; ++i) {
+        if (!active[i]) continue;
+        reduced.row(i).setZero();
+        reduced.col(i).setZero();
+        reduced(i, i) = 1;
+        reduced_gradient(i) = 0;
+      }
+      Eigen::Vector2d direction = -reduced.ldlt().solve(reduced_gradient);
+      if (!direction.allFinite() || direction.dot(reduced_gradient) >= 0) {
+        hessian = Eigen::Matrix2d::Identity();  // lost curvature: restart
+        hessian_scaled = false;
+        direction = -reduced_gradient;
+      }
+      // Armijo on the projected path, two step lengths per batch.
+      Point candidate = x;
+      bool accepted = false;
+      for (int tried = 0; tried < options.imfil_max_armijo && !accepted;
+           tried += 2) {
+        std::vector<Eigen::Vector2d> trials;
+        for (int t = tried; t < tried + 2 && t < options.imfil_max_armijo;
+             ++t) {
+          trials.push_back(Project(x.u + std::ldexp(1.0, -t) * direction));
+        }
+        const std::vector<DesignEvaluation> tried_values =
+            objective->Evaluate(trials);
+        for (const DesignEvaluation& e : tried_values) {
+          const double decrease = kArmijo * gradient.dot(x.u - e.unit);
+          if (e.unit != x.u && scaled(e) <= x.f - decrease) {
+            candidate = {e.unit, scaled(e)};
+            accepted = true;
+            break;
+          }
+        }
+        if (tried_values.size() < trials.size() && !accepted) {
+          return out_of_budget("line search");
+        }
+      }
+      // The best stencil point wins over a worse line-search point (and
+      // replaces a failed line search).
+      if (!accepted || best_stencil.f < candidate.f) candidate = best_stencil;
+      previous_u = x.u;
+      previous_gradient = gradient;
+      have_previous = accepted;
+      x = candidate;
+      result->path.push_back(objective->ToDesign(x.u));
+      if (objective->remaining() <= 0) return out_of_budget("iteration");
+    }
+  }
+  result->message = "smallest stencil scale reached";
+  return Status::Ok();
+}
+
+}  // namespace kcrig

@@ -1,0 +1,219 @@
+// NLopt drivers for the design problem, in unit coordinates.
+//   direct-l, crs2   global search over the box with half the budget, then
+//                    BOBYQA from its best point with the rest
+//   bobyqa, cobyla   local, derivative-free
+//   slsqp, mma       local, with the gradient of the criterion by central
+//                    differences (step 1e-4 of the box): the exact-
+//                    sensitivity criterion is smooth to ~1e-13 relative
+//                    (ecnoise), so these gradients carry ~8 digits
+// E and MM with cobyla, slsqp or mma are solved in epigraph form,
+//   min t  s.t.  ln g_k(v) - t <= 0,  g_k from EpigraphFunctions,
+// which has smooth constraints where the criterion itself has kinks. The
+// other algorithms take E and MM as they are.
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "designer/optimizers.h"
+#include "nlopt.hpp"
+
+namespace kcrig {
+namespace {
+
+constexpr double kGradientStep = 1e-4;
+
+struct Context {
+  DesignObjective* objective;
+  bool epigraph = false;
+};
+
+double Scaled(const DesignObjective& objective, const DesignEvaluation& e) {
+  return OptimizationScale(objective.criterion(), e.value);
+}
+
+// The evaluation at u and, when `gradient_wanted`, the four stencil points
+// (one batch); forward/backward differences at the bounds.
+struct Stencil {
+  DesignEvaluation centre;
+  std::vector<DesignEvaluation> side[2][2];  // [axis][minus, plus], 0 or 1
+  double step[2][2] = {{0, 0}, {0, 0}};
+};
+
+Stencil EvaluateStencil(DesignObjective* objective, const Eigen::Vector2d& u,
+                        bool gradient_wanted) {
+  std::vector<Eigen::Vector2d> points = {u};
+  int where[2][2] = {{-1, -1}, {-1, -1}};
+  Stencil s;
+  if (gradient_wanted) {
+    for (int i = 0; i < 2; ++i) {
+      for (int side = 0; side < 2; ++side) {
+        Eigen::Vector2d p = u;
+        p(i) += side == 0 ? -kGradientStep : kGradientStep;
+        if (p(i) < 0 || p(i) > 1) continue;
+        where[i][side] = static_cast<int>(points.size());
+        s.step[i][side] = p(i) - u(i);
+        points.push_back(p);
+      }
+    }
+  }
+  const std::vector<DesignEvaluation> values = objective->Evaluate(points);
+  if (values.size() < points.size()) throw nlopt::forced_stop();
+  s.centre = values[0];
+  for (int i = 0; i < 2; ++i) {
+    for (int side = 0; side < 2; ++side) {
+      if (where[i][side] >= 0) s.side[i][side] = {values[where[i][side]]};
+    }
+  }
+  return s;
+}
+
+// d/du_i of f(evaluation) from the stencil.
+template <typename F>
+double Derivative(const Stencil& s, int i, const F& f) {
+  const bool minus = !s.side[i][0].empty(), plus = !s.side[i][1].empty();
+  if (minus && plus) {
+    return (f(s.side[i][1][0]) - f(s.side[i][0][0])) /
+           (s.step[i][1] - s.step[i][0]);
+  }
+  if (plus) return (f(s.side[i][1][0]) - f(s.centre)) / s.step[i][1];
+  if (minus) return (f(s.side[i][0][0]) - f(s.centre)) / s.step[i][0];
+  return 0;
+}
+
+double Objective(unsigned n, const double* x, double* grad, void* data) {
+  Context* c = static_cast<Context*>(data);
+  if (c->epigraph) {  // min t
+    if (grad) {
+      for (unsigned i = 0; i < n; ++i) grad[i] = i == n - 1 ? 1 : 0;
+    }
+    return x[n - 1];
+  }
+  const Stencil s = EvaluateStencil(c->objective, Eigen::Vector2d(x[0], x[1]),
+                                    grad != nullptr);
+  const auto f = [c](const DesignEvaluation& e) {
+    return Scaled(*c->objective, e);
+  };
+  if (grad) {
+    for (int i = 0; i < 2; ++i) grad[i] = Derivative(s, i, f);
+  }
+  return f(s.centre);
+}
+
+// c_k = ln g_k(u) - t, gradient rows of length 3.
+void EpigraphConstraints(unsigned m, double* result, unsigned n,
+                         const double* x, double* grad, void* data) {
+  Context* c = static_cast<Context*>(data);
+  const Stencil s = EvaluateStencil(c->objective, Eigen::Vector2d(x[0], x[1]),
+                                    grad != nullptr);
+  for (unsigned k = 0; k < m; ++k) {
+    const auto g = [k](const DesignEvaluation& e) {
+      return std::log(e.epigraph[k]);
+    };
+    result[k] = g(s.centre) - x[2];
+    if (grad) {
+      for (int i = 0; i < 2; ++i) grad[k * n + i] = Derivative(s, i, g);
+      grad[k * n + 2] = -1;
+    }
+  }
+}
+
+Status RunLocal(nlopt::algorithm algorithm, DesignObjective* objective,
+                const Eigen::Vector2d& from, const OptimizerOptions& options,
+                std::string* message) {
+  if (objective->remaining() <= 0) {
+    *message = "budget exhausted";
+    return Status::Ok();
+  }
+  const Criterion criterion = objective->criterion();
+  const bool epigraph =
+      IsMaxType(criterion) &&
+      (algorithm == nlopt::LN_COBYLA || algorithm == nlopt::LD_SLSQP ||
+       algorithm == nlopt::LD_MMA);
+  Context context{objective, epigraph};
+  const unsigned n = epigraph ? 3 : 2;
+  nlopt::opt opt(algorithm, n);
+  std::vector<double> lower = {0, 0}, upper = {1, 1}, x = {from(0), from(1)};
+  std::vector<double> step = {0.05, 0.05};
+  if (epigraph) {
+    const DesignEvaluation e = objective->Evaluate({from}).front();
+    double t = -std::numeric_limits<double>::infinity();
+    for (double g : e.epigraph) t = std::max(t, std::log(g));
+    x.push_back(t + 1e-9);  // feasible start
+    lower.push_back(t - 50);
+    upper.push_back(t + 50);
+    step.push_back(0.1);
+    const unsigned m = static_cast<unsigned>(e.epigraph.size());
+    opt.add_inequality_mconstraint(EpigraphConstraints, &context,
+                                   std::vector<double>(m, 1e-9));
+  }
+  opt.set_lower_bounds(lower);
+  opt.set_upper_bounds(upper);
+  opt.set_min_objective(Objective, &context);
+  opt.set_initial_step(step);
+  opt.set_xtol_abs(options.unit_tolerance * 0.1);
+  opt.set_ftol_abs(options.value_tolerance);
+  opt.set_maxeval(objective->remaining());
+  double value = 0;
+  try {
+    const nlopt::result r = opt.optimize(x, value);
+    *message = std::string(opt.get_algorithm_name()) +
+               (epigraph ? " (epigraph form)" : "") + ": " +
+               (r == nlopt::XTOL_REACHED   ? "design converged"
+                : r == nlopt::FTOL_REACHED ? "criterion converged"
+                : r == nlopt::MAXEVAL_REACHED
+                    ? "iteration limit"
+                    : "stopped (code " + std::to_string(r) + ")");
+  } catch (const nlopt::forced_stop&) {
+    *message = "budget exhausted";
+  } catch (const std::exception& e) {
+    // Roundoff-limited and similar: the record holds the best point.
+    *message = std::string("NLopt stopped: ") + e.what();
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status NloptSearch(const std::string& algorithm, DesignObjective* objective,
+                   const OptimizerOptions& options,
+                   OptimizationResult* result) {
+  const Eigen::Vector2d start = objective->record().front().unit;
+  if (algorithm == "bobyqa") {
+    return RunLocal(nlopt::LN_BOBYQA, objective, start, options,
+                    &result->message);
+  }
+  if (algorithm == "cobyla") {
+    return RunLocal(nlopt::LN_COBYLA, objective, start, options,
+                    &result->message);
+  }
+  if (algorithm == "slsqp") {
+    return RunLocal(nlopt::LD_SLSQP, objective, start, options,
+                    &result->message);
+  }
+  if (algorithm == "mma") {
+    return RunLocal(nlopt::LD_MMA, objective, start, options, &result->message);
+  }
+  // Global phase with half the budget, then a local polish.
+  Context context{objective, false};
+  nlopt::opt opt(algorithm == "crs2" ? nlopt::GN_CRS2_LM : nlopt::GN_DIRECT_L,
+                 2);
+  opt.set_lower_bounds({0, 0});
+  opt.set_upper_bounds({1, 1});
+  opt.set_min_objective(Objective, &context);
+  opt.set_maxeval(std::max(1, objective->remaining() / 2));
+  std::vector<double> x = {start(0), start(1)};
+  double value = 0;
+  try {
+    opt.optimize(x, value);
+  } catch (const std::exception&) {
+    // Budget or iteration limit: the polish starts from the best point.
+  }
+  std::string polish;
+  Status status = RunLocal(nlopt::LN_BOBYQA, objective, objective->best().unit,
+                           options, &polish);
+  result->message = std::string(opt.get_algorithm_name()) + ", then " + polish;
+  return status;
+}
+
+}  // namespace kcrig
