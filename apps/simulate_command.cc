@@ -10,8 +10,7 @@
 #include "apps/cli_util.h"
 #include "io_drivers/config_loader.h"
 #include "io_drivers/run_log.h"
-#include "rt_core/measurement_noise.h"
-#include "rt_core/simulation.h"
+#include "emulator/simulated_run.h"
 
 namespace kcrig {
 namespace {
@@ -67,8 +66,7 @@ Status CheckEffect(const std::string& spec) {
 // Resolves command-line values over the config defaults and checks them.
 Status ResolveExcitation(const SimulateArgs& args,
                          const ExperimentConfig& experiment,
-                         RampExcitation<double>* excitation, double* rate,
-                         SimulationOptions* options) {
+                         RampExcitation<double>* excitation, double* rate) {
   excitation->phi = args.phi_deg ? *args.phi_deg * kDegree : experiment.phi;
   excitation->z_a = args.z_a.value_or(experiment.z_a);
   excitation->fmax = args.fmax.value_or(experiment.fmax);
@@ -88,16 +86,6 @@ Status ResolveExcitation(const SimulateArgs& args,
   }
   if (!std::isfinite(*rate) || *rate <= 0) {
     return Status::Error("--rate: must be > 0 Hz");
-  }
-  options->step = experiment.step;
-  const double ratio = 1.0 / (*rate * experiment.step);
-  options->steps_per_sample = static_cast<int>(std::lround(ratio));
-  if (options->steps_per_sample < 1 ||
-      std::abs(ratio - options->steps_per_sample) > 1e-9 * ratio) {
-    return Status::Error(
-        "--rate " + std::to_string(*rate) +
-        ": the sample period must be a whole multiple of the integrator step " +
-        std::to_string(experiment.step) + " s (integrator.step)");
   }
   if (excitation->duration * *rate > 1e7) {
     return Status::Error("--duration x --rate: more than 1e7 samples");
@@ -156,40 +144,18 @@ int RunSimulate(const SimulateArgs& args) {
   }
 
   RampExcitation<double> excitation;
-  SimulationOptions options;
   double rate = 0;
-  status =
-      ResolveExcitation(args, config.experiment, &excitation, &rate, &options);
+  status = ResolveExcitation(args, config.experiment, &excitation, &rate);
   if (!status.ok()) return fail(status);
 
-  std::vector<TrajectorySample<double>> trajectory;
-  status = SimulateTrajectory(SuspensionModel<double>(config.model), excitation,
-                              options, &trajectory);
-  if (!status.ok()) return fail(status);
-
+  SimulatedRunOptions run_options;
+  run_options.rate = rate;
+  run_options.noise = args.noise;
+  run_options.seed = args.seed;
   RunLog log;
-  RunMetadata& m = log.metadata;
-  m.rate = rate;
-  m.phi = excitation.phi;
-  m.z_a = excitation.z_a;
-  m.fmax = excitation.fmax;
-  m.duration = excitation.duration;
-  m.sigma_position = config.experiment.sigma_position;
-  m.sigma_angle = config.experiment.sigma_angle;
-  m.transport = "simulation";
-  m.noise_added = args.noise;
-  m.seed = args.seed;
-  m.synthetic = true;
-  for (const NamedParameter<double>& p : ListParameters(&config.model)) {
-    m.truth_parameters.emplace_back(p.name, *p.value);
-  }
-  MeasurementNoise noise(m.sigma_position, m.sigma_angle, args.seed);
-  log.samples.reserve(trajectory.size());
-  for (const TrajectorySample<double>& s : trajectory) {
-    LogSample sample{s.t, s.force, s.y, Vec3<double>::Zero()};
-    if (args.noise) noise.Apply(&sample.y);
-    log.samples.push_back(sample);
-  }
+  status = SimulateRun(config.model, excitation, config.experiment,
+                       run_options, &log);
+  if (!status.ok()) return fail(status);
   if (!args.out.empty()) {
     status = WriteRunLog(args.out, log);
     if (!status.ok()) return fail(status);

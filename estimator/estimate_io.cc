@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 
 #include "nlohmann/json.hpp"
 
@@ -57,6 +58,7 @@ std::string EstimationResultToJson(
   doc["parameters"] = parameters;
   doc["covariance"] = Matrix(result.covariance);
   doc["correlation"] = Matrix(result.correlation);
+  doc["information_matrix"] = Matrix(result.information);
   std::vector<double> singular(
       result.singular_values.data(),
       result.singular_values.data() + result.singular_values.size());
@@ -179,6 +181,64 @@ std::string EstimationSummary(const EstimationResult& result,
   }
   out += "\n";
   return out;
+}
+
+Status ReadEstimateFile(const std::string& path, EstimateFile* estimate) {
+  std::ifstream in(path);
+  if (!in) return Status::Error(path + ": cannot open");
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    return Status::Error(path + ": not valid JSON (byte " +
+                         std::to_string(e.byte) + ")");
+  }
+  auto error = [&path](const std::string& field, const std::string& what) {
+    return Status::Error(path + ": " + field + ": " + what);
+  };
+  if (!doc.is_object() || doc.value("format", "") != "kcrig estimate 1") {
+    return error("format", "not a kcrig est.json (expected \"kcrig estimate 1\")");
+  }
+  if (!doc.contains("parameters") || !doc["parameters"].is_array() ||
+      doc["parameters"].empty()) {
+    return error("parameters", "missing or empty");
+  }
+  *estimate = EstimateFile();
+  for (size_t i = 0; i < doc["parameters"].size(); ++i) {
+    const nlohmann::json& p = doc["parameters"][i];
+    const std::string field = "parameters[" + std::to_string(i) + "]";
+    if (!p.is_object() || !p.contains("name") || !p["name"].is_string()) {
+      return error(field + ".name", "missing");
+    }
+    if (!p.contains("value") || !p["value"].is_number() ||
+        !std::isfinite(p["value"].get<double>())) {
+      return error(field + ".value", "missing or not a finite number");
+    }
+    estimate->names.push_back(p["name"].get<std::string>());
+    estimate->values.push_back(p["value"].get<double>());
+  }
+  const int n = static_cast<int>(estimate->names.size());
+  if (doc.contains("information_matrix")) {
+    const nlohmann::json& m = doc["information_matrix"];
+    if (!m.is_array() || static_cast<int>(m.size()) != n) {
+      return error("information_matrix", "expected " + std::to_string(n) +
+                                              " rows");
+    }
+    estimate->information.resize(n, n);
+    for (int r = 0; r < n; ++r) {
+      if (!m[r].is_array() || static_cast<int>(m[r].size()) != n) {
+        return error("information_matrix", "expected " + std::to_string(n) +
+                                                " columns in every row");
+      }
+      for (int c = 0; c < n; ++c) {
+        if (!m[r][c].is_number()) {
+          return error("information_matrix", "non-numeric entry");
+        }
+        estimate->information(r, c) = m[r][c].get<double>();
+      }
+    }
+  }
+  return Status::Ok();
 }
 
 }  // namespace kcrig

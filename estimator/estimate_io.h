@@ -24,6 +24,18 @@ std::string EstimationResultToJson(
 std::string EstimationSummary(const EstimationResult& result,
                               const std::vector<ParameterProfile>& profiles);
 
+// What a designer needs from an est.json: the estimated parameters, their
+// values and, when present, the information matrix J^T J of the data.
+struct EstimateFile {
+  std::vector<std::string> names;
+  std::vector<double> values;  // physical units
+  Eigen::MatrixXd information;  // empty when the file has none
+};
+
+// Reads and checks an est.json written by kcrig estimate; errors name the
+// file and the field.
+Status ReadEstimateFile(const std::string& path, EstimateFile* estimate);
+
 }  // namespace kcrig
 
 #endif  // KCRIG_ESTIMATOR_ESTIMATE_IO_H_

@@ -76,6 +76,7 @@ void AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
       qr.matrixQR().topRows(n).triangularView<Eigen::Upper>();
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(r_factor, Eigen::ComputeFullV);
   result->singular_values = svd.singularValues();
+  result->information = r_factor.transpose() * r_factor;
   const double largest = svd.singularValues()(0);
   const double smallest = svd.singularValues()(n - 1);
   result->condition_number = smallest > 0

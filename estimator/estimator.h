@@ -70,6 +70,9 @@ struct EstimationResult {
   Eigen::MatrixXd covariance;  // sigma_hat^2 (J^T J)^-1, physical units
   Eigen::MatrixXd correlation;
   Eigen::VectorXd singular_values;  // of the weighted J, scaled parameters
+  // J^T J of the weighted J in scaled parameters: the information of the
+  // data (paper eq. 9), the prior of a sequential design.
+  Eigen::MatrixXd information;
   double condition_number = 0;
   int rank = 0;
   bool ill_conditioned = false;

@@ -1,5 +1,6 @@
 #include "io_drivers/config_loader.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <numbers>
@@ -280,6 +281,55 @@ Status LoadConfig(const std::string& given_directory, KcrigConfig* config) {
       LoadModel((fs::path(directory) / "model.yaml").string(), &config->model));
   return LoadExperiment((fs::path(directory) / "experiment.yaml").string(),
                         &config->experiment);
+}
+
+Status LoadPlantConfig(const std::string& directory,
+                       const SuspensionParameters<double>& model,
+                       PlantConfig* plant) {
+  const std::string file =
+      (std::filesystem::path(directory) / "plant.yaml").string();
+  YamlReader reader(file);
+  YAML::Node root;
+  KCRIG_RETURN_IF_ERROR(reader.Load(&root));
+  plant->model = model;
+  YAML::Node truth, sensors;
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "true_parameters", &truth));
+  if (!truth.IsMap()) {
+    return reader.Error(truth, "true_parameters",
+                        "expected a mapping NAME: VALUE");
+  }
+  const std::vector<NamedParameter<double>> list =
+      ListParameters(&plant->model);
+  for (const auto& entry : truth) {
+    const std::string name = entry.first.as<std::string>();
+    const auto match =
+        std::find_if(list.begin(), list.end(),
+                     [&name](const NamedParameter<double>& p) {
+                       return p.name == name;
+                     });
+    if (match == list.end()) {
+      return reader.Error(entry.first, "true_parameters." + name,
+                          "unknown parameter (e.g. c_O1, d_P, k_spring)");
+    }
+    KCRIG_RETURN_IF_ERROR(
+        reader.Number(truth, "true_parameters", name, match->value));
+  }
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "sensors", &sensors));
+  YAML::Node noise;
+  KCRIG_RETURN_IF_ERROR(reader.Child(sensors, "sensors", "noise", &noise));
+  try {
+    plant->noise = noise.as<bool>();
+  } catch (const YAML::Exception&) {
+    return reader.Error(noise, "sensors.noise", "expected true or false");
+  }
+  double seed = 0;
+  KCRIG_RETURN_IF_ERROR(reader.Number(sensors, "sensors", "seed", &seed));
+  if (seed < 0 || seed != std::floor(seed) || seed > 9.0e15) {
+    return reader.Error(sensors["seed"], "sensors.seed",
+                        "must be a whole number >= 0");
+  }
+  plant->seed = static_cast<std::uint64_t>(seed);
+  return ValidateModel(plant->model, file);
 }
 
 std::string DefaultConfigDirectory() {

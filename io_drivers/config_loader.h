@@ -4,6 +4,7 @@
 #ifndef KCRIG_IO_DRIVERS_CONFIG_LOADER_H_
 #define KCRIG_IO_DRIVERS_CONFIG_LOADER_H_
 
+#include <cstdint>
 #include <string>
 
 #include "rt_core/status.h"
@@ -39,6 +40,20 @@ struct KcrigConfig {
 // Reads model.yaml and experiment.yaml from `directory`; an empty
 // `directory` means DefaultConfigDirectory().
 Status LoadConfig(const std::string& directory, KcrigConfig* config);
+
+// The software rig's true plant (config/plant.yaml): the config model with
+// the "true" parameter values of the rig, and its sensors.
+struct PlantConfig {
+  SuspensionParameters<double> model;
+  bool noise = true;       // Gaussian sensor noise with the config sigmas
+  std::uint64_t seed = 1;  // of the noise; each run adds its run number
+};
+
+// Reads `directory`/plant.yaml over `model` (true_parameters: NAME: VALUE
+// overrides; sensors: noise, seed).
+Status LoadPlantConfig(const std::string& directory,
+                       const SuspensionParameters<double>& model,
+                       PlantConfig* plant);
 
 // Physical plausibility of a parameter set, also after --set overrides:
 // finite values, positive mass/inertia/stiffness, non-negative damping, links

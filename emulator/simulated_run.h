@@ -1,0 +1,33 @@
+// The software rig in-process: one ramp experiment on a plant model,
+// sampled at the log rate, with optional sensor noise, as a run log. Used
+// by `kcrig simulate` and by the campaign's embedded rig (`--rig sim`).
+#ifndef KCRIG_EMULATOR_SIMULATED_RUN_H_
+#define KCRIG_EMULATOR_SIMULATED_RUN_H_
+
+#include <cstdint>
+#include <string>
+
+#include "io_drivers/config_loader.h"
+#include "io_drivers/run_log.h"
+#include "rt_core/excitation.h"
+
+namespace kcrig {
+
+struct SimulatedRunOptions {
+  double rate = 1000;       // log rate [Hz]; 1/rate a multiple of the step
+  bool noise = false;       // add the experiment's sensor noise
+  std::uint64_t seed = 1;   // of the noise
+  std::string transport = "simulation";  // recorded in the sidecar
+};
+
+// Simulates `plant` under `ramp` (from the static equilibrium under its
+// first load) and fills `log`: forces exact, channels with noise when asked,
+// sidecar metadata from `experiment` (sigmas, step) and the plant as truth.
+Status SimulateRun(const SuspensionParameters<double>& plant,
+                   const RampExcitation<double>& ramp,
+                   const ExperimentConfig& experiment,
+                   const SimulatedRunOptions& options, RunLog* log);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_EMULATOR_SIMULATED_RUN_H_
