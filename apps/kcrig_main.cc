@@ -4,6 +4,8 @@
 #include <string>
 
 #include "CLI/CLI.hpp"
+#include "apps/campaign_command.h"
+#include "apps/design_command.h"
 #include "apps/estimate_command.h"
 #include "apps/screen_command.h"
 #include "apps/simulate_command.h"
@@ -17,6 +19,8 @@ int main(int argc, char** argv) {
   kcrig::AddSimulateCommand(&app, &run);
   kcrig::AddEstimateCommand(&app, &run);
   kcrig::AddScreenCommand(&app, &run);
+  kcrig::AddDesignCommand(&app, &run);
+  kcrig::AddCampaignCommand(&app, &run);
   // CLI11 would call an unknown subcommand an "extra argument"; say it plainly.
   const auto is_subcommand = [&app](const std::string& name) {
     for (const CLI::App* sub : app.get_subcommands({})) {

@@ -1,0 +1,210 @@
+#include "apps/campaign_command.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "apps/design_command.h"
+#include "apps/progress.h"
+#include "designer/campaign.h"
+#include "emulator/simulated_run.h"
+#include "io_drivers/config_loader.h"
+#include "io_drivers/run_log.h"
+
+namespace kcrig {
+namespace {
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+struct CampaignArgs {
+  std::string config_dir;
+  std::string rig = "sim";
+  int iterations = 3;
+  std::string criterion = "D";
+  std::string optimizer = "kriging";
+  int budget = 100;
+  double target_percent = 0;
+  std::optional<std::uint64_t> seed;
+  bool quiet = false;
+  std::string out = "out/campaign";
+};
+
+// The embedded emulated rig: the plant of plant.yaml, simulated in-process.
+RigRunner EmbeddedRig(const KcrigConfig& config, const PlantConfig& plant) {
+  return [config, plant](const Design& design, int run,
+                         const std::string& csv_path) {
+    const RampExcitation<double> ramp{design.phi, design.z_a,
+                                      config.experiment.fmax,
+                                      config.experiment.duration};
+    SimulatedRunOptions options;
+    options.rate = config.experiment.rate;
+    options.noise = plant.noise;
+    options.seed = plant.seed + static_cast<std::uint64_t>(run);
+    options.transport = "embedded emulated rig (--rig sim)";
+    RunLog log;
+    const Status status =
+        SimulateRun(plant.model, ramp, config.experiment, options, &log);
+    if (!status.ok()) return status;
+    return WriteRunLog(csv_path, log);
+  };
+}
+
+std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
+  std::string out =
+      "campaign summary (estimates in N/mm, +- 95 % half-width):\n";
+  char cell[64];
+  std::snprintf(cell, sizeof(cell), "  %4s %8s %7s", "iter", "phi[deg]",
+                "z_a[m]");
+  out += cell;
+  for (const ParameterEstimate& p : iterations.front().estimate.parameters) {
+    std::snprintf(cell, sizeof(cell), " %18s", p.name.c_str());
+    out += cell;
+  }
+  out += "\n";
+  for (const CampaignIteration& it : iterations) {
+    std::snprintf(cell, sizeof(cell), "  %4d %8.2f %7.3f", it.index,
+                  it.experiment.phi / kDegree, it.experiment.z_a);
+    out += cell;
+    for (const ParameterEstimate& p : it.estimate.parameters) {
+      const double scale = p.unit == "N/m" ? 1e-3 : 1.0;
+      if (p.identifiable) {
+        std::snprintf(cell, sizeof(cell), " %9.2f +-%6.2f", p.value * scale,
+                      0.5 * (p.ci95_high - p.ci95_low) * scale);
+      } else {
+        std::snprintf(cell, sizeof(cell), " %9.2f +-   n/a", p.value * scale);
+      }
+      out += cell;
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+int RunCampaignCommand(const CampaignArgs& args) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "kcrig campaign: %s\n", status.message().c_str());
+    return 1;
+  };
+  KcrigConfig config;
+  Status status = LoadConfig(args.config_dir, &config);
+  if (!status.ok()) return fail(status);
+  RigRunner rig;
+  std::string rig_text;
+  if (args.rig == "sim") {
+    PlantConfig plant;
+    status = LoadPlantConfig(config.directory, config.model, &plant);
+    if (!status.ok()) return fail(status);
+    if (args.seed) plant.seed = *args.seed;
+    rig = EmbeddedRig(config, plant);
+    rig_text = "embedded emulated rig (plant.yaml)";
+  } else if (args.rig.rfind("modbus-tcp://", 0) == 0 ||
+             args.rig.rfind("can:", 0) == 0) {
+    return fail(Status::Error(
+        "--rig " + args.rig +
+        ": rig transports arrive with the HIL core (Modbus) and SocketCAN "
+        "issues; use --rig sim"));
+  } else {
+    return fail(Status::Error("--rig " + args.rig +
+                              ": expected sim, modbus-tcp://HOST:PORT or "
+                              "can:IFACE"));
+  }
+  CampaignOptions options;
+  options.iterations = args.iterations;
+  status = ParseCriterion(args.criterion, &options.criterion);
+  if (!status.ok()) return fail(status);
+  options.optimizer = args.optimizer;
+  options.objective.budget = args.budget;
+  if (!(args.target_percent >= 0) || !std::isfinite(args.target_percent)) {
+    return fail(Status::Error("--target-halfwidth: must be >= 0 %"));
+  }
+  options.target_relative_halfwidth = args.target_percent / 100.0;
+  bool known = false;
+  for (const std::string& name : OptimizerNames())
+    known |= name == args.optimizer;
+  if (!known) {
+    return fail(Status::Error("--optimizer " + args.optimizer +
+                              ": unknown (see kcrig design --help)"));
+  }
+
+  ProgressLine progress(args.quiet);
+  std::string stage;
+  options.on_stage = [&](const std::string& text) {
+    stage = text;
+    progress.Show(text);
+  };
+  options.objective.on_batch = [&](const DesignObjective& objective) {
+    progress.Show(stage + " | " +
+                  DesignProgressText(args.optimizer, objective));
+  };
+  options.on_iteration = [&](const CampaignIteration& it) {
+    progress.Clear();
+    std::printf("%s\n",
+                CampaignIterationSummary(it, options.criterion).c_str());
+    std::fflush(stdout);
+  };
+  std::printf(
+      "kcrig campaign: %s, criterion %s, optimizer %s, up to %d designed "
+      "experiments; output in %s\n\n",
+      rig_text.c_str(), CriterionName(options.criterion),
+      args.optimizer.c_str(), args.iterations, args.out.c_str());
+  std::vector<CampaignIteration> iterations;
+  status = RunCampaign(config, options, rig, args.out, &iterations);
+  progress.Clear();
+  if (!iterations.empty()) {
+    const std::string summary =
+        (std::filesystem::path(args.out) / "campaign.json").string();
+    const Status written = WriteFilesAtomically(
+        {{summary, CampaignToJson(options.criterion, iterations)}});
+    if (!written.ok()) return fail(written);
+    std::printf(
+        "%s  wrote %s (and iteration_*/run.csv, est.json, design.json)\n",
+        FinalTable(iterations).c_str(), summary.c_str());
+  }
+  if (!status.ok()) return fail(status);
+  return 0;
+}
+
+}  // namespace
+
+void AddCampaignCommand(CLI::App* app, std::function<int()>* run) {
+  auto args = std::make_shared<CampaignArgs>();
+  CLI::App* cmd = app->add_subcommand(
+      "campaign",
+      "The two-level loop: estimate -> design the next excitation -> run it "
+      "on the rig -> estimate again");
+  cmd->add_option("--config", args->config_dir,
+                  "Config directory (default: installed or source config/)");
+  cmd->add_option("--rig", args->rig,
+                  "sim (embedded emulated rig), modbus-tcp://HOST:PORT or "
+                  "can:IFACE")
+      ->capture_default_str();
+  cmd->add_option("--iterations", args->iterations,
+                  "Designed experiments after the initial one")
+      ->capture_default_str();
+  cmd->add_option("--criterion", args->criterion, "D, A, E or MM")
+      ->capture_default_str();
+  cmd->add_option("--optimizer", args->optimizer,
+                  "imfil, kriging, nlopt:NAME or grid (see kcrig design)")
+      ->capture_default_str();
+  cmd->add_option("--budget", args->budget,
+                  "Most criterion evaluations per design")
+      ->capture_default_str();
+  cmd->add_option("--target-halfwidth", args->target_percent,
+                  "Stop when every 95 % half-width is within this percentage "
+                  "of its estimate (0: run all iterations)")
+      ->capture_default_str();
+  cmd->add_option_function<std::uint64_t>(
+      "--seed", [args](const std::uint64_t& s) { args->seed = s; },
+      "Sensor-noise seed of the embedded rig (default: plant.yaml)");
+  cmd->add_flag("--quiet", args->quiet, "No progress line");
+  cmd->add_option("--out", args->out, "Output folder")->capture_default_str();
+  cmd->callback(
+      [args, run] { *run = [args] { return RunCampaignCommand(*args); }; });
+}
+
+}  // namespace kcrig

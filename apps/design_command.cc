@@ -1,0 +1,211 @@
+#include "apps/design_command.h"
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "apps/cli_util.h"
+#include "apps/progress.h"
+#include "designer/design_io.h"
+#include "designer/information.h"
+#include "estimator/estimate_io.h"
+#include "io_drivers/config_loader.h"
+#include "io_drivers/run_log.h"
+
+namespace kcrig {
+namespace {
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+struct DesignArgs {
+  std::string config_dir;
+  std::string estimate;
+  bool augment = false;
+  std::string criterion = "D";
+  std::string optimizers = "kriging";
+  std::optional<int> budget;
+  std::optional<double> start_phi_deg, start_z;
+  std::string grid = "46x26";
+  bool quiet = false;
+  std::string out;
+};
+
+Status ParseGrid(const std::string& text, OptimizerOptions* options) {
+  int phi = 0, z = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &phi, &x, &z, &extra) != 3 ||
+      x != 'x' || phi < 2 || z < 2 || phi > 2000 || z > 2000) {
+    return Status::Error(
+        "--grid " + text +
+        ": expected PHIxZ points, e.g. 46x26 (2 .. 2000 each)");
+  }
+  options->grid_phi_points = phi;
+  options->grid_z_points = z;
+  return Status::Ok();
+}
+
+int RunDesign(const DesignArgs& args) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "kcrig design: %s\n", status.message().c_str());
+    return 1;
+  };
+  KcrigConfig config;
+  Status status = LoadConfig(args.config_dir, &config);
+  if (!status.ok()) return fail(status);
+  Criterion criterion;
+  status = ParseCriterion(args.criterion, &criterion);
+  if (!status.ok()) return fail(status);
+  OptimizerOptions optimizer_options;
+  status = ParseGrid(args.grid, &optimizer_options);
+  if (!status.ok()) return fail(status);
+  const std::vector<std::string> optimizers = SplitList(args.optimizers);
+  if (optimizers.empty()) {
+    return fail(Status::Error("--optimizer: give at least one optimizer"));
+  }
+
+  // The parameters and their current values: an estimate, or the config.
+  EstimateFile estimate;
+  if (!args.estimate.empty()) {
+    status = ReadEstimateFile(args.estimate, &estimate);
+    if (!status.ok()) return fail(status);
+    if (args.augment && estimate.information.size() == 0) {
+      return fail(Status::Error(args.estimate +
+                                ": --augment needs an information_matrix "
+                                "(written by kcrig estimate)"));
+    }
+  } else {
+    if (args.augment) {
+      return fail(Status::Error("--augment: needs --estimate est.json"));
+    }
+    estimate.names = EstimatorOptions().parameters;
+    SuspensionParameters<double> copy = config.model;
+    for (const std::string& name : estimate.names) {
+      for (const NamedParameter<double>& p : ListParameters(&copy)) {
+        if (p.name == name) estimate.values.push_back(*p.value);
+      }
+    }
+  }
+  std::unique_ptr<InformationEvaluator> evaluator;
+  status = InformationEvaluator::Create(
+      config.model, estimate.names, estimate.values, config.experiment,
+      args.augment ? estimate.information : Eigen::MatrixXd(), &evaluator);
+  if (!status.ok()) return fail(status);
+
+  const DesignBounds bounds{config.experiment.phi_bounds,
+                            config.experiment.z_a_bounds};
+  const Design start{args.start_phi_deg ? *args.start_phi_deg * kDegree
+                                        : config.experiment.phi,
+                     args.start_z.value_or(config.experiment.z_a)};
+  ProgressLine progress(args.quiet);
+  std::vector<DesignRun> runs;
+  for (const std::string& optimizer : optimizers) {
+    ObjectiveOptions objective_options;
+    const int grid_points =
+        optimizer_options.grid_phi_points * optimizer_options.grid_z_points + 1;
+    objective_options.budget =
+        args.budget.value_or(optimizer == "grid" ? grid_points : 100);
+    objective_options.on_batch = [&progress,
+                                  &optimizer](const DesignObjective& o) {
+      progress.Show(DesignProgressText(optimizer, o));
+    };
+    status = DesignObjective::Validate(bounds, objective_options);
+    if (!status.ok()) return fail(status);
+    DesignObjective objective(evaluator.get(), criterion, bounds,
+                              objective_options);
+    DesignRun run;
+    status =
+        Optimize(optimizer, &objective, start, optimizer_options, &run.result);
+    if (!status.ok()) return fail(status);
+    run.record = objective.record();
+    runs.push_back(std::move(run));
+  }
+  progress.Clear();
+
+  if (!args.out.empty()) {
+    status =
+        WriteFilesAtomically({{args.out, DesignRunsToJson(criterion, runs)}});
+    if (!status.ok()) return fail(status);
+  }
+  std::printf(
+      "kcrig design: criterion %s for %zu parameters at the %s%s; bounds phi "
+      "%.0f..%.0f deg, z_a %.2f..%.2f m\n",
+      CriterionName(criterion), estimate.names.size(),
+      args.estimate.empty() ? "config values" : "estimate",
+      args.augment ? ", added to its data" : "", bounds.phi.lower / kDegree,
+      bounds.phi.upper / kDegree, bounds.z_a.lower, bounds.z_a.upper);
+  std::printf("%s", ComparisonTable(criterion, runs).c_str());
+  const DesignRun* best = &runs.front();
+  for (const DesignRun& run : runs) {
+    if (run.result.best_value < best->result.best_value) best = &run;
+  }
+  std::printf("  optimal design: phi %.2f deg, z_a %.3f m (%s)%s\n",
+              best->result.best.phi / kDegree, best->result.best.z_a,
+              best->result.optimizer.c_str(),
+              best->result.best_singular
+                  ? "; WARNING: the information matrix is singular there"
+                  : "");
+  if (!args.out.empty()) std::printf("  wrote %s\n", args.out.c_str());
+  return 0;
+}
+
+}  // namespace
+
+std::string DesignProgressText(const std::string& optimizer,
+                               const DesignObjective& objective) {
+  const DesignEvaluation& best = objective.best();
+  const int used = static_cast<int>(objective.record().size());
+  const double seconds = objective.elapsed_seconds();
+  char text[200];
+  std::snprintf(text, sizeof(text),
+                "%s: %d/%d evaluations, best %s %.6g at %.1f deg, %.3f m, "
+                "%.1f s (at most %.0f s left)",
+                optimizer.c_str(), used, objective.budget(),
+                CriterionName(objective.criterion()), best.value,
+                best.design.phi / kDegree, best.design.z_a, seconds,
+                seconds / std::max(used, 1) * objective.remaining());
+  return text;
+}
+
+void AddDesignCommand(CLI::App* app, std::function<int()>* run) {
+  auto args = std::make_shared<DesignArgs>();
+  CLI::App* cmd = app->add_subcommand(
+      "design",
+      "Optimal experimental design of the next ramp (phi, z_a) for the D, A, "
+      "E or MM criterion");
+  cmd->add_option("--config", args->config_dir,
+                  "Config directory (default: installed or source config/)");
+  cmd->add_option("--estimate", args->estimate,
+                  "est.json: design at these parameter values (default: the "
+                  "config's five bushing stiffnesses)");
+  cmd->add_flag("--augment", args->augment,
+                "Design the experiment to add to the data behind --estimate "
+                "(its J^T J is the prior information)");
+  cmd->add_option("--criterion", args->criterion, "D, A, E or MM")
+      ->capture_default_str();
+  cmd->add_option("--optimizer", args->optimizers,
+                  "imfil, kriging, nlopt:direct-l|crs2|bobyqa|cobyla|slsqp|"
+                  "mma, grid; a comma list compares them in a table")
+      ->capture_default_str();
+  cmd->add_option_function<int>(
+      "--budget", [args](const int& n) { args->budget = n; },
+      "Most criterion evaluations per optimizer (default 100; grid: all "
+      "points)");
+  cmd->add_option_function<double>(
+      "--start-phi", [args](const double& v) { args->start_phi_deg = v; },
+      "Start design phi [deg] (default: experiment.yaml)");
+  cmd->add_option_function<double>(
+      "--start-z", [args](const double& v) { args->start_z = v; },
+      "Start design z_a [m] (default: experiment.yaml)");
+  cmd->add_option("--grid", args->grid,
+                  "Grid points PHIxZ for --optimizer grid")
+      ->capture_default_str();
+  cmd->add_flag("--quiet", args->quiet, "No progress line");
+  cmd->add_option("--out", args->out, "design.json to write");
+  cmd->callback([args, run] { *run = [args] { return RunDesign(*args); }; });
+}
+
+}  // namespace kcrig

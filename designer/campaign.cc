@@ -1,0 +1,210 @@
+#include "designer/campaign.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <numbers>
+
+#include "designer/information.h"
+#include "estimator/estimate_io.h"
+#include "estimator/experiment.h"
+#include "io_drivers/run_log.h"
+#include "nlohmann/json.hpp"
+
+namespace kcrig {
+namespace {
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+bool WithinTarget(const EstimationResult& estimate, double target) {
+  if (!(target > 0)) return false;
+  for (const ParameterEstimate& p : estimate.parameters) {
+    if (!p.identifiable) return false;
+    const double half = 0.5 * (p.ci95_high - p.ci95_low);
+    if (!(half <= target * std::abs(p.value))) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
+                   const RigRunner& rig, const std::string& out_dir,
+                   std::vector<CampaignIteration>* iterations) {
+  namespace fs = std::filesystem;
+  iterations->clear();
+  if (options.iterations < 0) {
+    return Status::Error("--iterations: must be >= 0");
+  }
+  if (!(options.target_relative_halfwidth >= 0)) {
+    return Status::Error("--target-width: must be >= 0");
+  }
+  const DesignBounds bounds{config.experiment.phi_bounds,
+                            config.experiment.z_a_bounds};
+  Status status = DesignObjective::Validate(bounds, options.objective);
+  if (!status.ok()) return status;
+  std::vector<int> indices;
+  status =
+      ResolveParameters(config.model, options.estimator.parameters, &indices);
+  if (!status.ok()) return status;
+  auto stage = [&options](const std::string& text) {
+    if (options.on_stage) options.on_stage(text);
+  };
+
+  std::vector<double> current;
+  {
+    SuspensionParameters<double> copy = config.model;
+    const std::vector<NamedParameter<double>> list = ListParameters(&copy);
+    for (int index : indices) current.push_back(*list[index].value);
+  }
+  Design design{config.experiment.phi, config.experiment.z_a};
+  std::vector<std::string> logs;
+  for (int k = 0; k <= options.iterations; ++k) {
+    CampaignIteration it;
+    it.index = k;
+    it.experiment = design;
+    const fs::path dir = fs::path(out_dir) / ("iteration_" + std::to_string(k));
+    std::error_code error;
+    fs::create_directories(dir, error);
+    if (error) {
+      return Status::Error(dir.string() + ": cannot create (" +
+                           error.message() + ")");
+    }
+    const std::string csv = (dir / "run.csv").string();
+    char text[160];
+    std::snprintf(text, sizeof(text),
+                  "iteration %d: running the rig at phi %.2f deg, z_a %.3f m",
+                  k, design.phi / kDegree, design.z_a);
+    stage(text);
+    status = rig(design, k, csv);
+    if (!status.ok()) return status;
+    logs.push_back(csv);
+    it.logs = logs;
+
+    std::snprintf(text, sizeof(text), "iteration %d: estimating from %zu log%s",
+                  k, logs.size(), logs.size() == 1 ? "" : "s");
+    stage(text);
+    std::vector<Experiment> experiments;
+    status = LoadExperiments(logs, config.experiment.step, &experiments);
+    if (!status.ok()) return status;
+    status = Estimate(config.model, experiments, options.estimator, current,
+                      config.experiment.step, &it.estimate);
+    if (!status.ok()) return status;
+    status =
+        WriteFilesAtomically({{(dir / "est.json").string(),
+                               EstimationResultToJson(it.estimate, logs, {})}});
+    if (!status.ok()) return status;
+    for (size_t i = 0; i < current.size(); ++i) {
+      current[i] = it.estimate.parameters[i].value;
+    }
+    it.criterion_of_data =
+        EvaluateCriterion(options.criterion, it.estimate.information).value;
+
+    const bool done =
+        k == options.iterations ||
+        WithinTarget(it.estimate, options.target_relative_halfwidth);
+    if (!done) {
+      std::snprintf(text, sizeof(text), "iteration %d: designing (%s, %s)", k,
+                    CriterionName(options.criterion),
+                    options.optimizer.c_str());
+      stage(text);
+      std::unique_ptr<InformationEvaluator> evaluator;
+      status = InformationEvaluator::Create(
+          config.model, options.estimator.parameters, current,
+          config.experiment, it.estimate.information, &evaluator);
+      if (!status.ok()) return status;
+      DesignObjective objective(evaluator.get(), options.criterion, bounds,
+                                options.objective);
+      const Design start{
+          std::clamp(design.phi, bounds.phi.lower, bounds.phi.upper),
+          std::clamp(design.z_a, bounds.z_a.lower, bounds.z_a.upper)};
+      status = Optimize(options.optimizer, &objective, start,
+                        options.optimizer_options, &it.design.result);
+      if (!status.ok()) return status;
+      it.design.record = objective.record();
+      it.designed = true;
+      status = WriteFilesAtomically(
+          {{(dir / "design.json").string(),
+            DesignRunsToJson(options.criterion, {it.design})}});
+      if (!status.ok()) return status;
+      design = it.design.result.best;
+    }
+    if (options.on_iteration) options.on_iteration(it);
+    iterations->push_back(std::move(it));
+    if (done) break;
+  }
+  return Status::Ok();
+}
+
+std::string CampaignToJson(Criterion criterion,
+                           const std::vector<CampaignIteration>& iterations) {
+  nlohmann::ordered_json doc;
+  doc["format"] = "kcrig campaign 1";
+  doc["criterion"] = CriterionName(criterion);
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  for (const CampaignIteration& it : iterations) {
+    nlohmann::ordered_json parameters = nlohmann::ordered_json::array();
+    for (const ParameterEstimate& p : it.estimate.parameters) {
+      parameters.push_back(
+          {{"name", p.name},
+           {"unit", p.unit},
+           {"value", p.value},
+           {"ci95", p.identifiable
+                        ? nlohmann::ordered_json{p.ci95_low, p.ci95_high}
+                        : nlohmann::ordered_json()},
+           {"log10_diag_inv_jtj", p.log10_inverse_information}});
+    }
+    nlohmann::ordered_json entry = {
+        {"iteration", it.index},
+        {"logs", it.logs},
+        {"experiment",
+         {{"phi_deg", it.experiment.phi / kDegree},
+          {"z_a", it.experiment.z_a}}},
+        {"parameters", parameters},
+        {"criterion_of_data", it.criterion_of_data}};
+    if (it.designed) {
+      const OptimizationResult& r = it.design.result;
+      entry["next_design"] = {{"optimizer", r.optimizer},
+                              {"phi_deg", r.best.phi / kDegree},
+                              {"z_a", r.best.z_a},
+                              {"criterion_at_start", r.start_value},
+                              {"criterion_at_optimum", r.best_value},
+                              {"evaluations", r.evaluations},
+                              {"seconds", r.seconds}};
+    }
+    list.push_back(entry);
+  }
+  doc["iterations"] = list;
+  return doc.dump(2) + "\n";
+}
+
+std::string CampaignIterationSummary(const CampaignIteration& it,
+                                     Criterion criterion) {
+  char line[256];
+  std::string out;
+  std::snprintf(line, sizeof(line),
+                "== iteration %d: experiment phi %.2f deg, z_a %.3f m; "
+                "estimate from %zu log%s ==\n",
+                it.index, it.experiment.phi / kDegree, it.experiment.z_a,
+                it.logs.size(), it.logs.size() == 1 ? "" : "s");
+  out += line;
+  out += EstimationSummary(it.estimate, {});
+  std::snprintf(line, sizeof(line), "  criterion %s of the data so far: %.6g\n",
+                CriterionName(criterion), it.criterion_of_data);
+  out += line;
+  if (it.designed) {
+    const OptimizationResult& r = it.design.result;
+    std::snprintf(line, sizeof(line),
+                  "  next experiment: phi %.2f deg, z_a %.3f m (%s: %s %.6g "
+                  "-> %.6g with it, %d evaluations, %.1f s)\n",
+                  r.best.phi / kDegree, r.best.z_a, r.optimizer.c_str(),
+                  CriterionName(criterion), r.start_value, r.best_value,
+                  r.evaluations, r.seconds);
+    out += line;
+  }
+  return out;
+}
+
+}  // namespace kcrig

@@ -1,0 +1,76 @@
+// The two-level scheme of the paper (Fig. 3 loop): estimate the parameters
+// from all logs so far, report their uncertainty, design the next
+// excitation for the criterion given the information already collected
+// (sequential design: Phi(I_data + I(v))), run it on the rig, add the log,
+// repeat until every 95 % interval is narrow enough or the iterations are
+// spent. The rig is anything that turns a design into a log.
+#ifndef KCRIG_DESIGNER_CAMPAIGN_H_
+#define KCRIG_DESIGNER_CAMPAIGN_H_
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "designer/design_io.h"
+#include "designer/optimizers.h"
+#include "estimator/estimator.h"
+#include "io_drivers/config_loader.h"
+
+namespace kcrig {
+
+// Runs the ramp experiment `design` (Fmax, tf, rate from the config) as run
+// number `run` and writes its log (run.csv + sidecar) to `csv_path`.
+using RigRunner = std::function<Status(const Design& design, int run,
+                                       const std::string& csv_path)>;
+
+struct CampaignIteration;
+
+struct CampaignOptions {
+  // Designed experiments after the initial one (paper's design from
+  // experiment.yaml); each is followed by a new estimate.
+  int iterations = 3;
+  // Stop early when every estimated parameter's 95 % interval half-width is
+  // at most this fraction of its value (0.005: +-0.5 %).
+  double target_relative_halfwidth = 0.0;
+  Criterion criterion = Criterion::kD;
+  std::string optimizer = "kriging";
+  ObjectiveOptions objective;  // budget, threads, progress
+  OptimizerOptions optimizer_options;
+  EstimatorOptions estimator;
+  // Told what the campaign is doing (one line), e.g. for a progress line.
+  std::function<void(const std::string&)> on_stage;
+  // Called with each iteration as soon as it is complete.
+  std::function<void(const CampaignIteration&)> on_iteration;
+};
+
+struct CampaignIteration {
+  int index = 0;
+  std::vector<std::string> logs;  // all logs the estimate used
+  Design experiment;              // of the newest log
+  EstimationResult estimate;
+  bool designed = false;         // false on the last iteration
+  double criterion_of_data = 0;  // Phi(I_data)
+  DesignRun design;              // Phi(I_data + I(v)) from v0 to v*
+};
+
+// campaign.json: per iteration the logs, the experiment, the estimates with
+// intervals and log10 diag((J^T J)^-1), the criterion and the next design.
+std::string CampaignToJson(Criterion criterion,
+                           const std::vector<CampaignIteration>& iterations);
+
+// Runs the campaign in `out_dir` (iteration_K/run.csv, est.json,
+// design.json per iteration); `iterations` receives every iteration as it
+// completes (also on error, up to the failure).
+Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
+                   const RigRunner& rig, const std::string& out_dir,
+                   std::vector<CampaignIteration>* iterations);
+
+// The per-iteration text: estimates with intervals, log10 diag((J^T J)^-1)
+// bars (paper Figs. 4 and 6), the criterion before and after the design and
+// the chosen excitation.
+std::string CampaignIterationSummary(const CampaignIteration& iteration,
+                                     Criterion criterion);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_DESIGNER_CAMPAIGN_H_
