@@ -1,0 +1,127 @@
+// `kcrig design` and `kcrig campaign` as a user runs them: the Table-1-style
+// comparison, design.json, the campaign's folder and summary, and clear
+// one-line errors that leave no output file.
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "gtest/gtest.h"
+#include "nlohmann/json.hpp"
+#include "tests/support/cli_runner.h"
+
+namespace kcrig {
+namespace {
+
+namespace fs = std::filesystem;
+
+class DesignCampaignCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           (std::string("kcrig_design_cli_") +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string Path(const std::string& name) const {
+    return (dir_ / name).string();
+  }
+  void ExpectCleanFailure(const std::string& arguments,
+                          const std::string& expected) {
+    const CliResult r = RunKcrig(arguments + " --out " + Path("design.json"));
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_EQ(CountLines(r.output), 1) << r.output;
+    EXPECT_NE(r.output.find(expected), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(Path("design.json")));
+  }
+  fs::path dir_;
+};
+
+TEST_F(DesignCampaignCliTest, OptimizerComparisonPrintsTableOneColumns) {
+  const CliResult r = RunKcrig(
+      "design --criterion D --optimizer kriging,nlopt:bobyqa --budget 40 "
+      "--out " +
+      Path("design.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* column : {"criterion", "Phi(v0)", "algorithm", "Phi(v*)",
+                             "nEv", "wall [s]", "phi [deg]", "z_a [m]"}) {
+    EXPECT_NE(r.output.find(column), std::string::npos) << column;
+  }
+  EXPECT_NE(r.output.find("kriging"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("nlopt:bobyqa"), std::string::npos) << r.output;
+  const nlohmann::json doc =
+      nlohmann::json::parse(std::ifstream(Path("design.json")));
+  EXPECT_EQ(doc["criterion"], "D");
+  ASSERT_EQ(doc["runs"].size(), 2u);
+  const double initial = doc["initial"]["value"];
+  const double optimal = doc["optimal"]["value"];
+  EXPECT_LT(optimal, initial);
+  EXPECT_LE(doc["evaluations"].get<int>(), 40);
+  EXPECT_GE(doc["optimal"]["phi_deg"].get<double>(), 0.0);
+  EXPECT_LE(doc["optimal"]["phi_deg"].get<double>(), 90.0);
+  EXPECT_EQ(doc["runs"][0]["evaluated"].size(),
+            doc["runs"][0]["evaluations"].get<size_t>());
+}
+
+TEST_F(DesignCampaignCliTest, BadInputIsOneLineAndNoFile) {
+  ExpectCleanFailure("design --budget 0", "--budget 0");
+  ExpectCleanFailure("design --criterion Q", "--criterion Q");
+  ExpectCleanFailure("design --optimizer simplex", "--optimizer simplex");
+  ExpectCleanFailure("design --start-phi 120", "outside the bounds");
+  ExpectCleanFailure("design --estimate " + Path("missing.json"),
+                     "cannot open");
+  std::ofstream(Path("bad.json")) << "{\"format\": \"kcrig estimate 1\"}";
+  ExpectCleanFailure("design --estimate " + Path("bad.json"), "parameters");
+  ExpectCleanFailure("design --augment", "--augment");
+  // Inverted design bounds in the config.
+  const fs::path config = dir_ / "config";
+  fs::copy(KCRIG_TEST_CONFIG_DIR, config);
+  std::ifstream in(config / "experiment.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)), {});
+  text.replace(text.find("[-0.5, 0.0]"), 11, "[0.0, -0.5]");
+  std::ofstream(config / "experiment.yaml") << text;
+  ExpectCleanFailure("design --config " + config.string(), "z_a");
+}
+
+TEST_F(DesignCampaignCliTest, CampaignWritesEveryIterationAndNarrowsIntervals) {
+  const CliResult r = RunKcrig(
+      "campaign --iterations 1 --budget 20 --quiet --out " + Path("campaign"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("campaign summary"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("next experiment"), std::string::npos) << r.output;
+  for (const char* file :
+       {"iteration_0/run.csv", "iteration_0/run.json", "iteration_0/est.json",
+        "iteration_0/design.json", "iteration_1/run.csv",
+        "iteration_1/est.json", "campaign.json"}) {
+    EXPECT_TRUE(fs::exists(dir_ / "campaign" / file)) << file;
+  }
+  const nlohmann::json doc =
+      nlohmann::json::parse(std::ifstream(Path("campaign/campaign.json")));
+  ASSERT_EQ(doc["iterations"].size(), 2u);
+  // plant.yaml's truth lies in the final intervals, which are narrower than
+  // the first ones.
+  const double truth[] = {3.6e6, 4.4e6, 3.9e6, 4.25e6, 3.75e6};
+  for (int i = 0; i < 5; ++i) {
+    const nlohmann::json& first = doc["iterations"][0]["parameters"][i];
+    const nlohmann::json& last = doc["iterations"][1]["parameters"][i];
+    const double lo = last["ci95"][0], hi = last["ci95"][1];
+    EXPECT_LT(lo, truth[i]) << last["name"];
+    EXPECT_GT(hi, truth[i]) << last["name"];
+    EXPECT_LT(hi - lo,
+              first["ci95"][1].get<double>() - first["ci95"][0].get<double>())
+        << last["name"];
+  }
+}
+
+TEST_F(DesignCampaignCliTest, CampaignRejectsRigsThatDoNotExistYet) {
+  const CliResult r =
+      RunKcrig("campaign --rig can:vcan0 --out " + Path("campaign"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_EQ(CountLines(r.output), 1) << r.output;
+  EXPECT_NE(r.output.find("--rig can:vcan0"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(Path("campaign")));
+}
+
+}  // namespace
+}  // namespace kcrig
