@@ -1,0 +1,179 @@
+// The designer's costs on this machine:
+//  - one criterion evaluation (4 s ramp trajectory + 5 exact sensitivities
+//    + criterion), single and as a two-design batch on both cores;
+//  - each optimizer from the paper's initial design (85 deg, -0.45 m) to
+//    its optimum, D and A (counters: evaluations, optimum, criterion);
+//  - the noise of Phi_A along a line through the initial design, ECnoise,
+//    with exact and with forward-difference (1e-6) sensitivities;
+//  - a whole 3-iteration campaign on the embedded rig.
+// Run: build/bin/designer_bench --benchmark_format=json
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <numbers>
+
+#include "benchmark/benchmark.h"
+#include "designer/campaign.h"
+#include "designer/ecnoise.h"
+#include "designer/optimizers.h"
+#include "emulator/simulated_run.h"
+#include "io_drivers/config_loader.h"
+#include "io_drivers/run_log.h"
+
+namespace kcrig {
+namespace {
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+struct Setup {
+  KcrigConfig config;
+  std::unique_ptr<InformationEvaluator> evaluator;
+  DesignBounds bounds;
+  Design initial;
+  Setup() {
+    if (!LoadConfig(KCRIG_BENCH_CONFIG_DIR, &config).ok()) std::abort();
+    if (!InformationEvaluator::Create(
+             config.model, {"c_O1", "c_O2", "c_V1", "c_V2", "c_P"},
+             std::vector<double>(5, 4e6), config.experiment, Eigen::MatrixXd(),
+             &evaluator)
+             .ok()) {
+      std::abort();
+    }
+    bounds = {config.experiment.phi_bounds, config.experiment.z_a_bounds};
+    initial = {config.experiment.phi, config.experiment.z_a};
+  }
+};
+
+const Setup& TheSetup() {
+  static const Setup setup;
+  return setup;
+}
+
+void BM_CriterionEvaluation(benchmark::State& state) {
+  const Setup& s = TheSetup();
+  for (auto _ : state) {
+    Eigen::MatrixXd info;
+    if (!s.evaluator->Information(s.initial, true, &info).ok()) std::abort();
+    benchmark::DoNotOptimize(EvaluateCriterion(Criterion::kA, info).value);
+  }
+}
+BENCHMARK(BM_CriterionEvaluation)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// Two designs at once, one per core: the throughput of a stencil or grid.
+void BM_CriterionEvaluationBatchOfTwo(benchmark::State& state) {
+  const Setup& s = TheSetup();
+  double shift = 0;
+  for (auto _ : state) {
+    ObjectiveOptions options;
+    options.budget = 2;
+    DesignObjective objective(s.evaluator.get(), Criterion::kA, s.bounds,
+                              options);
+    shift += 1e-6;
+    benchmark::DoNotOptimize(
+        objective.Evaluate({{0.3 + shift, 0.2}, {0.7 + shift, 0.4}}));
+  }
+  state.counters["evaluations_per_s"] =
+      benchmark::Counter(2.0 * state.iterations(), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_CriterionEvaluationBatchOfTwo)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+void BM_Optimizer(benchmark::State& state, const char* optimizer,
+                  Criterion criterion) {
+  const Setup& s = TheSetup();
+  OptimizationResult result;
+  for (auto _ : state) {
+    ObjectiveOptions options;
+    options.budget = 100;
+    DesignObjective objective(s.evaluator.get(), criterion, s.bounds, options);
+    if (!Optimize(optimizer, &objective, s.initial, OptimizerOptions(), &result)
+             .ok()) {
+      std::abort();
+    }
+  }
+  state.counters["evaluations"] = result.evaluations;
+  state.counters["criterion"] = result.best_value;
+  state.counters["phi_deg"] = result.best.phi / kDegree;
+  state.counters["z_a"] = result.best.z_a;
+}
+BENCHMARK_CAPTURE(BM_Optimizer, D_imfil, "imfil", Criterion::kD);
+BENCHMARK_CAPTURE(BM_Optimizer, D_kriging, "kriging", Criterion::kD);
+BENCHMARK_CAPTURE(BM_Optimizer, D_nlopt_direct_l, "nlopt:direct-l",
+                  Criterion::kD);
+BENCHMARK_CAPTURE(BM_Optimizer, A_imfil, "imfil", Criterion::kA);
+BENCHMARK_CAPTURE(BM_Optimizer, A_kriging, "kriging", Criterion::kA);
+BENCHMARK_CAPTURE(BM_Optimizer, A_nlopt_direct_l, "nlopt:direct-l",
+                  Criterion::kA);
+BENCHMARK_CAPTURE(BM_Optimizer, E_nlopt_slsqp_epigraph, "nlopt:slsqp",
+                  Criterion::kE);
+BENCHMARK_CAPTURE(BM_Optimizer, MM_nlopt_slsqp_epigraph, "nlopt:slsqp",
+                  Criterion::kMM);
+
+// Phi_A along the diagonal of the unit box through the initial design.
+void BM_CriterionNoise(benchmark::State& state, bool finite_differences) {
+  const Setup& s = TheSetup();
+  NoiseEstimate estimate;
+  for (auto _ : state) {
+    estimate = EstimateNoiseAlongLine(
+        [&](double t) {
+          const Design d{
+              s.initial.phi + t * (s.bounds.phi.upper - s.bounds.phi.lower),
+              s.initial.z_a + t * (s.bounds.z_a.upper - s.bounds.z_a.lower)};
+          Eigen::MatrixXd info;
+          const Status status =
+              finite_differences
+                  ? s.evaluator->FiniteDifferenceInformation(d, 1e-6, &info)
+                  : s.evaluator->Information(d, true, &info);
+          if (!status.ok()) std::abort();
+          return EvaluateCriterion(Criterion::kA, info).value;
+        },
+        1e-6);
+  }
+  state.counters["relative_noise"] = estimate.relative_noise;
+  state.counters["estimated"] = estimate.verdict == NoiseVerdict::kEstimated;
+}
+BENCHMARK_CAPTURE(BM_CriterionNoise, exact_sensitivities, false)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_CriterionNoise, forward_differences_1e_6, true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+void BM_Campaign3Iterations(benchmark::State& state) {
+  const Setup& s = TheSetup();
+  PlantConfig plant;
+  if (!LoadPlantConfig(KCRIG_BENCH_CONFIG_DIR, s.config.model, &plant).ok()) {
+    std::abort();
+  }
+  const std::string dir =
+      (std::filesystem::temp_directory_path() / "kcrig_campaign_bench")
+          .string();
+  const RigRunner rig = [&](const Design& design, int run,
+                            const std::string& csv) {
+    SimulatedRunOptions options;
+    options.rate = s.config.experiment.rate;
+    options.noise = true;
+    options.seed = plant.seed + run;
+    RunLog log;
+    const Status status =
+        SimulateRun(plant.model,
+                    {design.phi, design.z_a, s.config.experiment.fmax,
+                     s.config.experiment.duration},
+                    s.config.experiment, options, &log);
+    return status.ok() ? WriteRunLog(csv, log) : status;
+  };
+  for (auto _ : state) {
+    std::vector<CampaignIteration> iterations;
+    if (!RunCampaign(s.config, CampaignOptions(), rig, dir, &iterations).ok()) {
+      std::abort();
+    }
+  }
+  std::filesystem::remove_all(dir);
+}
+BENCHMARK(BM_Campaign3Iterations)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+}  // namespace kcrig
+
+BENCHMARK_MAIN();
