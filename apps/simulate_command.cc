@@ -8,9 +8,9 @@
 #include <vector>
 
 #include "apps/cli_util.h"
+#include "emulator/simulated_run.h"
 #include "io_drivers/config_loader.h"
 #include "io_drivers/run_log.h"
-#include "emulator/simulated_run.h"
 
 namespace kcrig {
 namespace {
@@ -153,8 +153,8 @@ int RunSimulate(const SimulateArgs& args) {
   run_options.noise = args.noise;
   run_options.seed = args.seed;
   RunLog log;
-  status = SimulateRun(config.model, excitation, config.experiment,
-                       run_options, &log);
+  status = SimulateRun(config.model, excitation, config.experiment, run_options,
+                       &log);
   if (!status.ok()) return fail(status);
   if (!args.out.empty()) {
     status = WriteRunLog(args.out, log);

@@ -24,8 +24,8 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
         std::to_string(experiment.step) + " s (integrator.step)");
   }
   std::vector<TrajectorySample<double>> trajectory;
-  const Status status = SimulateTrajectory(SuspensionModel<double>(plant),
-                                           ramp, simulation, &trajectory);
+  const Status status = SimulateTrajectory(SuspensionModel<double>(plant), ramp,
+                                           simulation, &trajectory);
   if (!status.ok()) return status;
 
   *log = RunLog();

@@ -14,9 +14,9 @@
 namespace kcrig {
 
 struct SimulatedRunOptions {
-  double rate = 1000;       // log rate [Hz]; 1/rate a multiple of the step
-  bool noise = false;       // add the experiment's sensor noise
-  std::uint64_t seed = 1;   // of the noise
+  double rate = 1000;      // log rate [Hz]; 1/rate a multiple of the step
+  bool noise = false;      // add the experiment's sensor noise
+  std::uint64_t seed = 1;  // of the noise
   std::string transport = "simulation";  // recorded in the sidecar
 };
 

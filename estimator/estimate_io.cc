@@ -197,7 +197,8 @@ Status ReadEstimateFile(const std::string& path, EstimateFile* estimate) {
     return Status::Error(path + ": " + field + ": " + what);
   };
   if (!doc.is_object() || doc.value("format", "") != "kcrig estimate 1") {
-    return error("format", "not a kcrig est.json (expected \"kcrig estimate 1\")");
+    return error("format",
+                 "not a kcrig est.json (expected \"kcrig estimate 1\")");
   }
   if (!doc.contains("parameters") || !doc["parameters"].is_array() ||
       doc["parameters"].empty()) {
@@ -221,14 +222,14 @@ Status ReadEstimateFile(const std::string& path, EstimateFile* estimate) {
   if (doc.contains("information_matrix")) {
     const nlohmann::json& m = doc["information_matrix"];
     if (!m.is_array() || static_cast<int>(m.size()) != n) {
-      return error("information_matrix", "expected " + std::to_string(n) +
-                                              " rows");
+      return error("information_matrix",
+                   "expected " + std::to_string(n) + " rows");
     }
     estimate->information.resize(n, n);
     for (int r = 0; r < n; ++r) {
       if (!m[r].is_array() || static_cast<int>(m[r].size()) != n) {
-        return error("information_matrix", "expected " + std::to_string(n) +
-                                                " columns in every row");
+        return error("information_matrix",
+                     "expected " + std::to_string(n) + " columns in every row");
       }
       for (int c = 0; c < n; ++c) {
         if (!m[r][c].is_number()) {

@@ -28,7 +28,7 @@ std::string EstimationSummary(const EstimationResult& result,
 // values and, when present, the information matrix J^T J of the data.
 struct EstimateFile {
   std::vector<std::string> names;
-  std::vector<double> values;  // physical units
+  std::vector<double> values;   // physical units
   Eigen::MatrixXd information;  // empty when the file has none
 };
 

@@ -302,11 +302,9 @@ Status LoadPlantConfig(const std::string& directory,
       ListParameters(&plant->model);
   for (const auto& entry : truth) {
     const std::string name = entry.first.as<std::string>();
-    const auto match =
-        std::find_if(list.begin(), list.end(),
-                     [&name](const NamedParameter<double>& p) {
-                       return p.name == name;
-                     });
+    const auto match = std::find_if(
+        list.begin(), list.end(),
+        [&name](const NamedParameter<double>& p) { return p.name == name; });
     if (match == list.end()) {
       return reader.Error(entry.first, "true_parameters." + name,
                           "unknown parameter (e.g. c_O1, d_P, k_spring)");
