@@ -30,6 +30,8 @@ struct DesignArgs {
   std::optional<int> budget;
   std::optional<double> start_phi_deg, start_z;
   std::string grid = "46x26";
+  std::string kriging_trend = "quadratic";
+  bool no_expected_improvement = false;
   bool quiet = false;
   std::string out;
 };
@@ -62,6 +64,16 @@ int RunDesign(const DesignArgs& args) {
   OptimizerOptions optimizer_options;
   status = ParseGrid(args.grid, &optimizer_options);
   if (!status.ok()) return fail(status);
+  if (args.kriging_trend == "constant") {
+    optimizer_options.kriging_regression = KrigingRegression::kConstant;
+  } else if (args.kriging_trend == "linear") {
+    optimizer_options.kriging_regression = KrigingRegression::kLinear;
+  } else if (args.kriging_trend != "quadratic") {
+    return fail(Status::Error("--kriging-trend " + args.kriging_trend +
+                              ": expected constant, linear or quadratic"));
+  }
+  optimizer_options.kriging_expected_improvement =
+      !args.no_expected_improvement;
   const std::vector<std::string> optimizers = SplitList(args.optimizers);
   if (optimizers.empty()) {
     return fail(Status::Error("--optimizer: give at least one optimizer"));
@@ -203,6 +215,12 @@ void AddDesignCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--grid", args->grid,
                   "Grid points PHIxZ for --optimizer grid")
       ->capture_default_str();
+  cmd->add_option("--kriging-trend", args->kriging_trend,
+                  "Regression trend of the kriging surrogate: constant, "
+                  "linear or quadratic")
+      ->capture_default_str();
+  cmd->add_flag("--no-expected-improvement", args->no_expected_improvement,
+                "Kriging refines only at the surrogate's minimum");
   cmd->add_flag("--quiet", args->quiet, "No progress line");
   cmd->add_option("--out", args->out, "design.json to write");
   cmd->callback([args, run] { *run = [args] { return RunDesign(*args); }; });

@@ -74,6 +74,7 @@ TEST_F(DesignCampaignCliTest, BadInputIsOneLineAndNoFile) {
   std::ofstream(Path("bad.json")) << "{\"format\": \"kcrig estimate 1\"}";
   ExpectCleanFailure("design --estimate " + Path("bad.json"), "parameters");
   ExpectCleanFailure("design --augment", "--augment");
+  ExpectCleanFailure("design --kriging-trend cubic", "--kriging-trend cubic");
   // Inverted design bounds in the config.
   const fs::path config = dir_ / "config";
   fs::copy(KCRIG_TEST_CONFIG_DIR, config);
@@ -82,6 +83,14 @@ TEST_F(DesignCampaignCliTest, BadInputIsOneLineAndNoFile) {
   text.replace(text.find("[-0.5, 0.0]"), 11, "[0.0, -0.5]");
   std::ofstream(config / "experiment.yaml") << text;
   ExpectCleanFailure("design --config " + config.string(), "z_a");
+}
+
+TEST_F(DesignCampaignCliTest, KrigingWithALinearTrendAndNoExpectedImprovement) {
+  const CliResult r = RunKcrig(
+      "design --optimizer kriging --kriging-trend linear "
+      "--no-expected-improvement --budget 30 --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("optimal design"), std::string::npos) << r.output;
 }
 
 TEST_F(DesignCampaignCliTest, CampaignWritesEveryIterationAndNarrowsIntervals) {
