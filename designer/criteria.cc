@@ -88,6 +88,7 @@ CriterionValue EvaluateCriterion(Criterion criterion,
   const FlooredEigen e = Decompose(information);
   CriterionValue result;
   result.singular = e.singular;
+  Eigen::VectorXd g;  // the epigraph functions of E and MM
   switch (criterion) {
     case Criterion::kD:
       result.value = -e.values.array().log().sum();
@@ -96,34 +97,22 @@ CriterionValue EvaluateCriterion(Criterion criterion,
       result.value = e.values.cwiseInverse().mean();
       break;
     case Criterion::kE:
-      result.value = 1.0 / e.values.minCoeff();
+      g = e.values.cwiseInverse();
+      result.value = g.maxCoeff();
       break;
     case Criterion::kMM:
-      result.value = InverseDiagonal(e).maxCoeff();
+      g = InverseDiagonal(e);
+      result.value = g.maxCoeff();
       break;
   }
+  result.epigraph = IsMaxType(criterion)
+                        ? std::vector<double>(g.data(), g.data() + g.size())
+                        : std::vector<double>{result.value};
   return result;
 }
 
 double OptimizationScale(Criterion criterion, double value) {
   return criterion == Criterion::kD ? value : std::log(value);
-}
-
-std::vector<double> EpigraphFunctions(Criterion criterion,
-                                      const Eigen::MatrixXd& information) {
-  const FlooredEigen e = Decompose(information);
-  Eigen::VectorXd g;
-  switch (criterion) {
-    case Criterion::kMM:
-      g = InverseDiagonal(e);
-      break;
-    case Criterion::kE:
-      g = e.values.cwiseInverse();
-      break;
-    default:
-      return {EvaluateCriterion(criterion, information).value};
-  }
-  return std::vector<double>(g.data(), g.data() + g.size());
 }
 
 }  // namespace kcrig

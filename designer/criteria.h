@@ -6,7 +6,7 @@
 //   MM = max_i (I^-1)_ii        (largest relative variance)
 // E and MM are not differentiable where their maximum changes hands; their
 // epigraph form  min t  s.t.  g_k(v) <= t  has smooth constraints g_k
-// (EpigraphFunctions).
+// (CriterionValue::epigraph).
 #ifndef KCRIG_DESIGNER_CRITERIA_H_
 #define KCRIG_DESIGNER_CRITERIA_H_
 
@@ -40,6 +40,11 @@ inline constexpr double kAbsoluteEigenvalueFloor = 1e-6;
 struct CriterionValue {
   double value = 0;
   bool singular = false;  // some eigenvalue was raised to the floor
+  // The constraint functions of the epigraph form, each smooth in the
+  // design: MM: the diagonal of I^-1; E: the eigenvalues of I^-1 (as a set
+  // they are the values of smooth eigenvalue branches); their maximum is
+  // the criterion. D and A: the criterion itself.
+  std::vector<double> epigraph;
 };
 
 CriterionValue EvaluateCriterion(Criterion criterion,
@@ -50,13 +55,6 @@ CriterionValue EvaluateCriterion(Criterion criterion,
 // logarithm makes relative changes of a variance equally important at any
 // level and keeps the surrogate's and the quasi-Newton model's scale sane.
 double OptimizationScale(Criterion criterion, double value);
-
-// The constraint functions of the epigraph form, each smooth in the design:
-// MM: the diagonal of I^-1; E: the eigenvalues of I^-1 (as a set they are
-// the values of smooth eigenvalue branches; their maximum is E). D and A:
-// the criterion itself. The same eigenvalue floor applies.
-std::vector<double> EpigraphFunctions(Criterion criterion,
-                                      const Eigen::MatrixXd& information);
 
 }  // namespace kcrig
 

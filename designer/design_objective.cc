@@ -57,7 +57,7 @@ DesignEvaluation DesignObjective::EvaluateOne(const Eigen::Vector2d& unit,
   const CriterionValue value = EvaluateCriterion(criterion_, e.information);
   e.value = value.value;
   e.singular = value.singular;
-  e.epigraph = EpigraphFunctions(criterion_, e.information);
+  e.epigraph = value.epigraph;
   return e;
 }
 
@@ -94,10 +94,8 @@ std::vector<DesignEvaluation> DesignObjective::Evaluate(
   worker();
   for (std::thread& t : pool) t.join();
 
-  const double now = elapsed_seconds();
   for (int index : to_run) {
     results[index].batch = batches_;
-    results[index].seconds = now;
     record_.push_back(results[index]);
   }
   if (!to_run.empty()) {

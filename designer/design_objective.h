@@ -20,10 +20,9 @@ struct DesignEvaluation {
   Eigen::Vector2d unit = Eigen::Vector2d::Zero();
   Eigen::MatrixXd information;   // prior + J^T J at the design
   double value = 0;              // the criterion
-  std::vector<double> epigraph;  // EpigraphFunctions of the criterion
+  std::vector<double> epigraph;  // CriterionValue::epigraph
   bool singular = false;
-  int batch = 0;       // which batch evaluated it (0-based)
-  double seconds = 0;  // wall time since the objective was created
+  int batch = 0;  // which batch evaluated it (0-based)
 };
 
 class DesignObjective;

@@ -123,23 +123,9 @@ Experiment InformationEvaluator::MakeExperiment(const Design& design) const {
 
 Status InformationEvaluator::Information(const Design& design, bool split,
                                          Eigen::MatrixXd* information) const {
-  const Experiment experiment = MakeExperiment(design);
-  const TrajectoryResidual residual(
-      &nominal_, parameter_indices_, {0, 1, 2, 3, 4, 5}, &experiment,
-      experiment_.step, kLowerScale, kUpperScale, split);
-  const int n = num_parameters();
-  const int m = residual.num_residuals();
-  std::vector<const double*> blocks(n);
-  for (int i = 0; i < n; ++i) blocks[i] = &scaled_values_[i];
-  std::vector<double> residuals(m);
-  std::vector<std::vector<double>> columns(n, std::vector<double>(m));
-  std::vector<double*> jacobians(n);
-  for (int i = 0; i < n; ++i) jacobians[i] = columns[i].data();
-  if (!residual.Evaluate(blocks.data(), residuals.data(), jacobians.data())) {
-    return Status::Error("design: the model diverged at phi " +
-                         std::to_string(design.phi) + " rad, z_a " +
-                         std::to_string(design.z_a) + " m");
-  }
+  std::vector<std::vector<double>> columns;
+  const Status status = JacobianColumns(design, split, 0.0, &columns);
+  if (!status.ok()) return status;
   *information = prior_ + Gram(columns);
   return Status::Ok();
 }
@@ -147,32 +133,51 @@ Status InformationEvaluator::Information(const Design& design, bool split,
 Status InformationEvaluator::FiniteDifferenceInformation(
     const Design& design, double relative_step,
     Eigen::MatrixXd* information) const {
+  std::vector<std::vector<double>> columns;
+  const Status status = JacobianColumns(design, false, relative_step, &columns);
+  if (!status.ok()) return status;
+  *information = prior_ + Gram(columns);
+  return Status::Ok();
+}
+
+Status InformationEvaluator::JacobianColumns(
+    const Design& design, bool split, double relative_step,
+    std::vector<std::vector<double>>* columns) const {
   const Experiment experiment = MakeExperiment(design);
   const TrajectoryResidual residual(
       &nominal_, parameter_indices_, {0, 1, 2, 3, 4, 5}, &experiment,
-      experiment_.step, kLowerScale, kUpperScale, false);
+      experiment_.step, kLowerScale, kUpperScale, split);
   const int n = num_parameters();
   const int m = residual.num_residuals();
   std::vector<double> values = scaled_values_;
   std::vector<const double*> blocks(n);
   for (int i = 0; i < n; ++i) blocks[i] = &values[i];
-  std::vector<double> base(m);
-  if (!residual.Evaluate(blocks.data(), base.data(), nullptr)) {
-    return Status::Error("design: the model diverged");
+  std::vector<double> residuals(m);
+  columns->assign(n, std::vector<double>(m));
+  const Status diverged = Status::Error(
+      "design: the model diverged at phi " + std::to_string(design.phi) +
+      " rad, z_a " + std::to_string(design.z_a) + " m");
+  if (relative_step == 0) {
+    std::vector<double*> jacobians(n);
+    for (int i = 0; i < n; ++i) jacobians[i] = (*columns)[i].data();
+    if (!residual.Evaluate(blocks.data(), residuals.data(), jacobians.data())) {
+      return diverged;
+    }
+    return Status::Ok();
   }
-  std::vector<std::vector<double>> columns(n, std::vector<double>(m));
+  if (!residual.Evaluate(blocks.data(), residuals.data(), nullptr)) {
+    return diverged;
+  }
   for (int i = 0; i < n; ++i) {
+    std::vector<double>& column = (*columns)[i];
     const double step = relative_step * scaled_values_[i];
     values[i] = scaled_values_[i] + step;
-    if (!residual.Evaluate(blocks.data(), columns[i].data(), nullptr)) {
-      return Status::Error("design: the model diverged");
+    if (!residual.Evaluate(blocks.data(), column.data(), nullptr)) {
+      return diverged;
     }
     values[i] = scaled_values_[i];
-    for (int r = 0; r < m; ++r) {
-      columns[i][r] = (columns[i][r] - base[r]) / step;
-    }
+    for (int r = 0; r < m; ++r) column[r] = (column[r] - residuals[r]) / step;
   }
-  *information = prior_ + Gram(columns);
   return Status::Ok();
 }
 

@@ -75,6 +75,11 @@ class InformationEvaluator {
   Experiment MakeExperiment(const Design& design) const;
 
  private:
+  // The columns of J: exact (Jet) sensitivities when `relative_step` is 0,
+  // else forward differences with step relative_step x s_i.
+  Status JacobianColumns(const Design& design, bool split, double relative_step,
+                         std::vector<std::vector<double>>* columns) const;
+
   SuspensionParameters<double> nominal_;
   std::vector<int> parameter_indices_;
   std::vector<double> scaled_values_;

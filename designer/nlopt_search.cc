@@ -7,7 +7,7 @@
 //                    sensitivity criterion is smooth to ~1e-13 relative
 //                    (ecnoise), so these gradients carry ~8 digits
 // E and MM with cobyla, slsqp or mma are solved in epigraph form,
-//   min t  s.t.  ln g_k(v) - t <= 0,  g_k from EpigraphFunctions,
+//   min t  s.t.  ln g_k(v) - t <= 0,  g_k from CriterionValue::epigraph,
 // which has smooth constraints where the criterion itself has kinks. The
 // other algorithms take E and MM as they are.
 #include <cmath>

@@ -48,7 +48,7 @@ TEST(CriteriaTest, MatchTheirDefinitionsOnAKnownMatrix) {
   EXPECT_FALSE(EvaluateCriterion(Criterion::kD, info).singular);
   // The epigraph constraints' maximum is the max-type criterion.
   for (Criterion c : {Criterion::kE, Criterion::kMM}) {
-    const std::vector<double> g = EpigraphFunctions(c, info);
+    const std::vector<double> g = EvaluateCriterion(c, info).epigraph;
     EXPECT_NEAR(*std::max_element(g.begin(), g.end()),
                 EvaluateCriterion(c, info).value, 1e-12);
   }
@@ -66,7 +66,7 @@ TEST(CriteriaTest, SingularInformationGivesAFiniteFlaggedPenalty) {
       const CriterionValue v = EvaluateCriterion(c, info);
       EXPECT_TRUE(std::isfinite(v.value)) << CriterionName(c);
       EXPECT_TRUE(v.singular) << CriterionName(c);
-      for (double g : EpigraphFunctions(c, info)) EXPECT_TRUE(std::isfinite(g));
+      for (double g : v.epigraph) EXPECT_TRUE(std::isfinite(g));
     }
   }
   // The documented floor: no information at all is 1e-6 per direction.
