@@ -119,18 +119,10 @@ int RunCampaignCommand(const CampaignArgs& args) {
   if (!status.ok()) return fail(status);
   options.optimizer = args.optimizer;
   options.objective.budget = args.budget;
-  if (!(args.target_percent >= 0) || !std::isfinite(args.target_percent)) {
-    return fail(Status::Error("--target-halfwidth: must be >= 0 %"));
-  }
   options.target_relative_halfwidth = args.target_percent / 100.0;
-  bool known = false;
-  for (const std::string& name : OptimizerNames())
-    known |= name == args.optimizer;
-  if (!known) {
-    return fail(Status::Error("--optimizer " + args.optimizer +
-                              ": unknown (see kcrig design --help)"));
-  }
 
+  status = ValidateCampaignOptions(config, options);
+  if (!status.ok()) return fail(status);
   ProgressLine progress(args.quiet);
   std::string stage;
   options.on_stage = [&](const std::string& text) {

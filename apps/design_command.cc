@@ -94,12 +94,10 @@ int RunDesign(const DesignArgs& args) {
       return fail(Status::Error("--augment: needs --estimate est.json"));
     }
     estimate.names = EstimatorOptions().parameters;
-    SuspensionParameters<double> copy = config.model;
-    for (const std::string& name : estimate.names) {
-      for (const NamedParameter<double>& p : ListParameters(&copy)) {
-        if (p.name == name) estimate.values.push_back(*p.value);
-      }
-    }
+    std::vector<int> indices;
+    status = ResolveParameters(config.model, estimate.names, &indices);
+    if (!status.ok()) return fail(status);
+    estimate.values = ParameterValues(config.model, indices);
   }
   std::unique_ptr<InformationEvaluator> evaluator;
   status = InformationEvaluator::Create(

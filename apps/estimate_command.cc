@@ -47,11 +47,8 @@ int RunEstimate(const EstimateArgs& args) {
   if (!(args.init_scale > 0)) {
     return fail(Status::Error("--init-scale: must be > 0"));
   }
-  std::vector<double> initial;
-  SuspensionParameters<double> copy = config.model;
-  const std::vector<NamedParameter<double>> list = ListParameters(&copy);
-  for (int index : indices)
-    initial.push_back(*list[index].value * args.init_scale);
+  std::vector<double> initial = ParameterValues(config.model, indices);
+  for (double& value : initial) value *= args.init_scale;
   for (const std::string& init : args.inits) {
     std::string name;
     double value = 0;
@@ -59,7 +56,7 @@ int RunEstimate(const EstimateArgs& args) {
     if (!status.ok()) return fail(status);
     bool matched = false;
     for (size_t i = 0; i < indices.size(); ++i) {
-      if (list[indices[i]].name == name) {
+      if (options.parameters[i] == name) {
         initial[i] = value;
         matched = true;
       }

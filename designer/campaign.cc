@@ -30,21 +30,35 @@ bool WithinTarget(const EstimationResult& estimate, double target) {
 
 }  // namespace
 
+Status ValidateCampaignOptions(const KcrigConfig& config,
+                               const CampaignOptions& options) {
+  if (options.iterations < 0) {
+    return Status::Error("--iterations: must be >= 0");
+  }
+  if (!(options.target_relative_halfwidth >= 0) ||
+      !std::isfinite(options.target_relative_halfwidth)) {
+    return Status::Error("--target-halfwidth: must be finite and >= 0 %");
+  }
+  Status status = ValidateOptimizerName(options.optimizer);
+  if (!status.ok()) return status;
+  const DesignBounds bounds{config.experiment.phi_bounds,
+                            config.experiment.z_a_bounds};
+  status = DesignObjective::Validate(bounds, options.objective);
+  if (!status.ok()) return status;
+  std::vector<int> indices;
+  return ResolveParameters(config.model, options.estimator.parameters,
+                           &indices);
+}
+
 Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
                    const RigRunner& rig, const std::string& out_dir,
                    std::vector<CampaignIteration>* iterations) {
   namespace fs = std::filesystem;
   iterations->clear();
-  if (options.iterations < 0) {
-    return Status::Error("--iterations: must be >= 0");
-  }
-  if (!(options.target_relative_halfwidth >= 0)) {
-    return Status::Error("--target-width: must be >= 0");
-  }
+  Status status = ValidateCampaignOptions(config, options);
+  if (!status.ok()) return status;
   const DesignBounds bounds{config.experiment.phi_bounds,
                             config.experiment.z_a_bounds};
-  Status status = DesignObjective::Validate(bounds, options.objective);
-  if (!status.ok()) return status;
   std::vector<int> indices;
   status =
       ResolveParameters(config.model, options.estimator.parameters, &indices);
@@ -53,12 +67,7 @@ Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
     if (options.on_stage) options.on_stage(text);
   };
 
-  std::vector<double> current;
-  {
-    SuspensionParameters<double> copy = config.model;
-    const std::vector<NamedParameter<double>> list = ListParameters(&copy);
-    for (int index : indices) current.push_back(*list[index].value);
-  }
+  std::vector<double> current = ParameterValues(config.model, indices);
   Design design{config.experiment.phi, config.experiment.z_a};
   std::vector<std::string> logs;
   for (int k = 0; k <= options.iterations; ++k) {

@@ -53,6 +53,11 @@ struct CampaignIteration {
   DesignRun design;              // Phi(I_data + I(v)) from v0 to v*
 };
 
+// The options' errors before anything runs: iterations, target width,
+// optimizer name, budget, design bounds, parameter names.
+Status ValidateCampaignOptions(const KcrigConfig& config,
+                               const CampaignOptions& options);
+
 // campaign.json: per iteration the logs, the experiment, the estimates with
 // intervals and log10 diag((J^T J)^-1), the criterion and the next design.
 std::string CampaignToJson(Criterion criterion,

@@ -69,11 +69,10 @@ Status InformationEvaluator::Create(
                          " parameters but " + std::to_string(values.size()) +
                          " values");
   }
-  SuspensionParameters<double> copy = nominal;
-  const std::vector<NamedParameter<double>> list = ListParameters(&copy);
+  const std::vector<double> scales = ParameterValues(nominal, indices);
   std::vector<double> scaled;
   for (size_t i = 0; i < names.size(); ++i) {
-    const double s = values[i] / *list[indices[i]].value;
+    const double s = values[i] / scales[i];
     if (!std::isfinite(s) || s < kLowerScale || s > kUpperScale) {
       return Status::Error("design: " + names[i] + " = " +
                            std::to_string(values[i]) +

@@ -10,19 +10,20 @@ const std::vector<std::string>& OptimizerNames() {
   return names;
 }
 
+Status ValidateOptimizerName(const std::string& optimizer) {
+  std::string list;
+  for (const std::string& name : OptimizerNames()) {
+    if (name == optimizer) return Status::Ok();
+    list += (list.empty() ? "" : ", ") + name;
+  }
+  return Status::Error("--optimizer " + optimizer + ": unknown (" + list + ")");
+}
+
 Status Optimize(const std::string& optimizer, DesignObjective* objective,
                 const Design& start, const OptimizerOptions& options,
                 OptimizationResult* result) {
-  bool known = false;
-  for (const std::string& name : OptimizerNames()) known |= name == optimizer;
-  if (!known) {
-    std::string list;
-    for (const std::string& name : OptimizerNames()) {
-      list += (list.empty() ? "" : ", ") + name;
-    }
-    return Status::Error("--optimizer " + optimizer + ": unknown (" + list +
-                         ")");
-  }
+  const Status name = ValidateOptimizerName(optimizer);
+  if (!name.ok()) return name;
   const DesignBounds& b = objective->bounds();
   if (!(start.phi >= b.phi.lower && start.phi <= b.phi.upper &&
         start.z_a >= b.z_a.lower && start.z_a <= b.z_a.upper)) {

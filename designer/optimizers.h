@@ -63,6 +63,9 @@ struct OptimizationResult {
 // Names accepted by Optimize, for help texts and errors.
 const std::vector<std::string>& OptimizerNames();
 
+// An error naming the accepted optimizers unless `optimizer` is one.
+Status ValidateOptimizerName(const std::string& optimizer);
+
 // Minimizes the objective's criterion from `start` (inside the bounds)
 // within the objective's budget. The start is evaluated first. Fills
 // `result` from the objective's record (the best evaluation seen).

@@ -34,6 +34,15 @@ std::string Combination(const Eigen::VectorXd& direction,
 
 }  // namespace
 
+std::vector<double> ParameterValues(const SuspensionParameters<double>& model,
+                                    const std::vector<int>& indices) {
+  SuspensionParameters<double> copy = model;
+  const std::vector<NamedParameter<double>> list = ListParameters(&copy);
+  std::vector<double> values;
+  for (int index : indices) values.push_back(*list[index].value);
+  return values;
+}
+
 Status ResolveParameters(const SuspensionParameters<double>& nominal,
                          const std::vector<std::string>& names,
                          std::vector<int>* indices) {

@@ -117,6 +117,10 @@ Status ResolveParameters(const SuspensionParameters<double>& nominal,
                          const std::vector<std::string>& names,
                          std::vector<int>* indices);
 
+// The values in `model` of the parameters at `indices` (ResolveParameters).
+std::vector<double> ParameterValues(const SuspensionParameters<double>& model,
+                                    const std::vector<int>& indices);
+
 }  // namespace kcrig
 
 #endif  // KCRIG_ESTIMATOR_ESTIMATOR_H_

@@ -123,6 +123,18 @@ TEST_F(DesignCampaignCliTest, CampaignWritesEveryIterationAndNarrowsIntervals) {
   }
 }
 
+TEST_F(DesignCampaignCliTest, CampaignBadOptionsAreOneLineBeforeAnything) {
+  for (const char* options :
+       {"--optimizer simplex", "--budget 0", "--target-halfwidth -1",
+        "--iterations -1", "--criterion Q"}) {
+    const CliResult r = RunKcrig(std::string("campaign ") + options +
+                                 " --out " + Path("campaign"));
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_EQ(CountLines(r.output), 1) << r.output;
+    EXPECT_FALSE(fs::exists(Path("campaign"))) << options;
+  }
+}
+
 TEST_F(DesignCampaignCliTest, CampaignRejectsRigsThatDoNotExistYet) {
   const CliResult r =
       RunKcrig("campaign --rig can:vcan0 --out " + Path("campaign"));
