@@ -34,26 +34,6 @@ struct CampaignArgs {
   std::string out = "out/campaign";
 };
 
-// The embedded emulated rig: the plant of plant.yaml, simulated in-process.
-RigRunner EmbeddedRig(const KcrigConfig& config, const PlantConfig& plant) {
-  return [config, plant](const Design& design, int run,
-                         const std::string& csv_path) {
-    const RampExcitation<double> ramp{design.phi, design.z_a,
-                                      config.experiment.fmax,
-                                      config.experiment.duration};
-    SimulatedRunOptions options;
-    options.rate = config.experiment.rate;
-    options.noise = plant.noise;
-    options.seed = plant.seed + static_cast<std::uint64_t>(run);
-    options.transport = "embedded emulated rig (--rig sim)";
-    RunLog log;
-    const Status status =
-        SimulateRun(plant.model, ramp, config.experiment, options, &log);
-    if (!status.ok()) return status;
-    return WriteRunLog(csv_path, log);
-  };
-}
-
 std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
   std::string out =
       "campaign summary (estimates in N/mm, +- 95 % half-width):\n";
@@ -100,7 +80,11 @@ int RunCampaignCommand(const CampaignArgs& args) {
     status = LoadPlantConfig(config.directory, config.model, &plant);
     if (!status.ok()) return fail(status);
     if (args.seed) plant.seed = *args.seed;
-    rig = EmbeddedRig(config, plant);
+    rig = [config, plant](const Design& design, int run,
+                          const std::string& csv_path) {
+      return RunEmbeddedRig(config, plant, design.phi, design.z_a, run,
+                            csv_path);
+    };
     rig_text = "embedded emulated rig (plant.yaml)";
   } else if (args.rig.rfind("modbus-tcp://", 0) == 0 ||
              args.rig.rfind("can:", 0) == 0) {

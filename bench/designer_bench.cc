@@ -18,7 +18,6 @@
 #include "designer/optimizers.h"
 #include "emulator/simulated_run.h"
 #include "io_drivers/config_loader.h"
-#include "io_drivers/run_log.h"
 
 namespace kcrig {
 namespace {
@@ -151,17 +150,7 @@ void BM_Campaign3Iterations(benchmark::State& state) {
           .string();
   const RigRunner rig = [&](const Design& design, int run,
                             const std::string& csv) {
-    SimulatedRunOptions options;
-    options.rate = s.config.experiment.rate;
-    options.noise = true;
-    options.seed = plant.seed + run;
-    RunLog log;
-    const Status status =
-        SimulateRun(plant.model,
-                    {design.phi, design.z_a, s.config.experiment.fmax,
-                     s.config.experiment.duration},
-                    s.config.experiment, options, &log);
-    return status.ok() ? WriteRunLog(csv, log) : status;
+    return RunEmbeddedRig(s.config, plant, design.phi, design.z_a, run, csv);
   };
   for (auto _ : state) {
     std::vector<CampaignIteration> iterations;

@@ -55,4 +55,21 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
   return Status::Ok();
 }
 
+Status RunEmbeddedRig(const KcrigConfig& config, const PlantConfig& plant,
+                      double phi, double z_a, int run,
+                      const std::string& csv_path) {
+  const RampExcitation<double> ramp{phi, z_a, config.experiment.fmax,
+                                    config.experiment.duration};
+  SimulatedRunOptions options;
+  options.rate = config.experiment.rate;
+  options.noise = plant.noise;
+  options.seed = plant.seed + static_cast<std::uint64_t>(run);
+  options.transport = "embedded emulated rig (--rig sim)";
+  RunLog log;
+  const Status status =
+      SimulateRun(plant.model, ramp, config.experiment, options, &log);
+  if (!status.ok()) return status;
+  return WriteRunLog(csv_path, log);
+}
+
 }  // namespace kcrig
