@@ -11,6 +11,7 @@
 
 #include "Eigen/Dense"
 #include "designer/optimizers.h"
+#include "designer/stencil.h"
 
 namespace kcrig {
 namespace {
@@ -72,38 +73,17 @@ Status ImplicitFiltering(DesignObjective* objective,
     Eigen::Vector2d previous_u = x.u,
                     previous_gradient = Eigen::Vector2d::Zero();
     for (int iteration = 0; iteration < kMaxIterationsPerScale; ++iteration) {
-      // Stencil x +- h e_i, the points inside the box.
-      std::vector<Eigen::Vector2d> stencil;
-      int index[2][2] = {{-1, -1}, {-1, -1}};  // [axis][minus, plus]
-      for (int i = 0; i < 2; ++i) {
-        for (int side = 0; side < 2; ++side) {
-          Eigen::Vector2d p = x.u;
-          p(i) += side == 0 ? -h : h;
-          if (p(i) < -kBoundSlack || p(i) > 1 + kBoundSlack) continue;
-          index[i][side] = static_cast<int>(stencil.size());
-          stencil.push_back(Project(p));
-        }
+      const Stencil stencil(x.u, h);
+      const std::vector<DesignEvaluation> values =
+          objective->Evaluate(stencil.points());
+      if (values.size() < stencil.points().size()) {
+        return out_of_budget("stencil");
       }
-      const std::vector<DesignEvaluation> values = objective->Evaluate(stencil);
-      if (values.size() < stencil.size()) return out_of_budget("stencil");
       Point best_stencil = x;
       for (const DesignEvaluation& e : values) {
         if (scaled(e) < best_stencil.f) best_stencil = {e.unit, scaled(e)};
       }
-      Eigen::Vector2d gradient;
-      for (int i = 0; i < 2; ++i) {
-        const int minus = index[i][0], plus = index[i][1];
-        if (minus >= 0 && plus >= 0) {
-          gradient(i) =
-              (scaled(values[plus]) - scaled(values[minus])) / (2 * h);
-        } else if (plus >= 0) {
-          gradient(i) = (scaled(values[plus]) - x.f) / h;
-        } else if (minus >= 0) {
-          gradient(i) = (x.f - scaled(values[minus])) / h;
-        } else {
-          gradient(i) = 0;
-        }
-      }
+      const Eigen::Vector2d gradient = stencil.Gradient(x.f, values, scaled);
       // Stencil failure: the centre beats its whole stencil at this scale.
       if (best_stencil.f >= x.f) break;
 

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "designer/optimizers.h"
+#include "designer/stencil.h"
 #include "nlopt.hpp"
 
 namespace kcrig {
@@ -32,53 +33,23 @@ double Scaled(const DesignObjective& objective, const DesignEvaluation& e) {
   return OptimizationScale(objective.criterion(), e.value);
 }
 
-// The evaluation at u and, when `gradient_wanted`, the four stencil points
-// (one batch); forward/backward differences at the bounds.
-struct Stencil {
+// The evaluation at u and, when `gradient_wanted`, its stencil (one batch).
+struct Evaluated {
   DesignEvaluation centre;
-  std::vector<DesignEvaluation> side[2][2];  // [axis][minus, plus], 0 or 1
-  double step[2][2] = {{0, 0}, {0, 0}};
+  std::vector<DesignEvaluation> stencil_values;
 };
 
-Stencil EvaluateStencil(DesignObjective* objective, const Eigen::Vector2d& u,
-                        bool gradient_wanted) {
+Evaluated EvaluateWithStencil(DesignObjective* objective, const Stencil& s,
+                              const Eigen::Vector2d& u, bool gradient_wanted) {
   std::vector<Eigen::Vector2d> points = {u};
-  int where[2][2] = {{-1, -1}, {-1, -1}};
-  Stencil s;
   if (gradient_wanted) {
-    for (int i = 0; i < 2; ++i) {
-      for (int side = 0; side < 2; ++side) {
-        Eigen::Vector2d p = u;
-        p(i) += side == 0 ? -kGradientStep : kGradientStep;
-        if (p(i) < 0 || p(i) > 1) continue;
-        where[i][side] = static_cast<int>(points.size());
-        s.step[i][side] = p(i) - u(i);
-        points.push_back(p);
-      }
-    }
+    points.insert(points.end(), s.points().begin(), s.points().end());
   }
-  const std::vector<DesignEvaluation> values = objective->Evaluate(points);
+  std::vector<DesignEvaluation> values = objective->Evaluate(points);
   if (values.size() < points.size()) throw nlopt::forced_stop();
-  s.centre = values[0];
-  for (int i = 0; i < 2; ++i) {
-    for (int side = 0; side < 2; ++side) {
-      if (where[i][side] >= 0) s.side[i][side] = {values[where[i][side]]};
-    }
-  }
-  return s;
-}
-
-// d/du_i of f(evaluation) from the stencil.
-template <typename F>
-double Derivative(const Stencil& s, int i, const F& f) {
-  const bool minus = !s.side[i][0].empty(), plus = !s.side[i][1].empty();
-  if (minus && plus) {
-    return (f(s.side[i][1][0]) - f(s.side[i][0][0])) /
-           (s.step[i][1] - s.step[i][0]);
-  }
-  if (plus) return (f(s.side[i][1][0]) - f(s.centre)) / s.step[i][1];
-  if (minus) return (f(s.side[i][0][0]) - f(s.centre)) / s.step[i][0];
-  return 0;
+  Evaluated e{values.front(), {}};
+  e.stencil_values.assign(values.begin() + 1, values.end());
+  return e;
 }
 
 double Objective(unsigned n, const double* x, double* grad, void* data) {
@@ -89,30 +60,40 @@ double Objective(unsigned n, const double* x, double* grad, void* data) {
     }
     return x[n - 1];
   }
-  const Stencil s = EvaluateStencil(c->objective, Eigen::Vector2d(x[0], x[1]),
-                                    grad != nullptr);
+  const Eigen::Vector2d u(x[0], x[1]);
+  const Stencil stencil(u, kGradientStep);
+  const Evaluated evaluated =
+      EvaluateWithStencil(c->objective, stencil, u, grad != nullptr);
   const auto f = [c](const DesignEvaluation& e) {
     return Scaled(*c->objective, e);
   };
   if (grad) {
-    for (int i = 0; i < 2; ++i) grad[i] = Derivative(s, i, f);
+    const Eigen::Vector2d gradient =
+        stencil.Gradient(f(evaluated.centre), evaluated.stencil_values, f);
+    grad[0] = gradient(0);
+    grad[1] = gradient(1);
   }
-  return f(s.centre);
+  return f(evaluated.centre);
 }
 
 // c_k = ln g_k(u) - t, gradient rows of length 3.
 void EpigraphConstraints(unsigned m, double* result, unsigned n,
                          const double* x, double* grad, void* data) {
   Context* c = static_cast<Context*>(data);
-  const Stencil s = EvaluateStencil(c->objective, Eigen::Vector2d(x[0], x[1]),
-                                    grad != nullptr);
+  const Eigen::Vector2d u(x[0], x[1]);
+  const Stencil stencil(u, kGradientStep);
+  const Evaluated evaluated =
+      EvaluateWithStencil(c->objective, stencil, u, grad != nullptr);
   for (unsigned k = 0; k < m; ++k) {
     const auto g = [k](const DesignEvaluation& e) {
       return std::log(e.epigraph[k]);
     };
-    result[k] = g(s.centre) - x[2];
+    result[k] = g(evaluated.centre) - x[2];
     if (grad) {
-      for (int i = 0; i < 2; ++i) grad[k * n + i] = Derivative(s, i, g);
+      const Eigen::Vector2d gradient =
+          stencil.Gradient(g(evaluated.centre), evaluated.stencil_values, g);
+      grad[k * n + 0] = gradient(0);
+      grad[k * n + 1] = gradient(1);
       grad[k * n + 2] = -1;
     }
   }
