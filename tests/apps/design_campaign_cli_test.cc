@@ -8,25 +8,15 @@
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
 #include "tests/support/cli_runner.h"
+#include "tests/support/temp_dir_test.h"
 
 namespace kcrig {
 namespace {
 
 namespace fs = std::filesystem;
 
-class DesignCampaignCliTest : public ::testing::Test {
+class DesignCampaignCliTest : public TempDirTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           (std::string("kcrig_design_cli_") +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string Path(const std::string& name) const {
-    return (dir_ / name).string();
-  }
   void ExpectCleanFailure(const std::string& arguments,
                           const std::string& expected) {
     const CliResult r = RunKcrig(arguments + " --out " + Path("design.json"));
@@ -35,7 +25,6 @@ class DesignCampaignCliTest : public ::testing::Test {
     EXPECT_NE(r.output.find(expected), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(Path("design.json")));
   }
-  fs::path dir_;
 };
 
 TEST_F(DesignCampaignCliTest, OptimizerComparisonPrintsTableOneColumns) {

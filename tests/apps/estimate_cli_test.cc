@@ -7,25 +7,15 @@
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
 #include "tests/support/cli_runner.h"
+#include "tests/support/temp_dir_test.h"
 
 namespace kcrig {
 namespace {
 
 namespace fs = std::filesystem;
 
-class EstimateCliTest : public ::testing::Test {
+class EstimateCliTest : public TempDirTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           (std::string("kcrig_estimate_cli_") +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string Path(const std::string& name) const {
-    return (dir_ / name).string();
-  }
   void Simulate(const std::string& extra) {
     const CliResult r = RunKcrig("simulate --duration 1 " + extra + " --out " +
                                  Path("run.csv"));
@@ -38,7 +28,6 @@ class EstimateCliTest : public ::testing::Test {
     EXPECT_NE(result.output.find(expected), std::string::npos) << result.output;
     EXPECT_FALSE(fs::exists(Path("est.json")));
   }
-  fs::path dir_;
 };
 
 TEST_F(EstimateCliTest, RecoversTheSimulatedStiffnesses) {

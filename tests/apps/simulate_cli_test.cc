@@ -10,6 +10,7 @@
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
 #include "tests/support/cli_runner.h"
+#include "tests/support/temp_dir_test.h"
 
 namespace kcrig {
 namespace {
@@ -18,18 +19,11 @@ namespace fs = std::filesystem;
 
 using Result = CliResult;
 
-class SimulateCliTest : public ::testing::Test {
+class SimulateCliTest : public TempDirTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           (std::string("kcrig_cli_test_") +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
   void TearDown() override {
-    fs::permissions(dir_, fs::perms::owner_all);
-    fs::remove_all(dir_);
+    fs::permissions(dir_, fs::perms::owner_all);  // a test makes it read-only
+    TempDirTest::TearDown();
   }
   // A failed run: non-zero exit, one line naming `expected`, and nothing
   // written into the output directory.
@@ -40,8 +34,6 @@ class SimulateCliTest : public ::testing::Test {
     EXPECT_TRUE(fs::is_empty(dir_)) << "partial output left behind";
   }
   std::string Out() const { return (dir_ / "run.csv").string(); }
-
-  fs::path dir_;
 };
 
 TEST_F(SimulateCliTest, HelpListsTheSubcommand) {

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "gtest/gtest.h"
+#include "tests/support/temp_dir_test.h"
 
 namespace kcrig {
 namespace {
@@ -23,21 +24,14 @@ std::string ReadFile(const fs::path& path) {
 
 // A copy of the source config/ in a fresh directory, with one text
 // replacement applied to one file.
-class ConfigLoaderTest : public ::testing::Test {
+class ConfigLoaderTest : public TempDirTest {
  protected:
   void SetUp() override {
-    dir_ =
-        fs::temp_directory_path() /
-        ("kcrig_config_test_" +
-         std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-         "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    TempDirTest::SetUp();
     for (const char* file : {"model.yaml", "experiment.yaml"}) {
       fs::copy_file(fs::path(KCRIG_TEST_CONFIG_DIR) / file, dir_ / file);
     }
   }
-  void TearDown() override { fs::remove_all(dir_); }
 
   // Returns the 1-based line of the replacement.
   int Replace(const std::string& file, const std::string& from,
@@ -60,8 +54,6 @@ class ConfigLoaderTest : public ::testing::Test {
         << "error must be one line";
     return status.message();
   }
-
-  fs::path dir_;
 };
 
 TEST_F(ConfigLoaderTest, SourceConfigLoads) {

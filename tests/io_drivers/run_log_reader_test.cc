@@ -7,20 +7,17 @@
 
 #include "gtest/gtest.h"
 #include "io_drivers/run_log.h"
+#include "tests/support/temp_dir_test.h"
 
 namespace kcrig {
 namespace {
 
 namespace fs = std::filesystem;
 
-class RunLogReaderTest : public ::testing::Test {
+class RunLogReaderTest : public TempDirTest {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           (std::string("kcrig_reader_") +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    TempDirTest::SetUp();
     RunLog log;
     for (int j = 0; j < 5; ++j) {
       LogSample s;
@@ -40,7 +37,6 @@ class RunLogReaderTest : public ::testing::Test {
     text << in.rdbuf();
     csv_ = text.str();
   }
-  void TearDown() override { fs::remove_all(dir_); }
 
   std::string Csv() const { return (dir_ / "run.csv").string(); }
   void WriteCsv(const std::string& text) { std::ofstream(Csv()) << text; }
@@ -64,7 +60,6 @@ class RunLogReaderTest : public ::testing::Test {
     WriteCsv(out);
   }
 
-  fs::path dir_;
   std::string csv_;
 };
 
