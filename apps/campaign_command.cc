@@ -13,6 +13,7 @@
 #include "apps/progress.h"
 #include "designer/campaign.h"
 #include "emulator/simulated_run.h"
+#include "estimator/estimate_io.h"
 #include "io_drivers/config_loader.h"
 #include "io_drivers/run_log.h"
 
@@ -51,7 +52,7 @@ std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
                   it.experiment.phi / kDegree, it.experiment.z_a);
     out += cell;
     for (const ParameterEstimate& p : it.estimate.parameters) {
-      const double scale = p.unit == "N/m" ? 1e-3 : 1.0;
+      const double scale = DisplayScale(p);
       if (p.identifiable) {
         std::snprintf(cell, sizeof(cell), " %9.2f +-%6.2f", p.value * scale,
                       0.5 * (p.ci95_high - p.ci95_low) * scale);

@@ -148,10 +148,7 @@ int RunDesign(const DesignArgs& args) {
       args.augment ? ", added to its data" : "", bounds.phi.lower / kDegree,
       bounds.phi.upper / kDegree, bounds.z_a.lower, bounds.z_a.upper);
   std::printf("%s", ComparisonTable(criterion, runs).c_str());
-  const DesignRun* best = &runs.front();
-  for (const DesignRun& run : runs) {
-    if (run.result.best_value < best->result.best_value) best = &run;
-  }
+  const DesignRun* best = &runs[BestRun(runs)];
   std::printf("  optimal design: phi %.2f deg, z_a %.3f m (%s)%s\n",
               best->result.best.phi / kDegree, best->result.best.z_a,
               best->result.optimizer.c_str(),

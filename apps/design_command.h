@@ -11,8 +11,6 @@
 
 namespace kcrig {
 
-class ProgressLine;
-
 void AddDesignCommand(CLI::App* app, std::function<int()>* run);
 
 // "kriging: 24/100 evaluations, best D -77.1058 at 16.0 deg, -0.500 m, 0.7 s"

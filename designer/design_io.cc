@@ -15,6 +15,8 @@ nlohmann::ordered_json Point(const Design& d, double value) {
   return {{"phi_deg", d.phi / kDegree}, {"z_a", d.z_a}, {"value", value}};
 }
 
+}  // namespace
+
 size_t BestRun(const std::vector<DesignRun>& runs) {
   size_t best = 0;
   for (size_t i = 1; i < runs.size(); ++i) {
@@ -22,8 +24,6 @@ size_t BestRun(const std::vector<DesignRun>& runs) {
   }
   return best;
 }
-
-}  // namespace
 
 std::string DesignRunsToJson(Criterion criterion,
                              const std::vector<DesignRun>& runs) {

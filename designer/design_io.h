@@ -17,6 +17,9 @@ struct DesignRun {
   std::vector<DesignEvaluation> record;
 };
 
+// Index of the run with the lowest criterion; `runs` must be non-empty.
+size_t BestRun(const std::vector<DesignRun>& runs);
+
 // The best run is the headline (criterion, initial and optimal design with
 // values, evaluations, seconds, optimizer); "runs" lists all of them with
 // their paths and evaluated points.

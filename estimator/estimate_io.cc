@@ -25,15 +25,15 @@ nlohmann::ordered_json Matrix(const Eigen::MatrixXd& m) {
   return rows;
 }
 
-// Stiffnesses read best in N/mm, everything else in its SI unit.
+}  // namespace
+
 double DisplayScale(const ParameterEstimate& p) {
   return p.unit == "N/m" ? 1e-3 : 1.0;
 }
+
 std::string DisplayUnit(const ParameterEstimate& p) {
   return p.unit == "N/m" ? "N/mm" : p.unit;
 }
-
-}  // namespace
 
 std::string EstimationResultToJson(
     const EstimationResult& result, const std::vector<std::string>& logs,

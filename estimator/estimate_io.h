@@ -14,6 +14,11 @@
 
 namespace kcrig {
 
+// Stiffnesses read best in N/mm, everything else in its SI unit: the factor
+// from SI to the displayed unit, and that unit.
+double DisplayScale(const ParameterEstimate& p);
+std::string DisplayUnit(const ParameterEstimate& p);
+
 // `profiles` may be empty (not computed).
 std::string EstimationResultToJson(
     const EstimationResult& result, const std::vector<std::string>& logs,
