@@ -70,6 +70,7 @@ Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
   std::vector<double> current = ParameterValues(config.model, indices);
   Design design{config.experiment.phi, config.experiment.z_a};
   std::vector<std::string> logs;
+  std::vector<Experiment> experiments;  // one per log, in order
   for (int k = 0; k <= options.iterations; ++k) {
     CampaignIteration it;
     it.index = k;
@@ -95,8 +96,9 @@ Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
     std::snprintf(text, sizeof(text), "iteration %d: estimating from %zu log%s",
                   k, logs.size(), logs.size() == 1 ? "" : "s");
     stage(text);
-    std::vector<Experiment> experiments;
-    status = LoadExperiments(logs, config.experiment.step, &experiments);
+    // Only the new log is read; the earlier ones are kept.
+    status = LoadExperiment(csv, config.experiment.step,
+                            &experiments.emplace_back());
     if (!status.ok()) return status;
     status = Estimate(config.model, experiments, options.estimator, current,
                       config.experiment.step, &it.estimate);
