@@ -17,11 +17,6 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
-// Effects of the true plant (DESIGN.md §4); implemented with the emulator.
-constexpr const char* kEffectNames[] = {
-    "bushing_damping", "hysteresis",     "progressive_stiffness",
-    "actuator_lag",    "rig_compliance", "sensor_offset"};
-
 struct SimulateArgs {
   std::string config_dir;
   // Unset means "the config's default".
@@ -47,20 +42,6 @@ Status ApplySet(const std::string& assignment,
   }
   return Status::Error("--set " + assignment + ": unknown parameter '" + name +
                        "' (e.g. c_O1, d_P, k_spring, mass, O1.x)");
-}
-
-Status CheckEffect(const std::string& spec) {
-  const std::string name = spec.substr(0, spec.find(':'));
-  for (const char* known : kEffectNames) {
-    if (name == known) {
-      return Status::Error("--effect " + spec +
-                           ": unmodelled effects are not available yet "
-                           "(they arrive with the emulator)");
-    }
-  }
-  return Status::Error("--effect " + spec + ": unknown effect '" + name +
-                       "' (bushing_damping, hysteresis, progressive_stiffness, "
-                       "actuator_lag, rig_compliance, sensor_offset)");
 }
 
 // Resolves command-line values over the config defaults and checks them.
@@ -138,8 +119,9 @@ int RunSimulate(const SimulateArgs& args) {
   }
   status = ValidateModel(config.model, "--set");
   if (!status.ok()) return fail(status);
+  SimulatedRunOptions run_options;
   for (const std::string& effect : args.effects) {
-    status = CheckEffect(effect);
+    status = ParseEffect(effect, &run_options.effects);
     if (!status.ok()) return fail(status);
   }
 
@@ -148,7 +130,6 @@ int RunSimulate(const SimulateArgs& args) {
   status = ResolveExcitation(args, config.experiment, &excitation, &rate);
   if (!status.ok()) return fail(status);
 
-  SimulatedRunOptions run_options;
   run_options.rate = rate;
   run_options.noise = args.noise;
   run_options.seed = args.seed;
@@ -193,7 +174,9 @@ void AddSimulateCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--seed", args->seed, "Noise seed");
   cmd->add_option("--effect", args->effects,
                   "Unmodelled effect of the true plant, NAME[:k=v,...] "
-                  "(repeatable)");
+                  "(repeatable; bushing_damping, hysteresis, "
+                  "progressive_stiffness, actuator_lag, rig_compliance, "
+                  "sensor_offset; parameters in rt_core/plant_effects.h)");
   cmd->add_option("--out", args->out,
                   "Run log to write (run.csv; the sidecar run.json beside it)");
   cmd->callback([args, run] { *run = [args] { return RunSimulate(*args); }; });

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "rt_core/measurement_noise.h"
+#include "rt_core/rig_plant.h"
 #include "rt_core/simulation.h"
 
 namespace kcrig {
@@ -23,11 +24,11 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
         ": the sample period must be a whole multiple of the integrator step " +
         std::to_string(experiment.step) + " s (integrator.step)");
   }
-  std::vector<TrajectorySample<double>> trajectory;
-  const Status status = SimulateTrajectory(SuspensionModel<double>(plant), ramp,
-                                           simulation, &trajectory);
-  if (!status.ok()) return status;
-
+  const long num_samples =
+      std::lround(std::floor(ramp.duration * options.rate + 1e-9)) + 1;
+  RigPlant rig(plant, options.effects, experiment.step);
+  const Status settled = rig.Settle(ramp.LoadAt(0.0).force, ramp.z_a);
+  if (!settled.ok()) return settled;
   *log = RunLog();
   RunMetadata& m = log->metadata;
   m.rate = options.rate;
@@ -45,10 +46,21 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
   for (const NamedParameter<double>& p : ListParameters(&copy)) {
     m.truth_parameters.emplace_back(p.name, *p.value);
   }
+  m.truth_effects = DescribeEffects(options.effects);
   MeasurementNoise noise(m.sigma_position, m.sigma_angle, options.seed);
-  log->samples.reserve(trajectory.size());
-  for (const TrajectorySample<double>& s : trajectory) {
-    LogSample sample{s.t, s.force, s.y, Vec3<double>::Zero()};
+  log->samples.reserve(num_samples);
+  long step_index = 0;
+  for (long j = 0; j < num_samples; ++j) {
+    for (int s = 0; j > 0 && s < simulation.steps_per_sample; ++s) {
+      rig.Step(ramp.LoadAt(++step_index * experiment.step).force);
+    }
+    const double t = step_index * experiment.step;
+    if (!rig.Finite(simulation.divergence_limit)) {
+      return Status::Error("simulation diverged at t = " + std::to_string(t) +
+                           " s (state beyond the model's range)");
+    }
+    LogSample sample{t, ramp.LoadAt(t).force, rig.Sensed(),
+                     Vec3<double>::Zero()};
     if (options.noise) noise.Apply(&sample.y);
     log->samples.push_back(sample);
   }

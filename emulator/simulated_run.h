@@ -10,6 +10,7 @@
 #include "io_drivers/config_loader.h"
 #include "io_drivers/run_log.h"
 #include "rt_core/excitation.h"
+#include "rt_core/plant_effects.h"
 
 namespace kcrig {
 
@@ -18,11 +19,14 @@ struct SimulatedRunOptions {
   bool noise = false;      // add the experiment's sensor noise
   std::uint64_t seed = 1;  // of the noise
   std::string transport = "simulation";  // recorded in the sidecar
+  PlantEffects effects;                  // unmodelled effects of the plant
 };
 
-// Simulates `plant` under `ramp` (from the static equilibrium under its
-// first load) and fills `log`: forces exact, channels with noise when asked,
-// sidecar metadata from `experiment` (sigmas, step) and the plant as truth.
+// Simulates `plant` with options.effects (rt_core/rig_plant.h) under `ramp`
+// (from the static equilibrium under its first load) and fills `log`: forces
+// exact (the load cell's), channels as the sensors read them with noise when
+// asked, sidecar metadata from `experiment` (sigmas, step) and the plant and
+// its effects as truth.
 Status SimulateRun(const SuspensionParameters<double>& plant,
                    const RampExcitation<double>& ramp,
                    const ExperimentConfig& experiment,

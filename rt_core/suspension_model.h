@@ -137,7 +137,8 @@ class SuspensionModel {
           (point_velocity - u * u.dot(point_velocity)) / length;
       Vec6<T> g;
       g << e_world, b.cross(rot_t * e_world) - w.cross(u_body);
-      const Vec6<T> dmagnitude_dq = e.damping * g - e.stiffness * a;
+      const Vec6<T> dmagnitude_dq =
+          e.damping * g - element.tangent_stiffness * a;
       const Vec6<T> damped_a = e.damping * a;
       // Rank-one updates as plain loops: Eigen's generic outer product costs
       // several times more per Jet multiply.
@@ -173,6 +174,36 @@ class SuspensionModel {
         dq_dq.template rightCols<3>() * cardan.RateMatrix();
   }
 
+  // Unmodelled-effect hooks of the plant (rt_core/rig_plant.h); both zero in
+  // the nominal model. A cubic term c3 (l - l0)^3 on every bushing's axial
+  // force (progressive rubber stiffness; in Q and its Jacobian), and an extra
+  // axial force per bushing, linearised about a reference deflection
+  // (hysteresis, whose state the plant updates after each step; the tangent
+  // keeps the semi-implicit step stable when it is stiff).
+  struct ExtraBushingForce {
+    std::array<T, kNumBushings> force{};      // at the reference [N]
+    std::array<T, kNumBushings> stiffness{};  // tangent [N/m]
+    std::array<T, kNumBushings> reference{};  // deflection l - l0 [m]
+  };
+  void SetProgressiveStiffness(const T& cubic_stiffness) {
+    cubic_stiffness_ = cubic_stiffness;
+  }
+  void SetExtraBushingForce(const ExtraBushingForce& extra) { extra_ = extra; }
+
+  // Length change l - l0 of each bushing's link at pose y [m].
+  std::array<T, kNumBushings> BushingDeflections(const Vec6<T>& y) const {
+    const Mat3<T> rot = CardanAngles<T>(y.template tail<3>()).Rotation();
+    std::array<T, kNumBushings> deflections;
+    for (int i = 0; i < kNumBushings; ++i) {
+      const AxialElement<T>& e = Element(i);
+      deflections[i] =
+          (e.chassis_point - y.template head<3>() - rot * e.carrier_point)
+              .norm() -
+          free_length_[i];
+    }
+    return deflections;
+  }
+
   // Axial force of each element (the five bushings in BushingIndex order,
   // then the spring-damper), positive in tension [N].
   Vec6<T> ElementForces(const Vec6<T>& y, const Vec6<T>& z) const {
@@ -195,13 +226,15 @@ class SuspensionModel {
   // One element at the pose (r, R): length l, unit vector u from the carrier
   // point to the chassis point (rig frame) and u_b = R^T u, the generalized
   // direction a = [u; b x u_b] (dl/dt = -a^T z) and the axial force
-  // m = c (l - l0) + d dl/dt, positive in tension.
+  // m = c (l - l0) + d dl/dt (+ the effect hooks), positive in tension, and
+  // its tangent stiffness dm/dl.
   struct ElementState {
     T length;
     Vec3<T> u;
     Vec3<T> u_body;
     Vec6<T> a;
     T magnitude;
+    T tangent_stiffness;
   };
 
   ElementState StateOf(int i, const Vec3<T>& r, const Mat3<T>& rot,
@@ -213,8 +246,16 @@ class SuspensionModel {
     s.u = d / s.length;
     s.u_body = rot_t * s.u;
     s.a << s.u, e.carrier_point.cross(s.u_body);
-    s.magnitude =
-        e.stiffness * (s.length - free_length_[i]) - e.damping * s.a.dot(z);
+    const T deflection = s.length - free_length_[i];
+    s.magnitude = e.stiffness * deflection - e.damping * s.a.dot(z);
+    s.tangent_stiffness = e.stiffness;
+    if (i < kNumBushings) {
+      const T squared = deflection * deflection;
+      s.magnitude += cubic_stiffness_ * squared * deflection + extra_.force[i] +
+                     extra_.stiffness[i] * (deflection - extra_.reference[i]);
+      s.tangent_stiffness +=
+          T(3) * cubic_stiffness_ * squared + extra_.stiffness[i];
+    }
     return s;
   }
 
@@ -222,6 +263,8 @@ class SuspensionModel {
   std::array<T, kNumElements> free_length_;
   std::array<Mat3<T>, kNumElements> skew_carrier_point_;
   Mat6<T> mass_matrix_;
+  T cubic_stiffness_ = T(0);
+  ExtraBushingForce extra_;
 };
 
 }  // namespace kcrig

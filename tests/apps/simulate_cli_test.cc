@@ -138,8 +138,12 @@ TEST_F(SimulateCliTest, NanParameterFailsCleanly) {
 TEST_F(SimulateCliTest, InconsistentRateAndEffectsFailCleanly) {
   ExpectCleanFailure(RunKcrig("simulate --rate 300 --out " + Out()),
                      "whole multiple of the integrator step");
-  ExpectCleanFailure(RunKcrig("simulate --effect hysteresis --out " + Out()),
-                     "not available yet");
+  ExpectCleanFailure(
+      RunKcrig("simulate --effect hysteresis:force=-3 --out " + Out()),
+      "'force=-3': must be a finite number > 0");
+  ExpectCleanFailure(
+      RunKcrig("simulate --effect rig_compliance:q=3 --out " + Out()),
+      "unknown parameter of rig_compliance (one of k)");
   ExpectCleanFailure(RunKcrig("simulate --effect wobble --out " + Out()),
                      "unknown effect 'wobble'");
   ExpectCleanFailure(RunKcrig("simulate --config /nonexistent --out " + Out()),

@@ -1,0 +1,99 @@
+// The unmodelled effects of DESIGN.md: physical augmentations of the nominal
+// model that a real rig has and the estimator's model lacks. They are the
+// software rig's truth (`kcrig emulate --effect`, `kcrig simulate --effect`)
+// and the diagnosis' candidates. Each is a documented physical model with its
+// parameters in SI units. The defaults are plausible for a rubber-bushed
+// five-link axle on a servo-hydraulic rig; on the paper's slow 4 s ramp some
+// of them stay close to the sensor noise (a rate-dependent effect needs a
+// faster ramp or a hold to show).
+//
+//   bushing_damping        Kelvin-Voigt rubber: every bushing's axial force
+//                          gains d * dl/dt.             d [N s/m] = 3e5
+//   hysteresis             Dahl friction in every bushing: an extra axial
+//                          force h with dh/dl = sigma (1 - h/F sgn(dl/dt)),
+//                          rate-independent, |h| < F.   force F [N] = 400,
+//                                                       sigma [N/m] = 4e7
+//   progressive_stiffness  cubic rubber stiffening: every bushing's axial
+//                          force gains c3 (l - l0)^3.   c3 [N/m^3] = 4e11
+//   actuator_lag           the force acting on the wheel follows the logged
+//                          (load-cell) force through a dead time and a
+//                          first-order lag (load cell at the actuator, fixture
+//                          dynamics between it and the wheel).
+//                                                       tau [s] = 0.05,
+//                                                       dead_time [s] = 0.01
+//   rig_compliance         the clamped body's mounts give: the measured
+//                          wheel-centre position includes F / k per axis.
+//                                                       k [N/m] = 5e7
+//   sensor_offset          per-channel offset and a common scale error of the
+//                          position and angle sensors: m = scale * y + offset.
+//                          x, y, z [m] = 1e-4, -1e-4, 5e-5;
+//                          toe, camber, caster [rad] = 2e-4, -2e-4, 1e-4;
+//                          scale [-] = 1.03
+#ifndef KCRIG_RT_CORE_PLANT_EFFECTS_H_
+#define KCRIG_RT_CORE_PLANT_EFFECTS_H_
+
+#include <array>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rt_core/rotation.h"
+#include "rt_core/status.h"
+
+namespace kcrig {
+
+inline constexpr std::array<std::string_view, 6> kEffectNames = {
+    "bushing_damping", "hysteresis",     "progressive_stiffness",
+    "actuator_lag",    "rig_compliance", "sensor_offset"};
+
+// Which effects the plant has and their parameters (SI). Defaults as in the
+// table above; `enabled` false means the nominal model.
+struct PlantEffects {
+  struct BushingDamping {
+    bool enabled = false;
+    double d = 3e5;  // [N s/m], replaces the model's bushing damping
+  } bushing_damping;
+  struct Hysteresis {
+    bool enabled = false;
+    double force = 400;  // Dahl saturation force F [N]
+    double sigma = 4e7;  // Dahl rest stiffness [N/m]
+  } hysteresis;
+  struct ProgressiveStiffness {
+    bool enabled = false;
+    double c3 = 4e11;  // [N/m^3]
+  } progressive_stiffness;
+  struct ActuatorLag {
+    bool enabled = false;
+    double tau = 0.05;        // first-order time constant [s]
+    double dead_time = 0.01;  // [s]
+  } actuator_lag;
+  struct RigCompliance {
+    bool enabled = false;
+    double k = 5e7;  // mount stiffness per axis [N/m]
+  } rig_compliance;
+  struct SensorOffset {
+    bool enabled = false;
+    Vec6<double> offset =
+        (Vec6<double>() << 1e-4, -1e-4, 5e-5, 2e-4, -2e-4, 1e-4).finished();
+    double scale = 1.03;
+  } sensor_offset;
+
+  bool any() const {
+    return bushing_damping.enabled || hysteresis.enabled ||
+           progressive_stiffness.enabled || actuator_lag.enabled ||
+           rig_compliance.enabled || sensor_offset.enabled;
+  }
+};
+
+// Turns on one effect from "NAME" or "NAME:key=value,key=value" (keys as in
+// the table above: d; force, sigma; c3; tau, dead_time; k; x, y, z, toe,
+// camber, caster, scale). Errors are one line naming the offending part.
+Status ParseEffect(std::string_view text, PlantEffects* effects);
+
+// The enabled effects with all their parameters, in the --effect syntax
+// ("hysteresis:force=150,sigma=4e+07"), for sidecars and messages.
+std::vector<std::string> DescribeEffects(const PlantEffects& effects);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_RT_CORE_PLANT_EFFECTS_H_
