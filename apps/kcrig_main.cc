@@ -6,9 +6,12 @@
 #include "CLI/CLI.hpp"
 #include "apps/campaign_command.h"
 #include "apps/design_command.h"
+#include "apps/emulate_command.h"
 #include "apps/estimate_command.h"
+#include "apps/run_command.h"
 #include "apps/screen_command.h"
 #include "apps/simulate_command.h"
+#include "apps/timing_check_command.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -21,6 +24,9 @@ int main(int argc, char** argv) {
   kcrig::AddScreenCommand(&app, &run);
   kcrig::AddDesignCommand(&app, &run);
   kcrig::AddCampaignCommand(&app, &run);
+  kcrig::AddEmulateCommand(&app, &run);
+  kcrig::AddRunCommand(&app, &run);
+  kcrig::AddTimingCheckCommand(&app, &run);
   // CLI11 would call an unknown subcommand an "extra argument"; say it plainly.
   const auto is_subcommand = [&app](const std::string& name) {
     for (const CLI::App* sub : app.get_subcommands({})) {

@@ -1,5 +1,6 @@
 #include "estimator/estimator.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -216,7 +217,15 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   if (!problem.Evaluate(scaled, &jacobian, &residuals)) {
     return Status::Error("the model cannot be evaluated at the solution");
   }
-  const int m = static_cast<int>(residuals.size());
+  // Rows of unobserved samples (fresh = 0) are zero and carry no data.
+  int unobserved_rows = 0;
+  for (const Experiment& experiment : experiments) {
+    unobserved_rows +=
+        static_cast<int>(std::count(experiment.observed.begin(),
+                                    experiment.observed.end(), false) *
+                         options.channels.size());
+  }
+  const int m = static_cast<int>(residuals.size()) - unobserved_rows;
   result->num_residuals = m;
   result->sigma_hat = m > n ? std::sqrt(2.0 * result->cost / (m - n)) : 0.0;
 
@@ -227,8 +236,10 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   int row = 0;
   for (const Experiment& experiment : experiments) {
     for (size_t j = 0; j < experiment.measured.size(); ++j) {
+      const bool seen = experiment.observed.empty() || experiment.observed[j];
       for (size_t c = 0; c < channels; ++c, ++row) {
         const int k = options.channels[c];
+        if (!seen) continue;
         const double r = residuals(row) * experiment.sigma(k);
         sum_squares(k) += r * r;
         counts(k) += 1;

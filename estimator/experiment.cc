@@ -1,5 +1,6 @@
 #include "estimator/experiment.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "rt_core/excitation.h"
@@ -34,6 +35,7 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
       Vec3<double>::Constant(m.sigma_angle);
   experiment->forces.clear();
   experiment->measured.clear();
+  experiment->observed.clear();
   // The measured force when the rig has a load cell, else the commanded
   // ramp of the sidecar (its time origin is the log's first sample).
   const RampExcitation<double> commanded{m.phi, m.z_a, m.fmax, m.duration};
@@ -41,6 +43,37 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
     experiment->forces.push_back(
         log.has_measured_force ? s.force : commanded.LoadAt(s.t - t0).force);
     experiment->measured.push_back(s.y);
+  }
+  const size_t n = log.samples.size();
+  if (std::any_of(log.samples.begin(), log.samples.end(),
+                  [](const LogSample& s) { return !s.fresh; })) {
+    experiment->observed.resize(n);
+    std::vector<size_t> fresh;
+    for (size_t j = 0; j < n; ++j) {
+      experiment->observed[j] = log.samples[j].fresh;
+      if (log.samples[j].fresh) fresh.push_back(j);
+    }
+    if (fresh.size() < 2) {
+      return Status::Error(source +
+                           ": fewer than two rows with a fresh "
+                           "measurement (column 'fresh')");
+    }
+    // The load between fresh samples, linear in time (the ramp is linear).
+    size_t next = 0;
+    for (size_t j = 0; j < n; ++j) {
+      if (log.samples[j].fresh) continue;
+      while (next < fresh.size() && fresh[next] < j) ++next;
+      const size_t after = std::min(next, fresh.size() - 1);
+      const size_t before = next > 0 ? fresh[next - 1] : fresh[0];
+      const size_t right = fresh[after];
+      const double w = right == before
+                           ? 0.0
+                           : static_cast<double>(j - before) /
+                                 static_cast<double>(right - before);
+      experiment->forces[j] =
+          (1 - std::clamp(w, 0.0, 1.0)) * experiment->forces[before] +
+          std::clamp(w, 0.0, 1.0) * experiment->forces[right];
+    }
   }
   return Status::Ok();
 }

@@ -17,14 +17,19 @@ struct Experiment {
   std::string source;                  // file name, for messages
   std::vector<Vec3<double>> forces;    // load on the wheel at t_j [N]
   std::vector<Vec6<double>> measured;  // x, y, z [m], angles [rad] at t_j
-  double sample_period = 0;            // [s]
-  double z_a = 0;                      // acting height [m]
+  // Whether sample j was measured (a rig log's row with fresh = 0 carries no
+  // new measurement: its residual is zero and its force is interpolated
+  // between the neighbouring fresh samples). Empty: all were.
+  std::vector<bool> observed;
+  double sample_period = 0;  // [s]
+  double z_a = 0;            // acting height [m]
   Vec6<double> sigma = Vec6<double>::Ones();
   int steps_per_sample = 1;  // integrator steps per sample
 };
 
 // Checks that the samples are evenly spaced at the sidecar's rate and that
-// the sample period is a whole multiple of the integrator step.
+// the sample period is a whole multiple of the integrator step; rows without
+// a fresh sample become unobserved (see Experiment::observed).
 Status MakeExperiment(const std::string& source, const RunLog& log,
                       double integrator_step, Experiment* experiment);
 

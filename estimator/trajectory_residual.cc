@@ -72,12 +72,16 @@ bool TrajectoryResidual::SimulateAndFill(double const* const* parameters,
   std::vector<TrajectorySample<T>> samples;
   if (!SimulateTrajectory(model, load, options, &samples).ok()) return false;
   int row = 0;
+  const std::vector<bool>& observed = experiment_->observed;
   for (size_t j = 0; j < samples.size(); ++j) {
+    const bool seen = observed.empty() || observed[j];
     for (int k : channels_) {
-      const double inverse_sigma = 1.0 / experiment_->sigma(k);
+      // An unobserved sample: zero residual, zero sensitivity.
+      const double inverse_sigma = seen ? 1.0 / experiment_->sigma(k) : 0.0;
       const T& x = samples[j].y(k);
       residuals[row] =
-          (ValueOf(x) - experiment_->measured[j](k)) * inverse_sigma;
+          seen ? (ValueOf(x) - experiment_->measured[j](k)) * inverse_sigma
+               : 0.0;
       if constexpr (!std::is_same_v<T, double>) {
         for (int k = 0; k < count; ++k) {
           if (jacobians[first + k] != nullptr) {

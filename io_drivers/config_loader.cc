@@ -14,6 +14,12 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
+#define KCRIG_RETURN_IF_ERROR(expr)    \
+  do {                                 \
+    const Status _status = (expr);     \
+    if (!_status.ok()) return _status; \
+  } while (0)
+
 // Walks one YAML document and turns every problem into "file:line: key: what".
 class YamlReader {
  public:
@@ -49,6 +55,44 @@ class YamlReader {
     Status status = Child(parent, parent_key, key, &node);
     if (!status.ok()) return status;
     return ToNumber(node, Join(parent_key, key), out);
+  }
+
+  // Number with a range: > 0 (`strictly`) or >= 0.
+  Status Positive(const YAML::Node& parent, const std::string& parent_key,
+                  const std::string& key, double* out,
+                  bool strictly = true) const {
+    KCRIG_RETURN_IF_ERROR(Number(parent, parent_key, key, out));
+    if (strictly ? !(*out > 0) : !(*out >= 0)) {
+      return Error(parent[key], Join(parent_key, key),
+                   strictly ? "must be > 0" : "must be >= 0");
+    }
+    return Status::Ok();
+  }
+
+  // A whole number within [lower, upper].
+  Status Integer(const YAML::Node& parent, const std::string& parent_key,
+                 const std::string& key, int lower, int upper, int* out) const {
+    double value = 0;
+    KCRIG_RETURN_IF_ERROR(Number(parent, parent_key, key, &value));
+    if (value != std::floor(value) || value < lower || value > upper) {
+      return Error(parent[key], Join(parent_key, key),
+                   "must be a whole number in [" + std::to_string(lower) +
+                       ", " + std::to_string(upper) + "]");
+    }
+    *out = static_cast<int>(value);
+    return Status::Ok();
+  }
+
+  Status Boolean(const YAML::Node& parent, const std::string& parent_key,
+                 const std::string& key, bool* out) const {
+    YAML::Node node;
+    KCRIG_RETURN_IF_ERROR(Child(parent, parent_key, key, &node));
+    try {
+      *out = node.as<bool>();
+    } catch (const YAML::Exception&) {
+      return Error(node, Join(parent_key, key), "expected true or false");
+    }
+    return Status::Ok();
   }
 
   Status Vector3(const YAML::Node& parent, const std::string& parent_key,
@@ -115,12 +159,6 @@ class YamlReader {
 
   std::string file_;
 };
-
-#define KCRIG_RETURN_IF_ERROR(expr)    \
-  do {                                 \
-    const Status _status = (expr);     \
-    if (!_status.ok()) return _status; \
-  } while (0)
 
 Status LoadElement(const YamlReader& reader, const YAML::Node& parent,
                    const std::string& parent_key, const std::string& name,
@@ -313,13 +351,8 @@ Status LoadPlantConfig(const std::string& directory,
         reader.Number(truth, "true_parameters", name, match->value));
   }
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "sensors", &sensors));
-  YAML::Node noise;
-  KCRIG_RETURN_IF_ERROR(reader.Child(sensors, "sensors", "noise", &noise));
-  try {
-    plant->noise = noise.as<bool>();
-  } catch (const YAML::Exception&) {
-    return reader.Error(noise, "sensors.noise", "expected true or false");
-  }
+  KCRIG_RETURN_IF_ERROR(
+      reader.Boolean(sensors, "sensors", "noise", &plant->noise));
   double seed = 0;
   KCRIG_RETURN_IF_ERROR(reader.Number(sensors, "sensors", "seed", &seed));
   if (seed < 0 || seed != std::floor(seed) || seed > 9.0e15) {
@@ -327,7 +360,226 @@ Status LoadPlantConfig(const std::string& directory,
                         "must be a whole number >= 0");
   }
   plant->seed = static_cast<std::uint64_t>(seed);
+  std::vector<double> offset;
+  KCRIG_RETURN_IF_ERROR(reader.List(sensors, "sensors", "offset", 6, &offset));
+  for (int k = 0; k < 6; ++k) plant->sensor_offset(k) = offset[k];
+  KCRIG_RETURN_IF_ERROR(reader.Positive(sensors, "sensors",
+                                        "position_resolution",
+                                        &plant->position_resolution, false));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(sensors, "sensors", "angle_resolution",
+                                        &plant->angle_resolution, false));
+  YAML::Node actuator, rig, load_cell;
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "actuator", &actuator));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(actuator, "actuator", "tau", &plant->actuator_tau));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(actuator, "actuator", "dead_time",
+                                        &plant->actuator_dead_time, false));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(actuator, "actuator", "force_max",
+                                        &plant->actuator_force_max));
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "rig", &rig));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(rig, "rig", "step", &plant->step));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(rig, "rig", "travel_max", &plant->travel_max));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(rig, "rig", "command_timeout", &plant->command_timeout));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(rig, "rig", "ramp_down_time", &plant->ramp_down_time));
+  if (plant->step > 1e-3) {
+    return reader.Error(rig["step"], "rig.step",
+                        "must be <= 0.001 s (the plant runs finer than the "
+                        "controller)");
+  }
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "load_cell", &load_cell));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(load_cell, "load_cell", "sigma",
+                                        &plant->load_cell_sigma, false));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(load_cell, "load_cell", "resolution",
+                                        &plant->load_cell_resolution, false));
   return ValidateModel(plant->model, file);
+}
+
+Status LoadRigConfig(const std::string& directory, RigConfig* rig) {
+  const std::string file =
+      (std::filesystem::path(directory) / "rig.yaml").string();
+  YamlReader reader(file);
+  YAML::Node root, loop, realtime, profile, safety, budget, modbus, rtu;
+  KCRIG_RETURN_IF_ERROR(reader.Load(&root));
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "loop", &loop));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(loop, "loop", "period", &rig->period));
+  if (rig->period < 1e-4 || rig->period > 0.1) {
+    return reader.Error(loop["period"], "loop.period",
+                        "must be within [0.0001, 0.1] s");
+  }
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "realtime", &realtime));
+  KCRIG_RETURN_IF_ERROR(reader.Integer(realtime, "realtime", "priority", 0, 99,
+                                       &rig->realtime.priority));
+  KCRIG_RETURN_IF_ERROR(reader.Integer(realtime, "realtime", "cpu", -1, 1023,
+                                       &rig->realtime.cpu));
+  KCRIG_RETURN_IF_ERROR(reader.Boolean(realtime, "realtime", "lock_memory",
+                                       &rig->realtime.lock_memory));
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "run_profile", &profile));
+  RunProfileTimes& p = rig->profile;
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(profile, "run_profile", "tare", &p.tare));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(profile, "run_profile", "lead_in", &p.lead_in));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(profile, "run_profile", "settle", &p.settle, false));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(profile, "run_profile", "ramp_down", &p.ramp_down));
+
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "safety", &safety));
+  SafetyLimits& l = rig->safety;
+  double angle_max_deg = 0, error_angle_max_deg = 0;
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(safety, "safety", "force_max", &l.force_max));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(safety, "safety", "force_rate_max", &l.force_rate_max));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(safety, "safety", "travel_max", &l.travel_max));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(safety, "safety", "angle_max_deg", &angle_max_deg));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(safety, "safety", "error_position_max",
+                                        &l.error_position_max));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(safety, "safety", "error_angle_max_deg",
+                                        &error_angle_max_deg));
+  KCRIG_RETURN_IF_ERROR(reader.Integer(safety, "safety", "watchdog_cycles", 1,
+                                       100000, &l.watchdog_cycles));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(safety, "safety", "ramp_down_time", &l.ramp_down_time));
+  l.angle_max = angle_max_deg * kDegree;
+  l.error_angle_max = error_angle_max_deg * kDegree;
+  if (l.force_max / l.ramp_down_time > l.force_rate_max) {
+    return reader.Error(safety["ramp_down_time"], "safety.ramp_down_time",
+                        "a trip at force_max would ramp down faster than "
+                        "force_rate_max allows");
+  }
+
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "timing_budget", &budget));
+  TimingBudget& b = rig->budget;
+  KCRIG_RETURN_IF_ERROR(reader.Positive(budget, "timing_budget",
+                                        "compute_p999_fraction",
+                                        &b.compute_p999_fraction));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(budget, "timing_budget", "wakeup_p99", &b.wakeup_p99));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(
+      budget, "timing_budget", "cycle_p999_fraction", &b.cycle_p999_fraction));
+
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "modbus", &modbus));
+  ModbusSettings& m = rig->modbus;
+  YAML::Node map;
+  KCRIG_RETURN_IF_ERROR(reader.Child(modbus, "modbus", "map", &map));
+  m.map_file =
+      (std::filesystem::path(directory) / map.as<std::string>()).string();
+  KCRIG_RETURN_IF_ERROR(reader.Positive(modbus, "modbus", "response_timeout",
+                                        &m.response_timeout));
+  if (m.response_timeout > 0.5 * rig->period) {
+    return reader.Error(modbus["response_timeout"], "modbus.response_timeout",
+                        "must be <= half of loop.period (a read and a write "
+                        "share one cycle)");
+  }
+  KCRIG_RETURN_IF_ERROR(reader.Positive(modbus, "modbus", "reconnect_interval",
+                                        &m.reconnect_interval));
+  KCRIG_RETURN_IF_ERROR(reader.Child(modbus, "modbus", "rtu", &rtu));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Integer(rtu, "modbus.rtu", "baud", 300, 4000000, &m.baud));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Integer(rtu, "modbus.rtu", "data_bits", 5, 8, &m.data_bits));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Integer(rtu, "modbus.rtu", "stop_bits", 1, 2, &m.stop_bits));
+  YAML::Node parity;
+  KCRIG_RETURN_IF_ERROR(reader.Child(rtu, "modbus.rtu", "parity", &parity));
+  const std::string parity_text = parity.as<std::string>();
+  if (parity_text != "N" && parity_text != "E" && parity_text != "O") {
+    return reader.Error(parity, "modbus.rtu.parity", "must be N, E or O");
+  }
+  m.parity = parity_text[0];
+  return Status::Ok();
+}
+
+int ModbusMap::holding_count() const {
+  int end = std::max(control_word, sequence) + 1;
+  for (int a : setpoint) end = std::max(end, a + 2);
+  end = std::max(end, z_a + 2);
+  return end;
+}
+
+int ModbusMap::input_count() const {
+  int end = std::max({status, fault_code, sequence_echo, protocol}) + 1;
+  end = std::max(end, sample + 2);
+  for (int a : force) end = std::max(end, a + 2);
+  for (int a : y) end = std::max(end, a + 2);
+  return end;
+}
+
+Status LoadModbusMap(const std::string& file, ModbusMap* map) {
+  YamlReader reader(file);
+  YAML::Node root, holding, input, order;
+  KCRIG_RETURN_IF_ERROR(reader.Load(&root));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Integer(root, "", "unit_id", 0, 247, &map->unit_id));
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "word_order", &order));
+  const std::string order_text = order.as<std::string>();
+  if (order_text != "high_word_first" && order_text != "low_word_first") {
+    return reader.Error(order, "word_order",
+                        "must be high_word_first or low_word_first");
+  }
+  map->high_word_first = order_text == "high_word_first";
+  // (key, address, registers) per table; overlaps are errors.
+  struct Field {
+    const char* key;
+    int* address;
+    int width;
+  };
+  const Field holding_fields[] = {{"control_word", &map->control_word, 1},
+                                  {"sequence", &map->sequence, 1},
+                                  {"fx_setpoint", &map->setpoint[0], 2},
+                                  {"fy_setpoint", &map->setpoint[1], 2},
+                                  {"fz_setpoint", &map->setpoint[2], 2},
+                                  {"za_setpoint", &map->z_a, 2}};
+  const Field input_fields[] = {{"status", &map->status, 1},
+                                {"fault_code", &map->fault_code, 1},
+                                {"sample", &map->sample, 2},
+                                {"sequence_echo", &map->sequence_echo, 1},
+                                {"protocol", &map->protocol, 1},
+                                {"fx", &map->force[0], 2},
+                                {"fy", &map->force[1], 2},
+                                {"fz", &map->force[2], 2},
+                                {"x", &map->y[0], 2},
+                                {"y", &map->y[1], 2},
+                                {"z", &map->y[2], 2},
+                                {"toe", &map->y[3], 2},
+                                {"camber", &map->y[4], 2},
+                                {"caster", &map->y[5], 2}};
+  auto load_table = [&](const char* table, const Field* fields,
+                        size_t count) -> Status {
+    YAML::Node node;
+    KCRIG_RETURN_IF_ERROR(reader.Child(root, "", table, &node));
+    std::vector<int> owner(256, -1);
+    for (size_t i = 0; i < count; ++i) {
+      KCRIG_RETURN_IF_ERROR(reader.Integer(node, table, fields[i].key, 0, 254,
+                                           fields[i].address));
+      for (int r = 0; r < fields[i].width; ++r) {
+        int& slot = owner[*fields[i].address + r];
+        if (slot >= 0) {
+          return reader.Error(node[fields[i].key],
+                              std::string(table) + "." + fields[i].key,
+                              "overlaps " + std::string(fields[slot].key));
+        }
+        slot = static_cast<int>(i);
+      }
+    }
+    return Status::Ok();
+  };
+  KCRIG_RETURN_IF_ERROR(load_table("holding_registers", holding_fields,
+                                   std::size(holding_fields)));
+  KCRIG_RETURN_IF_ERROR(
+      load_table("input_registers", input_fields, std::size(input_fields)));
+  if (map->input_count() > 125 || map->holding_count() > 123) {
+    return Status::Error(file +
+                         ": the map must fit one request per table (<= 125 "
+                         "input, <= 123 holding registers)");
+  }
+  return Status::Ok();
 }
 
 std::string DefaultConfigDirectory() {

@@ -29,6 +29,11 @@ std::string FormatCsv(const RunLog& log) {
                         ? "t,Fx,Fy,Fz,x,y,z,toe,camber,caster"
                         : "t,x,y,z,toe,camber,caster";
   if (log.has_commanded_force) csv += ",Fx_cmd,Fy_cmd,Fz_cmd";
+  if (log.has_loop_columns) {
+    csv +=
+        ",fresh,phase,safety,rig_sample,rig_status,x_model,y_model,z_model,"
+        "toe_model,camber_model,caster_model";
+  }
   csv += '\n';
   csv.reserve(log.samples.size() * 200);
   for (const LogSample& s : log.samples) {
@@ -45,6 +50,16 @@ std::string FormatCsv(const RunLog& log) {
       for (int k = 0; k < 3; ++k) {
         csv += ',';
         AppendNumber(s.commanded(k), &csv);
+      }
+    }
+    if (log.has_loop_columns) {
+      csv += s.fresh ? ",1," : ",0,";
+      csv += s.phase;
+      csv += ',' + std::to_string(s.safety) + ',' +
+             std::to_string(s.rig_sample) + ',' + std::to_string(s.rig_status);
+      for (int k = 0; k < 6; ++k) {
+        csv += ',';
+        AppendNumber(s.predicted(k), &csv);
       }
     }
     csv += '\n';
@@ -77,6 +92,8 @@ std::string FormatSidecar(const RunLog& log) {
                               {"angle_rad", m.sigma_angle}};
   doc["noise"] = {{"added", m.noise_added}, {"seed", m.seed}};
   doc["transport"] = m.transport;
+  if (!m.hil_json.empty())
+    doc["hil"] = nlohmann::ordered_json::parse(m.hil_json);
   if (m.synthetic) {
     nlohmann::ordered_json parameters;
     for (const auto& [name, value] : m.truth_parameters) {
@@ -235,6 +252,7 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
                          ":1: Fx_cmd, Fy_cmd, Fz_cmd must appear together");
   }
   log->has_commanded_force = commanded_found == 3;
+  const int fresh_column = find("fresh");
   log->samples.clear();
 
   long line_number = 1;
@@ -269,6 +287,15 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
                                "': not a finite number");
         }
       }
+    }
+    if (fresh_column >= 0) {
+      const std::string_view fresh = fields[fresh_column];
+      if (fresh != "0" && fresh != "1") {
+        return Status::Error(where +
+                             ": column 'fresh': expected 0 or 1, got '" +
+                             std::string(fresh) + "'");
+      }
+      sample.fresh = fresh == "1";
     }
     if (!log->samples.empty() && !(sample.t > log->samples.back().t)) {
       return Status::Error(where + ": time " + std::string(fields[column[0]]) +

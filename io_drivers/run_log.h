@@ -1,6 +1,7 @@
 // The decoded run log: CSV with header t,Fx,Fy,Fz,x,y,z,toe,camber,caster
 // (s, N, m, rad; Fx,Fy,Fz absent when the rig has no load cell), optionally
-// followed by Fx_cmd,Fy_cmd,Fz_cmd, and a JSON
+// followed by Fx_cmd,Fy_cmd,Fz_cmd and, from a rig run, the loop's columns
+// fresh,phase,safety,rig_sample,rig_status,x_model..caster_model; and a JSON
 // sidecar with the same stem (run.csv -> run.json). Both files appear
 // together or not at all: they are written to temporaries and renamed.
 #ifndef KCRIG_IO_DRIVERS_RUN_LOG_H_
@@ -8,6 +9,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -21,6 +23,16 @@ struct LogSample {
   Vec3<double> force = Vec3<double>::Zero();      // on the wheel [N]
   Vec6<double> y = Vec6<double>::Zero();          // x, y, z [m], angles [rad]
   Vec3<double> commanded = Vec3<double>::Zero();  // only with commanded force
+  // A rig log's loop columns (RunLog::has_loop_columns): whether a new rig
+  // sample arrived in this cycle (else force and y repeat the last one),
+  // the run phase and safety state, the rig's sample counter and status,
+  // and the live model prediction relative to the rest pose.
+  bool fresh = true;
+  std::string_view phase;  // static strings: RunPhaseName()
+  int safety = 0;          // SafetyState
+  std::uint32_t rig_sample = 0;
+  std::uint16_t rig_status = 0;
+  Vec6<double> predicted = Vec6<double>::Zero();
 };
 
 struct RunMetadata {
@@ -36,6 +48,9 @@ struct RunMetadata {
   bool synthetic = false;
   std::vector<std::pair<std::string, double>> truth_parameters;
   std::vector<std::string> truth_effects;
+  // Rig runs: a JSON object with the run's phases, safety outcome and loop
+  // counters, written to the sidecar as "hil" (not read back).
+  std::string hil_json;
 };
 
 struct RunLog {
@@ -44,6 +59,9 @@ struct RunLog {
   // the commanded excitation of the sidecar (LogSample::force stays zero).
   bool has_measured_force = true;
   bool has_commanded_force = false;
+  // fresh,phase,safety,rig_sample,rig_status,x_model..caster_model after
+  // the channels (written by `kcrig run`; the reader uses `fresh`).
+  bool has_loop_columns = false;
   RunMetadata metadata;
 };
 

@@ -8,7 +8,9 @@
 #define KCRIG_RT_CORE_EXCITATION_H_
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "rt_core/suspension_model.h"
@@ -65,6 +67,49 @@ struct SampledLoad {
     load.point << T(0), T(0), z_a;
     return load;
   }
+};
+
+// The whole force history of a rig run, as a level in multiples of Fmax that
+// is piecewise linear over consecutive phases: the rig starts at rest at zero
+// force, the sensors are tared, the force leads in to -Fmax and settles, the
+// paper's ramp runs -Fmax -> +Fmax over tf, and the force ramps back to zero.
+// Allocation-free; the real-time loop evaluates it every cycle.
+enum class RunPhase : std::uint8_t {
+  kTare = 0,  // at rest, zero force: the rest pose is measured
+  kLeadIn,    // 0 -> -Fmax
+  kSettle,    // hold -Fmax
+  kRamp,      // -Fmax -> +Fmax over tf (the paper's excitation)
+  kRampDown,  // +Fmax -> 0
+  kDone,
+};
+
+const char* RunPhaseName(RunPhase phase);
+
+struct RunProfileTimes {
+  double tare = 0.2;       // [s]
+  double lead_in = 1.0;    // [s]
+  double settle = 0.5;     // [s]
+  double ramp_down = 1.0;  // [s]
+};
+
+class RunProfile {
+ public:
+  RunProfile() = default;
+  // tf: the paper's ramp time [s].
+  RunProfile(const RunProfileTimes& times, double tf);
+
+  // Level in [-1, 1] and phase at time t from the start [s]; kDone (level
+  // 0) after the last phase.
+  double Level(double t) const;
+  RunPhase Phase(double t) const;
+  double duration() const { return end_[kNumPhases - 1]; }
+  // Start time of the paper's ramp [s].
+  double ramp_start() const { return end_[2]; }
+
+ private:
+  static constexpr int kNumPhases = 5;
+  std::array<double, kNumPhases> end_{};    // end time of each phase
+  std::array<double, kNumPhases> level_{};  // level at the end of each phase
 };
 
 }  // namespace kcrig

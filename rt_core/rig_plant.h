@@ -30,6 +30,9 @@ class RigPlant {
   // the step as its load cell reads it.
   void Step(const Vec3<double>& force);
 
+  // Moves the force's acting point (the rig's fixture) [m].
+  void set_z_a(double z_a) { z_a_ = z_a; }
+
   double step() const { return step_; }
   // True pose: x, y, z [m], toe, camber, caster [rad].
   const Vec6<double>& pose() const { return state_.y; }

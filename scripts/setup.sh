@@ -9,6 +9,7 @@ packages=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libsundials-dev can-utils minpack-dev
+  mbpoll python3-pymodbus rt-tests
 )
 
 missing=()

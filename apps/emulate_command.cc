@@ -1,0 +1,123 @@
+#include "apps/emulate_command.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "apps/rig_factory.h"
+#include "emulator/modbus_front_end.h"
+#include "emulator/rig_emulator.h"
+#include "io_drivers/config_loader.h"
+#include "rt_core/plant_effects.h"
+
+namespace kcrig {
+namespace {
+
+struct EmulateArgs {
+  std::string config_dir;
+  std::string modbus_tcp;
+  std::string can;
+  std::vector<std::string> effects;
+  std::optional<std::uint64_t> seed;
+};
+
+Status ParseHostPort(const std::string& text, std::string* host, int* port) {
+  const size_t colon = text.rfind(':');
+  char* end = nullptr;
+  const std::string port_text =
+      colon == std::string::npos ? "" : text.substr(colon + 1);
+  const long value = std::strtol(port_text.c_str(), &end, 10);
+  if (colon == std::string::npos || colon == 0 || port_text.empty() ||
+      *end != '\0' || value < 0 || value > 65535) {
+    return Status::Error("--modbus-tcp " + text +
+                         ": expected HOST:PORT (PORT 0 = any free port)");
+  }
+  *host = text.substr(0, colon);
+  *port = static_cast<int>(value);
+  return Status::Ok();
+}
+
+int RunEmulate(const EmulateArgs& args) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "kcrig emulate: %s\n", status.message().c_str());
+    return 1;
+  };
+  if (!args.can.empty()) {
+    return fail(Status::Error("--can " + args.can +
+                              ": the CAN node is not built yet (it comes "
+                              "with the SocketCAN issue); use --modbus-tcp"));
+  }
+  if (args.modbus_tcp.empty()) {
+    return fail(Status::Error("give --modbus-tcp HOST:PORT"));
+  }
+  std::string host;
+  int port = 0;
+  Status status = ParseHostPort(args.modbus_tcp, &host, &port);
+  if (!status.ok()) return fail(status);
+  KcrigConfig config;
+  status = LoadConfig(args.config_dir, &config);
+  if (!status.ok()) return fail(status);
+  PlantConfig plant;
+  status = LoadPlantConfig(config.directory, config.model, &plant);
+  if (!status.ok()) return fail(status);
+  if (args.seed) plant.seed = *args.seed;
+  RigConfig rig_config;
+  status = LoadRigConfig(config.directory, &rig_config);
+  if (!status.ok()) return fail(status);
+  ModbusMap map;
+  status = LoadModbusMap(rig_config.modbus.map_file, &map);
+  if (!status.ok()) return fail(status);
+  PlantEffects effects;
+  for (const std::string& effect : args.effects) {
+    status = ParseEffect(effect, &effects);
+    if (!status.ok()) return fail(status);
+  }
+
+  const std::atomic<int>& stop = InstallStopSignalHandlers();
+  RigEmulator rig(config, plant, effects);
+  std::string effect_text;
+  for (const std::string& e : DescribeEffects(effects)) {
+    effect_text += (effect_text.empty() ? "" : " ") + e;
+  }
+  status = ServeModbus(&rig, map, host, port, stop, [&](int bound_port) {
+    std::printf(
+        "kcrig emulate: serving modbus-tcp://%s:%d (unit %d, map %s); true "
+        "plant from plant.yaml, effects: %s\n",
+        host.c_str(), bound_port, map.unit_id,
+        rig_config.modbus.map_file.c_str(),
+        effect_text.empty() ? "none" : effect_text.c_str());
+    std::fflush(stdout);
+  });
+  if (!status.ok()) return fail(status);
+  std::printf("kcrig emulate: stopped (signal %d)\n", stop.load());
+  return 0;
+}
+
+}  // namespace
+
+void AddEmulateCommand(CLI::App* app, std::function<int()>* run) {
+  auto args = std::make_shared<EmulateArgs>();
+  CLI::App* cmd = app->add_subcommand(
+      "emulate",
+      "The software rig: hydraulic actuator, true plant with optional "
+      "unmodelled effects, sensors, served over Modbus TCP until SIGINT/"
+      "SIGTERM");
+  cmd->add_option("--config", args->config_dir,
+                  "Config directory (default: installed or source config/)");
+  cmd->add_option("--modbus-tcp", args->modbus_tcp,
+                  "Serve Modbus TCP on HOST:PORT (PORT 0: any free port, "
+                  "printed on start)");
+  cmd->add_option("--can", args->can, "CAN interface (SocketCAN issue)");
+  cmd->add_option("--effect", args->effects,
+                  "Unmodelled effect of the true plant, NAME[:k=v,...] "
+                  "(repeatable; as kcrig simulate)");
+  cmd->add_option_function<std::uint64_t>(
+      "--seed", [args](const std::uint64_t& seed) { args->seed = seed; },
+      "Sensor-noise seed (default: plant.yaml)");
+  cmd->callback([args, run] { *run = [args] { return RunEmulate(*args); }; });
+}
+
+}  // namespace kcrig

@@ -1,0 +1,44 @@
+#include "apps/rig_factory.h"
+
+#include <csignal>
+
+#include "io_drivers/modbus_rig.h"
+
+namespace kcrig {
+namespace {
+
+std::atomic<int> g_stop_signal{0};
+
+extern "C" void OnStopSignal(int signal) { g_stop_signal.store(signal); }
+
+}  // namespace
+
+Status MakeRig(const std::string& uri, const RigConfig& rig_config,
+               std::unique_ptr<RigInterface>* rig) {
+  if (uri.rfind("can:", 0) == 0) {
+    return Status::Error("--rig " + uri +
+                         ": the SocketCAN transport is not built yet (it "
+                         "comes with the SocketCAN issue); use "
+                         "modbus-tcp://HOST:PORT");
+  }
+  ModbusEndpoint endpoint;
+  Status status = ParseModbusUri(uri, &endpoint);
+  if (!status.ok()) return status;
+  ModbusMap map;
+  status = LoadModbusMap(rig_config.modbus.map_file, &map);
+  if (!status.ok()) return status;
+  *rig = std::make_unique<ModbusRig>(endpoint, map, rig_config.modbus);
+  return Status::Ok();
+}
+
+const std::atomic<int>& InstallStopSignalHandlers() {
+  struct sigaction action {};
+  action.sa_handler = OnStopSignal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+  return g_stop_signal;
+}
+
+}  // namespace kcrig

@@ -1,0 +1,152 @@
+#include "apps/run_command.h"
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <string>
+
+#include "apps/progress.h"
+#include "apps/rig_factory.h"
+#include "io_drivers/config_loader.h"
+#include "io_drivers/rig_session.h"
+
+namespace kcrig {
+namespace {
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+// Exit status of a run that tripped (0: completed, 1: bad input or I/O).
+constexpr int kTripped = 3;
+
+struct RunArgs {
+  std::string config_dir;
+  std::string rig;
+  std::optional<double> phi_deg, z_a, fmax, duration;
+  std::string log_dir;
+  bool quiet = false;
+};
+
+void PrintOutcome(const char* who, const RigSessionResult& r,
+                  const std::string& log_dir) {
+  const LoopResult& l = r.loop;
+  std::printf("%s: %s\n", who,
+              r.completed ? "completed" : r.trip_message.c_str());
+  std::printf(
+      "  cycles %lld, fresh samples %lld, rows without a fresh sample %lld "
+      "(read errors %lld, stale %lld, cycles skipped by overruns %lld), lost "
+      "rig samples %lld, overruns %lld\n",
+      static_cast<long long>(l.cycles), static_cast<long long>(l.fresh),
+      static_cast<long long>(r.logged_rows - l.fresh),
+      static_cast<long long>(l.read_errors), static_cast<long long>(l.stale),
+      static_cast<long long>(r.filled_rows),
+      static_cast<long long>(l.lost_rig_samples),
+      static_cast<long long>(l.overruns));
+  if (!log_dir.empty()) {
+    std::printf("  wrote %s/run.csv, run.json, timing.json\n", log_dir.c_str());
+  }
+}
+
+int RunRun(const RunArgs& args) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "kcrig run: %s\n", status.message().c_str());
+    return 1;
+  };
+  KcrigConfig config;
+  Status status = LoadConfig(args.config_dir, &config);
+  if (!status.ok()) return fail(status);
+  RigConfig rig_config;
+  status = LoadRigConfig(config.directory, &rig_config);
+  if (!status.ok()) return fail(status);
+  RigSessionOptions options;
+  options.phi = args.phi_deg ? *args.phi_deg * kDegree : config.experiment.phi;
+  options.z_a = args.z_a.value_or(config.experiment.z_a);
+  options.fmax = args.fmax.value_or(config.experiment.fmax);
+  options.tf = args.duration.value_or(config.experiment.duration);
+  options.log_dir = args.log_dir;
+  if (!std::isfinite(options.phi))
+    return fail(Status::Error("--phi: must be finite"));
+  if (!(std::abs(options.z_a) <= 2.0)) {
+    return fail(Status::Error(
+        "--z: must be a finite height within +-2 m of the wheel centre"));
+  }
+  if (!(options.fmax > 0) || options.fmax > rig_config.safety.force_max) {
+    char text[160];
+    std::snprintf(text, sizeof(text),
+                  "--fmax: must be > 0 and <= safety.force_max = %.0f N "
+                  "(rig.yaml)",
+                  rig_config.safety.force_max);
+    return fail(Status::Error(text));
+  }
+  const double ramp_rate = 2 * options.fmax / options.tf;
+  if (!(options.tf > 0) || ramp_rate > rig_config.safety.force_rate_max) {
+    return fail(
+        Status::Error("--duration: the ramp must take > 0 s and stay within "
+                      "safety.force_rate_max (rig.yaml)"));
+  }
+  if (args.log_dir.empty()) return fail(Status::Error("give --log-dir DIR"));
+
+  std::unique_ptr<RigInterface> rig;
+  status = MakeRig(args.rig, rig_config, &rig);
+  if (!status.ok()) return fail(status);
+  status = rig->Configure();
+  if (!status.ok()) return fail(status);
+  options.stop_signal = &InstallStopSignalHandlers();
+  ProgressLine progress(args.quiet);
+  const RunProfile profile(rig_config.profile, options.tf);
+  options.on_progress = [&](double t, RunPhase phase) {
+    char text[128];
+    std::snprintf(text, sizeof(text), "kcrig run: %-9s t = %5.2f / %.2f s",
+                  RunPhaseName(phase), t, profile.duration());
+    progress.Show(text);
+  };
+  std::printf(
+      "kcrig run: %s, phi %.2f deg, z_a %.3f m, Fmax %.2f kN, ramp %.2f s "
+      "(whole run %.2f s at %.0f Hz)\n",
+      rig->Describe().c_str(), options.phi / kDegree, options.z_a,
+      options.fmax * 1e-3, options.tf, profile.duration(),
+      1.0 / rig_config.period);
+  std::fflush(stdout);
+  RigSessionResult result;
+  status = RunRigSession(config, rig_config, rig.get(), options, &result);
+  progress.Clear();
+  for (const std::string& warning : result.realtime.warnings) {
+    std::fprintf(stderr, "kcrig run: warning: %s\n", warning.c_str());
+  }
+  if (!status.ok()) return fail(status);
+  PrintOutcome("kcrig run", result, args.log_dir);
+  return result.completed ? 0 : kTripped;
+}
+
+}  // namespace
+
+void AddRunCommand(CLI::App* app, std::function<int()>* run) {
+  auto args = std::make_shared<RunArgs>();
+  CLI::App* cmd = app->add_subcommand(
+      "run",
+      "One HIL experiment through a rig transport: tare, lead-in, the ramp, "
+      "ramp-down; safety trips ramp the force to zero (exit 3)");
+  cmd->add_option("--config", args->config_dir,
+                  "Config directory (default: installed or source config/)");
+  cmd->add_option("--rig", args->rig,
+                  "modbus-tcp://HOST:PORT or modbus-rtu://DEVICE")
+      ->required();
+  auto optional_number = [cmd](const char* name, std::optional<double>* target,
+                               const char* help) {
+    cmd->add_option_function<double>(
+        name, [target](const double& value) { *target = value; }, help);
+  };
+  optional_number("--phi", &args->phi_deg,
+                  "Force direction in the x-y plane [deg] (default: config)");
+  optional_number("--z", &args->z_a,
+                  "Acting point height relative to the wheel centre [m]");
+  optional_number("--fmax", &args->fmax, "Ramp amplitude [N]");
+  optional_number("--duration", &args->duration, "Ramp time tf [s]");
+  cmd->add_option("--log-dir", args->log_dir,
+                  "Directory for run.csv, run.json and timing.json")
+      ->required();
+  cmd->add_flag("--quiet", args->quiet, "No progress line");
+  cmd->callback([args, run] { *run = [args] { return RunRun(*args); }; });
+}
+
+}  // namespace kcrig

@@ -1,0 +1,195 @@
+#include "apps/timing_check_command.h"
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "apps/progress.h"
+#include "apps/rig_factory.h"
+#include "io_drivers/config_loader.h"
+#include "io_drivers/rig_session.h"
+#include "io_drivers/run_log.h"
+#include "nlohmann/json.hpp"
+#include "rt_core/cycle_timer.h"
+#include "rt_core/realtime.h"
+
+namespace kcrig {
+namespace {
+
+// Exit status when the timing is outside the budget.
+constexpr int kOverBudget = 4;
+
+struct TimingCheckArgs {
+  std::string config_dir;
+  std::string rig;
+  double duration = 10;
+  std::optional<double> rate;
+  double baseline = 5;
+  std::string out;
+  bool quiet = false;
+};
+
+void PrintRow(const char* name, const TimingStatistics& s) {
+  std::printf("  %-22s %8.1f %8.1f %8.1f %8.1f %8.1f %9.1f\n", name,
+              s.min() * 1e-3, s.mean() * 1e-3, s.Percentile(0.5) * 1e-3,
+              s.Percentile(0.99) * 1e-3, s.Percentile(0.999) * 1e-3,
+              s.max() * 1e-3);
+}
+
+int RunTimingCheck(const TimingCheckArgs& args) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "kcrig timing-check: %s\n", status.message().c_str());
+    return 1;
+  };
+  KcrigConfig config;
+  Status status = LoadConfig(args.config_dir, &config);
+  if (!status.ok()) return fail(status);
+  RigConfig rig_config;
+  status = LoadRigConfig(config.directory, &rig_config);
+  if (!status.ok()) return fail(status);
+  if (args.rate) {
+    if (!(*args.rate >= 10 && *args.rate <= 10000)) {
+      return fail(Status::Error("--rate: must be within [10, 10000] Hz"));
+    }
+    rig_config.period = 1.0 / *args.rate;
+  }
+  if (!(args.duration > 0 && args.duration <= 3600) ||
+      !(args.baseline >= 0 && args.baseline <= 3600)) {
+    return fail(
+        Status::Error("--duration and --baseline: must be within (0, 3600] s"));
+  }
+  std::unique_ptr<RigInterface> rig;
+  if (!args.rig.empty()) {
+    status = MakeRig(args.rig, rig_config, &rig);
+    if (!status.ok()) return fail(status);
+    status = rig->Configure();
+    if (!status.ok()) return fail(status);
+  }
+  const std::int64_t period_ns = std::llround(rig_config.period * 1e9);
+  ProgressLine progress(args.quiet);
+
+  // The machine's baseline first, with the loop's scheduling.
+  TimingStatistics baseline;
+  RealtimeReport baseline_realtime;
+  if (args.baseline > 0) {
+    progress.Show("kcrig timing-check: baseline wake-up latency (" +
+                  std::to_string(static_cast<int>(args.baseline)) + " s)");
+    baseline_realtime = SetUpRealtime(rig_config.realtime);
+    baseline = MeasureWakeupLatency(period_ns, args.baseline);
+    LeaveRealtime();
+  }
+
+  // The loop with zero force: a timing check never loads the rig.
+  RigSessionOptions options;
+  options.phi = config.experiment.phi;
+  options.z_a = config.experiment.z_a;
+  options.fmax = 0;
+  options.tf = std::max(args.duration, 1.0);
+  options.max_duration = args.duration;
+  options.stop_signal = &InstallStopSignalHandlers();
+  options.on_progress = [&](double t, RunPhase) {
+    char text[96];
+    std::snprintf(text, sizeof(text),
+                  "kcrig timing-check: loop t = %.1f / %.1f s", t,
+                  args.duration);
+    progress.Show(text);
+  };
+  RigSessionResult result;
+  status = RunRigSession(config, rig_config, rig.get(), options, &result);
+  progress.Clear();
+  if (!status.ok()) return fail(status);
+  for (const std::string& warning : result.realtime.warnings) {
+    std::fprintf(stderr, "kcrig timing-check: warning: %s\n", warning.c_str());
+  }
+
+  // The statistics again from timing.json's numbers: one source.
+  nlohmann::ordered_json doc =
+      nlohmann::ordered_json::parse(result.timing_json);
+  std::printf("kcrig timing-check: %.0f Hz for %.1f s, transport %s\n",
+              1.0 / rig_config.period, args.duration,
+              rig ? rig->Describe().c_str() : "none (model only)");
+  std::printf("  %-22s %8s %8s %8s %8s %8s %9s  [us]\n", "phase", "min", "mean",
+              "p50", "p99", "p99.9", "max");
+  const auto& phases = doc["phases"];
+  for (const char* name : {"wakeup", "read", "compute", "write", "cycle"}) {
+    const auto& p = phases[name];
+    std::printf("  %-22s %8.1f %8.1f %8.1f %8.1f %8.1f %9.1f\n", name,
+                p["min_us"].get<double>(), p["mean_us"].get<double>(),
+                p["p50_us"].get<double>(), p["p99_us"].get<double>(),
+                p["p999_us"].get<double>(), p["max_us"].get<double>());
+  }
+  if (args.baseline > 0) {
+    PrintRow("baseline wake-up", baseline);
+    const double ratio =
+        baseline.Percentile(0.99) > 0
+            ? static_cast<double>(phases["wakeup"]["p99_us"].get<double>() *
+                                  1e3) /
+                  static_cast<double>(baseline.Percentile(0.99))
+            : 0.0;
+    std::printf(
+        "  wake-up p99: kcrig %.1f us vs the machine's baseline %.1f us "
+        "(ratio %.2f; cyclictest-like, same priority and period)\n",
+        phases["wakeup"]["p99_us"].get<double>(),
+        baseline.Percentile(0.99) * 1e-3, ratio);
+    doc["baseline_wakeup"] = {
+        {"method",
+         "clock_nanosleep TIMER_ABSTIME loop without work, same priority and "
+         "period (as cyclictest -m -i)"},
+        {"duration_s", args.baseline},
+        {"sched_fifo", baseline_realtime.fifo},
+        {"count", baseline.count()},
+        {"min_us", baseline.min() * 1e-3},
+        {"mean_us", baseline.mean() * 1e-3},
+        {"p50_us", baseline.Percentile(0.5) * 1e-3},
+        {"p99_us", baseline.Percentile(0.99) * 1e-3},
+        {"p999_us", baseline.Percentile(0.999) * 1e-3},
+        {"max_us", baseline.max() * 1e-3},
+        {"kcrig_to_baseline_p99", ratio}};
+  }
+  std::printf("  overruns %lld (cycles skipped %lld)\n",
+              static_cast<long long>(result.loop.overruns),
+              static_cast<long long>(result.loop.skipped_cycles));
+  const bool within = doc["budget"]["within"].get<bool>();
+  for (const auto& violation : doc["budget"]["violations"]) {
+    std::printf("  over budget: %s\n", violation.get<std::string>().c_str());
+  }
+  std::printf("  budget (rig.yaml timing_budget): %s\n",
+              within ? "within" : "EXCEEDED");
+  if (!args.out.empty()) {
+    status = WriteFilesAtomically({{args.out, doc.dump(2) + "\n"}});
+    if (!status.ok()) return fail(status);
+    std::printf("  wrote %s\n", args.out.c_str());
+  }
+  return within ? 0 : kOverBudget;
+}
+
+}  // namespace
+
+void AddTimingCheckCommand(CLI::App* app, std::function<int()>* run) {
+  auto args = std::make_shared<TimingCheckArgs>();
+  CLI::App* cmd = app->add_subcommand(
+      "timing-check",
+      "Run the step loop (zero force) and check its per-phase timing against "
+      "the budget of rig.yaml; exit 0 only within budget (4 otherwise)");
+  cmd->add_option("--config", args->config_dir,
+                  "Config directory (default: installed or source config/)");
+  cmd->add_option("--rig", args->rig,
+                  "Transport to include, modbus-tcp://HOST:PORT (default: "
+                  "none, the model alone)");
+  cmd->add_option("--duration", args->duration, "Loop run time [s]");
+  cmd->add_option_function<double>(
+      "--rate", [args](const double& rate) { args->rate = rate; },
+      "Loop rate [Hz] (default: rig.yaml loop.period)");
+  cmd->add_option("--baseline", args->baseline,
+                  "Time for the machine's baseline wake-up latency [s] (0: "
+                  "skip)");
+  cmd->add_option("--out", args->out, "timing.json to write");
+  cmd->add_flag("--quiet", args->quiet, "No progress line");
+  cmd->callback(
+      [args, run] { *run = [args] { return RunTimingCheck(*args); }; });
+}
+
+}  // namespace kcrig

@@ -1,0 +1,83 @@
+// The software rig: what `kcrig emulate` serves. A force-controlled
+// hydraulic actuator (set-point clamp, dead time, first-order lag), the true
+// plant with its unmodelled effects (rt_core/rig_plant.h) integrated at the
+// plant's fine step in real time, sensors with offset, noise and
+// quantization, a load cell, and the rig's own protection: a travel limit
+// and a command watchdog that fault the rig and ramp its force to zero.
+// Transport-free: front ends (Modbus here) call AdvanceTo, ApplyCommand and
+// TakeSample.
+#ifndef KCRIG_EMULATOR_RIG_EMULATOR_H_
+#define KCRIG_EMULATOR_RIG_EMULATOR_H_
+
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "io_drivers/config_loader.h"
+#include "rt_core/plant_effects.h"
+#include "rt_core/rig_interface.h"
+#include "rt_core/rig_plant.h"
+
+namespace kcrig {
+
+// The rig's fault codes (Modbus input register fault_code).
+enum RigFaultCode : std::uint16_t {
+  kFaultNone = 0,
+  kFaultTravel = 1,
+  kFaultCommandTimeout = 2,
+  kFaultDiverged = 3,
+};
+
+class RigEmulator {
+ public:
+  RigEmulator(const KcrigConfig& config, const PlantConfig& plant,
+              const PlantEffects& effects);
+
+  // At rest at zero force, time `now` [s].
+  Status Start(double now);
+
+  // Integrates the rig up to `now` [s] (monotonic, any origin).
+  void AdvanceTo(double now);
+
+  // A command from the controller, received at the current time.
+  void ApplyCommand(const RigCommand& command, bool reset_fault);
+
+  // Takes one sample of every sensor (sample counter + 1).
+  RigMeasurement TakeSample();
+
+  std::uint16_t status() const;
+  std::uint16_t fault() const { return fault_; }
+  std::uint16_t last_sequence() const { return last_sequence_; }
+  const RigPlant& plant() const { return plant_; }
+  // The force the actuator applies now [N].
+  const Vec3<double>& actuator_force() const { return actuator_force_; }
+
+ private:
+  void Step();
+  void Fault(RigFaultCode code);
+  double Quantize(double value, double resolution) const;
+
+  PlantConfig config_;
+  ExperimentConfig experiment_;
+  RigPlant plant_;
+  double time_ = 0;          // plant time [s]
+  double last_command_ = 0;  // time of the last command [s]
+  bool enabled_ = false;
+  bool limited_ = false;
+  std::uint16_t fault_ = kFaultNone;
+  double fault_time_ = 0;
+  Vec3<double> fault_setpoint_ = Vec3<double>::Zero();
+  Vec3<double> setpoint_ = Vec3<double>::Zero();
+  Vec3<double> actuator_force_ = Vec3<double>::Zero();
+  std::vector<Vec3<double>> dead_time_line_;
+  size_t dead_time_head_ = 0;
+  double lag_gain_ = 1;
+  std::uint32_t sample_ = 0;
+  std::uint16_t last_sequence_ = 0;
+  std::mt19937_64 rng_;
+  std::normal_distribution<double> normal_{0.0, 1.0};
+};
+
+}  // namespace kcrig
+
+#endif  // KCRIG_EMULATOR_RIG_EMULATOR_H_

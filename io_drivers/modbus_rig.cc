@@ -1,0 +1,223 @@
+#include "io_drivers/modbus_rig.h"
+
+#include <modbus/modbus.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+
+#include "io_drivers/modbus_registers.h"
+
+namespace kcrig {
+namespace {
+
+void SetTimeout(modbus_t* context, double seconds) {
+  const auto micros = static_cast<std::uint32_t>(seconds * 1e6);
+  modbus_set_response_timeout(context, micros / 1000000, micros % 1000000);
+  modbus_set_byte_timeout(context, micros / 1000000, micros % 1000000);
+}
+
+}  // namespace
+
+Status ParseModbusUri(const std::string& uri, ModbusEndpoint* endpoint) {
+  const std::string tcp = "modbus-tcp://", rtu = "modbus-rtu://";
+  if (uri.rfind(rtu, 0) == 0) {
+    endpoint->rtu = true;
+    endpoint->device = uri.substr(rtu.size());
+    if (endpoint->device.empty()) {
+      return Status::Error("--rig " + uri + ": expected modbus-rtu://DEVICE");
+    }
+    return Status::Ok();
+  }
+  if (uri.rfind(tcp, 0) != 0) {
+    return Status::Error("--rig " + uri +
+                         ": expected modbus-tcp://HOST:PORT or "
+                         "modbus-rtu://DEVICE");
+  }
+  const std::string rest = uri.substr(tcp.size());
+  const size_t colon = rest.rfind(':');
+  if (colon == std::string::npos || colon == 0) {
+    return Status::Error("--rig " + uri + ": expected modbus-tcp://HOST:PORT");
+  }
+  char* end = nullptr;
+  const std::string port_text = rest.substr(colon + 1);
+  const long port = std::strtol(port_text.c_str(), &end, 10);
+  if (port_text.empty() || *end != '\0' || port < 1 || port > 65535) {
+    return Status::Error("--rig " + uri + ": port '" + port_text +
+                         "' is not in 1..65535");
+  }
+  endpoint->rtu = false;
+  endpoint->host = rest.substr(0, colon);
+  endpoint->port = static_cast<int>(port);
+  return Status::Ok();
+}
+
+ModbusRig::ModbusRig(const ModbusEndpoint& endpoint, const ModbusMap& map,
+                     const ModbusSettings& settings)
+    : endpoint_(endpoint), map_(map), settings_(settings) {}
+
+ModbusRig::~ModbusRig() {
+  stopping_ = true;
+  wake_.notify_all();
+  if (reconnect_thread_.joinable()) reconnect_thread_.join();
+  if (context_ != nullptr) {
+    modbus_close(context_);
+    modbus_free(context_);
+  }
+}
+
+std::string ModbusRig::Describe() const {
+  if (endpoint_.rtu) return "modbus-rtu://" + endpoint_.device;
+  return "modbus-tcp://" + endpoint_.host + ":" +
+         std::to_string(endpoint_.port);
+}
+
+Status ModbusRig::Configure() {
+  context_ = endpoint_.rtu
+                 ? modbus_new_rtu(endpoint_.device.c_str(), settings_.baud,
+                                  settings_.parity, settings_.data_bits,
+                                  settings_.stop_bits)
+                 : modbus_new_tcp(endpoint_.host.c_str(), endpoint_.port);
+  if (context_ == nullptr) {
+    return Status::Error(Describe() + ": " + modbus_strerror(errno));
+  }
+  modbus_set_slave(context_, map_.unit_id);
+  // Set-up gets a patient timeout; the cycle's short one comes after.
+  SetTimeout(context_, 1.0);
+  if (modbus_connect(context_) == -1) {
+    return Status::Error(Describe() + ": cannot connect (" +
+                         modbus_strerror(errno) + ")");
+  }
+  const int count = map_.input_count();
+  if (modbus_read_input_registers(context_, 0, count, input_) != count) {
+    return Status::Error(Describe() + ": reading input registers 0.." +
+                         std::to_string(count - 1) + " failed (" +
+                         modbus_strerror(errno) + ")");
+  }
+  if (input_[map_.protocol] != kModbusProtocolVersion) {
+    return Status::Error(Describe() + ": input register " +
+                         std::to_string(map_.protocol) + " (protocol) is " +
+                         std::to_string(input_[map_.protocol]) + ", expected " +
+                         std::to_string(kModbusProtocolVersion) +
+                         " (not a kcrig register map?)");
+  }
+  SetTimeout(context_, settings_.response_timeout);
+  connected_ = true;
+  reconnect_thread_ = std::thread([this] { ReconnectLoop(); });
+  return Status::Ok();
+}
+
+Status ModbusRig::WriteControl(std::uint16_t control_word, int attempts) {
+  std::memset(holding_, 0, sizeof(holding_));
+  holding_[map_.control_word] = control_word;
+  holding_[map_.sequence] = ++sequence_;
+  for (int k = 0; k < 3; ++k) {
+    PutFloat32(0.0, map_.high_word_first, &holding_[map_.setpoint[k]]);
+  }
+  PutFloat32(z_a_, map_.high_word_first, &holding_[map_.z_a]);
+  const int count = map_.holding_count();
+  for (int attempt = 0; attempt < attempts; ++attempt) {
+    if (connected_) FlushIfNeeded();
+    if (connected_ &&
+        modbus_write_registers(context_, 0, count, holding_) == count) {
+      return Status::Ok();
+    }
+    if (connected_) OnRequestFailed();
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return Status::Error(Describe() + ": writing the control word failed (" +
+                       modbus_strerror(errno) + ")");
+}
+
+Status ModbusRig::Activate() {
+  // Reset a latched fault, then enable at zero force.
+  Status status = WriteControl(kControlResetFault, 5);
+  if (!status.ok()) return status;
+  return WriteControl(kControlEnable, 5);
+}
+
+Status ModbusRig::Deactivate() { return WriteControl(0, 20); }
+
+void ModbusRig::OnError() { WriteControl(0, 5); }
+
+void ModbusRig::OnRequestFailed() {
+  const int error = errno;
+  // Timeouts, exceptions and malformed replies keep the link.
+  if (error == ETIMEDOUT || (error > MODBUS_ENOBASE && error <= EMBBADSLAVE)) {
+    // The late reply would answer the next request (libmodbus then sees a
+    // wrong transaction id): drop whatever arrived before the next request.
+    flush_before_request_ = true;
+    return;
+  }
+  modbus_close(context_);
+  connected_.store(false, std::memory_order_release);
+  wake_.notify_one();
+}
+
+void ModbusRig::FlushIfNeeded() {
+  if (flush_before_request_) {
+    modbus_flush(context_);
+    flush_before_request_ = false;
+  }
+}
+
+IoResult ModbusRig::Read(RigMeasurement* measurement) {
+  if (!connected_.load(std::memory_order_acquire)) return IoResult::kError;
+  FlushIfNeeded();
+  const int count = map_.input_count();
+  if (modbus_read_input_registers(context_, 0, count, input_) != count) {
+    OnRequestFailed();
+    return IoResult::kError;
+  }
+  const bool order = map_.high_word_first;
+  const std::uint32_t sample = GetUint32(&input_[map_.sample], order);
+  if (have_sample_ && sample == last_sample_) return IoResult::kStale;
+  have_sample_ = true;
+  last_sample_ = sample;
+  measurement->sample = sample;
+  measurement->status = input_[map_.status];
+  measurement->fault_code = input_[map_.fault_code];
+  for (int k = 0; k < 3; ++k) {
+    measurement->force(k) = GetFloat32(&input_[map_.force[k]], order);
+  }
+  for (int k = 0; k < 6; ++k) {
+    measurement->y(k) = GetFloat32(&input_[map_.y[k]], order);
+  }
+  return IoResult::kFresh;
+}
+
+IoResult ModbusRig::Write(const RigCommand& command) {
+  z_a_ = command.z_a;
+  if (!connected_.load(std::memory_order_acquire)) return IoResult::kError;
+  FlushIfNeeded();
+  holding_[map_.control_word] = command.enable ? kControlEnable : 0;
+  holding_[map_.sequence] = command.sequence;
+  for (int k = 0; k < 3; ++k) {
+    PutFloat32(command.force(k), map_.high_word_first,
+               &holding_[map_.setpoint[k]]);
+  }
+  PutFloat32(command.z_a, map_.high_word_first, &holding_[map_.z_a]);
+  const int count = map_.holding_count();
+  if (modbus_write_registers(context_, 0, count, holding_) != count) {
+    OnRequestFailed();
+    return IoResult::kError;
+  }
+  return IoResult::kFresh;
+}
+
+void ModbusRig::ReconnectLoop() {
+  const auto interval = std::chrono::microseconds(
+      static_cast<long>(settings_.reconnect_interval * 1e6));
+  std::unique_lock<std::mutex> lock(wake_mutex_);
+  while (!stopping_) {
+    wake_.wait_for(lock, interval);
+    if (stopping_ || connected_.load(std::memory_order_acquire)) continue;
+    if (modbus_connect(context_) == 0) {
+      ++reconnects_;
+      connected_.store(true, std::memory_order_release);
+    }
+  }
+}
+
+}  // namespace kcrig

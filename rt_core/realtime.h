@@ -1,0 +1,38 @@
+// Real-time set-up of the calling thread: SCHED_FIFO priority, CPU affinity,
+// locked memory and a prefaulted stack. Each step that the system does not
+// permit is reported, never silently dropped: the loop goes on without it and
+// the warning appears on the terminal and in timing.json.
+#ifndef KCRIG_RT_CORE_REALTIME_H_
+#define KCRIG_RT_CORE_REALTIME_H_
+
+#include <string>
+#include <vector>
+
+namespace kcrig {
+
+struct RealtimeOptions {
+  // SCHED_FIFO priority 1..99; 0 keeps the default time-sharing scheduler.
+  int priority = 80;
+  // CPU to pin the loop thread to; -1 leaves the affinity alone.
+  int cpu = -1;
+  // mlockall(MCL_CURRENT | MCL_FUTURE) so the cycle never page-faults.
+  bool lock_memory = true;
+};
+
+struct RealtimeReport {
+  bool fifo = false;                  // SCHED_FIFO at the requested priority
+  bool affinity = false;              // pinned to the requested CPU
+  bool locked = false;                // memory locked
+  std::vector<std::string> warnings;  // one line per step not permitted
+};
+
+// Applies `options` to the calling thread (and the process for mlockall).
+RealtimeReport SetUpRealtime(const RealtimeOptions& options);
+
+// Returns the calling thread to the time-sharing scheduler and unlocks
+// memory: the work after the loop (writing logs) must not starve others.
+void LeaveRealtime();
+
+}  // namespace kcrig
+
+#endif  // KCRIG_RT_CORE_REALTIME_H_
