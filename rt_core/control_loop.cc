@@ -37,7 +37,6 @@ LoopResult ControlLoop::Run() {
   result_.overruns = timer.overruns();
   result_.skipped_cycles = timer.skipped_cycles();
   result_.dropped_records = ring_ ? ring_->dropped() : 0;
-  result_.limited_commands = safety_.limited_commands();
   return result_;
 }
 
@@ -127,6 +126,7 @@ void ControlLoop::Compute(std::int64_t cycle, bool fresh, CycleRecord* record) {
   const Vec3<double> wanted =
       options_.fmax * profile_.Level(t + options_.period) * direction_;
   const Vec3<double> command = safety_.Limit(wanted);
+  result_.limited_commands = safety_.limited_commands();
   command_.force = command;
   command_.z_a = options_.z_a;
   command_.enable = safety_.state() != SafetyState::kDisabled;

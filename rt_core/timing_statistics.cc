@@ -51,7 +51,8 @@ std::int64_t TimingStatistics::Percentile(double q) const {
   for (int bin = 0; bin < static_cast<int>(bins_.size()); ++bin) {
     seen += bins_[bin];
     if (bins_[bin] > 0 && static_cast<double>(seen) >= target) {
-      return std::min(UpperEdge(bin), max_);
+      const bool last = bin + 1 == static_cast<int>(bins_.size());
+      return last ? max_ : std::min(UpperEdge(bin), max_);
     }
   }
   return max_;
