@@ -16,11 +16,9 @@ struct CliResult {
   std::string output;  // stdout and stderr
 };
 
-// `prefix` goes before the binary (e.g. "unshare --user ").
-inline CliResult RunKcrig(const std::string& arguments,
-                          const std::string& prefix = "") {
-  const std::string command =
-      prefix + std::string(KCRIG_BINARY) + " " + arguments + " 2>&1";
+// Runs a shell command line, capturing stdout and stderr.
+inline CliResult RunCommand(const std::string& command_line) {
+  const std::string command = command_line + " 2>&1";
   CliResult result;
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return result;
@@ -32,6 +30,12 @@ inline CliResult RunKcrig(const std::string& arguments,
   const int status = pclose(pipe);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+// `prefix` goes before the binary (e.g. "unshare --user ").
+inline CliResult RunKcrig(const std::string& arguments,
+                          const std::string& prefix = "") {
+  return RunCommand(prefix + std::string(KCRIG_BINARY) + " " + arguments);
 }
 
 inline int CountLines(const std::string& text) {

@@ -1,0 +1,410 @@
+// The HIL path with real processes: `kcrig emulate` serving Modbus TCP on
+// loopback, `kcrig run` as the master, the estimator on the log; peers
+// (mbpoll, a pymodbus server); fault injection (emulator killed, frozen,
+// travel limit, error detector, SIGTERM) ending in the safe state.
+#include <signal.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "gtest/gtest.h"
+#include "nlohmann/json.hpp"
+#include "tests/support/child_process.h"
+#include "tests/support/cli_runner.h"
+#include "tests/support/temp_dir_test.h"
+
+namespace kcrig {
+namespace {
+
+struct Csv {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+  int Column(const std::string& name) const {
+    for (size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == name) return static_cast<int>(i);
+    }
+    return -1;
+  }
+  double Value(size_t row, const std::string& name) const {
+    return std::stod(rows[row][Column(name)]);
+  }
+};
+
+std::vector<std::string> Split(const std::string& line, char separator) {
+  std::vector<std::string> out;
+  std::stringstream stream(line);
+  std::string item;
+  while (std::getline(stream, item, separator)) out.push_back(item);
+  return out;
+}
+
+Csv ReadCsv(const std::string& path) {
+  Csv csv;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  csv.header = Split(line, ',');
+  while (std::getline(in, line)) csv.rows.push_back(Split(line, ','));
+  return csv;
+}
+
+nlohmann::json ReadJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+class HilCliTest : public TempDirTest {
+ protected:
+  // Starts `kcrig emulate` on a free loopback port; returns the port.
+  int StartEmulator(const std::vector<std::string>& extra = {},
+                    const std::string& config = KCRIG_TEST_CONFIG_DIR) {
+    std::vector<std::string> argv = {KCRIG_BINARY,   "emulate",
+                                     "--config",     config,
+                                     "--modbus-tcp", "127.0.0.1:0"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    emulator_ = std::make_unique<ChildProcess>(argv, Path("emulate.out"));
+    const std::string port = emulator_->WaitForOutput(
+        "serving modbus-tcp://127\\.0\\.0\\.1:([0-9]+)");
+    EXPECT_FALSE(port.empty()) << emulator_->Output();
+    return port.empty() ? 0 : std::stoi(port);
+  }
+
+  std::unique_ptr<ChildProcess> StartRun(
+      int port, const std::string& log_dir,
+      const std::vector<std::string>& extra = {},
+      const std::string& config = KCRIG_TEST_CONFIG_DIR) {
+    std::vector<std::string> argv = {
+        KCRIG_BINARY, "run",   "--config",
+        config,       "--rig", "modbus-tcp://127.0.0.1:" + std::to_string(port),
+        "--log-dir",  log_dir, "--quiet"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return std::make_unique<ChildProcess>(argv, Path("run.out"));
+  }
+
+  // A copy of the source config with `file` edited: `from` -> `to`.
+  std::string EditedConfig(const std::string& file, const std::string& from,
+                           const std::string& to) {
+    const std::string dir = Path("config");
+    if (!std::filesystem::exists(dir)) {
+      std::filesystem::copy(KCRIG_TEST_CONFIG_DIR, dir,
+                            std::filesystem::copy_options::recursive);
+    }
+    std::ifstream in(dir + "/" + file);
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string content = text.str();
+    const size_t at = content.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    content.replace(at, from.size(), to);
+    std::ofstream(dir + "/" + file) << content;
+    return dir;
+  }
+
+  // The documented safe state after a trip: exit 3, cause in run.json, the
+  // log covers every cycle (uniform time, no row missing before the trip),
+  // the command ramps linearly to zero over safety.ramp_down_time and the
+  // last row is disabled at zero force.
+  void ExpectSafeStop(int exit_code, const std::string& log_dir,
+                      const std::string& cause, const std::string& output) {
+    EXPECT_EQ(exit_code, 3) << output;
+    EXPECT_NE(output.find("tripped: " + cause), std::string::npos) << output;
+    const nlohmann::json sidecar = ReadJson(log_dir + "/run.json");
+    EXPECT_EQ(sidecar["hil"]["safety"]["cause"], cause);
+    EXPECT_TRUE(sidecar["hil"]["safety"]["tripped"]);
+    const Csv csv = ReadCsv(log_dir + "/run.csv");
+    ASSERT_GT(csv.rows.size(), 100u);
+    EXPECT_EQ(static_cast<long>(csv.rows.size()),
+              sidecar["hil"]["cycles"].get<long>() +
+                  sidecar["hil"]["skipped_cycles"].get<long>());
+    for (size_t j = 0; j < csv.rows.size(); ++j) {
+      ASSERT_NEAR(csv.Value(j, "t"), j * 1e-3, 1e-9) << "row " << j;
+    }
+    const double trip_time = sidecar["hil"]["safety"]["trip_time_s"];
+    const size_t trip = static_cast<size_t>(std::lround(trip_time / 1e-3));
+    ASSERT_LT(trip, csv.rows.size());
+    // Until the fault every row is accounted for: fresh, or a counted miss.
+    long misses = 0;
+    for (size_t j = 0; j < trip; ++j)
+      misses += csv.rows[j][csv.Column("fresh")] == "0";
+    EXPECT_LE(misses, sidecar["hil"]["rows_without_fresh_sample"].get<long>());
+    auto force = [&](size_t j) {
+      return std::hypot(csv.Value(j, "Fx_cmd"), csv.Value(j, "Fy_cmd"),
+                        csv.Value(j, "Fz_cmd"));
+    };
+    // From the trip on the command only falls, never faster than the
+    // ramp-down (rows of cycles skipped by an overrun repeat the last one),
+    // and reaches zero no sooner than safety.ramp_down_time (0.5 s).
+    const double at_trip = force(trip - 1);
+    size_t first_zero = csv.rows.size();
+    for (size_t j = trip; j < csv.rows.size(); ++j) {
+      ASSERT_LE(force(j), force(j - 1) + 1e-6) << "row " << j;
+      ASSERT_LE(force(j - 1) - force(j), at_trip / 500 + 1e-3) << "row " << j;
+      if (force(j) == 0.0 && first_zero == csv.rows.size()) first_zero = j;
+    }
+    EXPECT_GE(first_zero - trip + 1, 500u);
+    EXPECT_EQ(force(csv.rows.size() - 1), 0.0);
+    EXPECT_EQ(csv.rows.back()[csv.Column("safety")], "2");
+  }
+
+  std::unique_ptr<ChildProcess> emulator_;
+};
+
+TEST_F(HilCliTest, FullRampLogsEveryCycleAndTheEstimateFindsTheTruePlant) {
+  const int port = StartEmulator();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(port, log_dir);
+  ASSERT_EQ(run->Wait(), 0) << run->Output();
+  const nlohmann::json sidecar = ReadJson(log_dir + "/run.json");
+  const nlohmann::json& hil = sidecar["hil"];
+  const Csv csv = ReadCsv(log_dir + "/run.csv");
+  // 0.2 + 1.0 + 0.5 + 4.0 + 1.0 s at 1 kHz: every cycle is a row.
+  ASSERT_EQ(csv.rows.size(), 6700u);
+  EXPECT_EQ(hil["cycles"].get<long>() + hil["skipped_cycles"].get<long>(),
+            6700);
+  for (size_t j = 0; j < csv.rows.size(); ++j) {
+    ASSERT_NEAR(csv.Value(j, "t"), j * 1e-3, 1e-9);
+  }
+  // Each row without a fresh sample is counted as a read error or a cycle
+  // skipped by an overrun; on loopback they are rare.
+  long without = 0;
+  for (const auto& row : csv.rows) without += row[csv.Column("fresh")] == "0";
+  EXPECT_EQ(without, hil["rows_without_fresh_sample"].get<long>());
+  EXPECT_EQ(without, hil["read_errors"].get<long>() +
+                         hil["stale_samples"].get<long>() +
+                         hil["skipped_cycles"].get<long>());
+  EXPECT_LT(without, 67) << "more than 1 % of the samples lost";
+  std::printf("HIL run: %ld of 6700 rows without a fresh sample\n", without);
+  for (const char* column :
+       {"Fx", "Fx_cmd", "x_model", "phase", "rig_sample"}) {
+    EXPECT_GE(csv.Column(column), 0) << column;
+  }
+
+  // The estimator recovers plant.yaml's stiffnesses within 3.3 standard
+  // errors (0.1 % two-sided each).
+  const CliResult estimate =
+      RunKcrig("estimate --config " + std::string(KCRIG_TEST_CONFIG_DIR) +
+               " --log " + log_dir + "/run.csv --out " + Path("est.json"));
+  ASSERT_EQ(estimate.exit_code, 0) << estimate.output;
+  const nlohmann::json est = ReadJson(Path("est.json"));
+  const std::map<std::string, double> truth = {{"c_O1", 3.6e6},
+                                               {"c_O2", 4.4e6},
+                                               {"c_V1", 3.9e6},
+                                               {"c_V2", 4.25e6},
+                                               {"c_P", 3.75e6}};
+  for (const auto& p : est["parameters"]) {
+    const double value = p["value"], se = p["standard_error"];
+    EXPECT_LT(std::abs(value - truth.at(p["name"])), 3.3 * se)
+        << p["name"] << " " << value;
+  }
+  EXPECT_LT(est["sigma_hat"].get<double>(), 1.2);
+  // timing.json has every phase.
+  const nlohmann::json timing = ReadJson(log_dir + "/timing.json");
+  for (const char* phase : {"wakeup", "read", "compute", "write", "cycle"}) {
+    EXPECT_EQ(timing["phases"][phase]["count"].get<long>(),
+              hil["cycles"].get<long>())
+        << phase;
+  }
+}
+
+TEST_F(HilCliTest, MbpollReadsTheDocumentedRegistersAndTheRigProtectsItself) {
+  const int port = StartEmulator();
+  const std::string target = "-p " + std::to_string(port) + " 127.0.0.1";
+  // Input registers 0..5: status 0 (disabled), fault 0, sample (2 words),
+  // sequence echo 0, protocol 1.
+  CliResult r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 0 -c 6 " + target);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("[0]: \t0"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("[5]: \t1"), std::string::npos) << r.output;
+  // Load cell and pose as float32, high word first (-B): at rest, near 0.
+  r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3:float -B -r 6 -c 9 " + target);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  int values = 0;
+  for (const std::string& line : Split(r.output, '\n')) {
+    const size_t colon = line.find("]: ");
+    if (line.rfind("[", 0) != 0 || colon == std::string::npos) continue;
+    const double value = std::stod(line.substr(colon + 3));
+    const int address = std::stoi(line.substr(1));
+    EXPECT_LT(std::abs(value), address < 12 ? 5.0 : 2e-4) << line;
+    ++values;
+  }
+  EXPECT_EQ(values, 9) << r.output;
+  // Enable with a set-point, then fall silent: the rig's command watchdog
+  // (plant.yaml rig.command_timeout) faults it: status fault + watchdog,
+  // fault code 2, force back to zero.
+  r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 4:float -B -r 2 " + target +
+                 " -- 500 0 0 -0.45");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 4 -r 0 " + target + " 1");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 0 -c 2 " + target);
+  EXPECT_NE(r.output.find("[0]: \t10"), std::string::npos)
+      << r.output;  // 0b1010
+  EXPECT_NE(r.output.find("[1]: \t2"), std::string::npos) << r.output;
+  r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3:float -B -r 6 -c 1 " + target);
+  const size_t colon = r.output.find("[6]: ");
+  ASSERT_NE(colon, std::string::npos) << r.output;
+  EXPECT_LT(std::abs(std::stod(r.output.substr(colon + 5))), 5.0);
+}
+
+TEST_F(HilCliTest, RunsARampAgainstAPymodbusRig) {
+  // Python serves slower than the 1 ms loop allows: run this rig at 100 Hz.
+  std::string config =
+      EditedConfig("rig.yaml", "period: 0.001", "period: 0.01");
+  config = EditedConfig("rig.yaml", "response_timeout: 0.0004",
+                        "response_timeout: 0.004");
+  // Its plant is not the suspension: no error detector against the model.
+  config = EditedConfig("rig.yaml", "error_position_max: 0.001",
+                        "error_position_max: 0.1");
+  config = EditedConfig("rig.yaml", "error_angle_max_deg: 0.3",
+                        "error_angle_max_deg: 5.0");
+  ChildProcess server(
+      {"/usr/bin/python3", KCRIG_TEST_PEERS_DIR "/pymodbus_rig.py",
+       config + "/modbus_map.yaml"},
+      Path("pymodbus.out"));
+  const std::string port = server.WaitForOutput("listening on ([0-9]+)\n", 20);
+  ASSERT_FALSE(port.empty()) << server.Output();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(std::stoi(port), log_dir, {"--duration", "2"}, config);
+  ASSERT_EQ(run->Wait(), 0) << run->Output() << server.Output();
+  const Csv csv = ReadCsv(log_dir + "/run.csv");
+  ASSERT_EQ(csv.rows.size(), 470u);  // (0.2 + 1 + 0.5 + 2 + 1) s at 100 Hz
+  // The Python rig is a linear spring per axis: x = Fx / 2e6 etc., its load
+  // cell reads the set-point it last received.
+  int fresh = 0;
+  for (size_t j = 1; j < csv.rows.size(); ++j) {
+    if (csv.rows[j][csv.Column("fresh")] != "1") continue;
+    ++fresh;
+    EXPECT_NEAR(csv.Value(j, "x"), csv.Value(j, "Fx") / 2e6, 1e-9);
+    EXPECT_NEAR(csv.Value(j, "y"), csv.Value(j, "Fy") / 2e6, 1e-9);
+    EXPECT_NEAR(csv.Value(j, "Fy"), csv.Value(j - 1, "Fy_cmd"), 0.01);
+  }
+  EXPECT_GT(fresh, 450);
+  // The peer saw kcrig's command sequence and acting height.
+  const nlohmann::json sidecar = ReadJson(log_dir + "/run.json");
+  EXPECT_TRUE(sidecar["hil"]["completed"]);
+  EXPECT_NE(server.Output().find("z_a=-0.45"), std::string::npos)
+      << server.Output();
+}
+
+TEST_F(HilCliTest, EmulatorKilledMidRunTripsTheWatchdog) {
+  const int port = StartEmulator();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(port, log_dir);
+  std::this_thread::sleep_for(std::chrono::milliseconds(3000));
+  emulator_->Signal(SIGKILL);
+  const int code = run->Wait();
+  ExpectSafeStop(code, log_dir, "watchdog", run->Output());
+}
+
+TEST_F(HilCliTest, FrozenEmulatorTripsTheWatchdog) {
+  const int port = StartEmulator();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(port, log_dir);
+  std::this_thread::sleep_for(std::chrono::milliseconds(3000));
+  emulator_->Signal(SIGSTOP);
+  const int code = run->Wait();
+  emulator_->Signal(SIGCONT);
+  ExpectSafeStop(code, log_dir, "watchdog", run->Output());
+}
+
+TEST_F(HilCliTest, MeasurementBeyondTravelTripsTheTravelLimit) {
+  const std::string config =
+      EditedConfig("rig.yaml", "travel_max: 0.02", "travel_max: 0.0008");
+  const int port = StartEmulator({}, config);
+  const std::string log_dir = Path("run");
+  auto run = StartRun(port, log_dir, {}, config);
+  const int code = run->Wait();
+  ExpectSafeStop(code, log_dir, "travel_limit", run->Output());
+}
+
+TEST_F(HilCliTest, RigFarFromTheModelTripsTheErrorDetector) {
+  // A soft rig mount: 4 kN give 1.3 mm more than the model predicts.
+  const int port = StartEmulator({"--effect", "rig_compliance:k=3e6"});
+  const std::string log_dir = Path("run");
+  auto run = StartRun(port, log_dir);
+  const int code = run->Wait();
+  ExpectSafeStop(code, log_dir, "error_detector", run->Output());
+}
+
+TEST_F(HilCliTest, SigtermRampsDownAndKeepsTheLog) {
+  const int port = StartEmulator();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(port, log_dir);
+  std::this_thread::sleep_for(std::chrono::milliseconds(3000));
+  run->Signal(SIGTERM);
+  const int code = run->Wait();
+  ExpectSafeStop(code, log_dir, "signal", run->Output());
+  EXPECT_NE(run->Output().find("SIGTERM"), std::string::npos);
+}
+
+TEST_F(HilCliTest, BadRigsAndOptionsAreOneLineErrors) {
+  const struct {
+    std::string arguments;
+    std::string message;
+  } cases[] = {
+      {"run --rig modbus-tcp://127.0.0.1:1 --log-dir " + Path("a"),
+       "cannot connect"},
+      {"run --rig can:vcan0 --log-dir " + Path("a"), "SocketCAN"},
+      {"run --rig serial:/dev/x --log-dir " + Path("a"),
+       "expected modbus-tcp://HOST:PORT"},
+      {"run --rig modbus-tcp://127.0.0.1:99999 --log-dir " + Path("a"),
+       "port '99999' is not in 1..65535"},
+      {"run --rig modbus-tcp://127.0.0.1:1502 --fmax 9000 --log-dir " +
+           Path("a"),
+       "safety.force_max"},
+      {"emulate --modbus-tcp 127.0.0.1", "expected HOST:PORT"},
+      {"emulate --modbus-tcp 127.0.0.1:0 --effect wobble", "unknown effect"},
+      {"emulate --can vcan0", "SocketCAN"},
+  };
+  for (const auto& c : cases) {
+    const CliResult r = RunKcrig(c.arguments);
+    EXPECT_EQ(r.exit_code, 1) << c.arguments << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.message), std::string::npos) << r.output;
+    EXPECT_EQ(CountLines(r.output), 1) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(Path("a/run.csv")));
+  }
+  const std::string config = EditedConfig("rig.yaml", "watchdog_cycles: 20",
+                                          "watchdog_cycles: twenty");
+  const CliResult r =
+      RunKcrig("run --config " + config +
+               " --rig modbus-tcp://127.0.0.1:1502 --log-dir " + Path("a"));
+  EXPECT_NE(r.output.find("rig.yaml:"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("safety.watchdog_cycles"), std::string::npos)
+      << r.output;
+}
+
+TEST_F(HilCliTest, TimingCheckReportsPhasesBaselineAndBudget) {
+  const int port = StartEmulator();
+  CliResult r = RunKcrig(
+      "timing-check --duration 1 --baseline 0.5 --rig "
+      "modbus-tcp://127.0.0.1:" +
+      std::to_string(port) + " --out " + Path("t.json"));
+  EXPECT_TRUE(r.exit_code == 0 || r.exit_code == 4) << r.output;
+  const nlohmann::json timing = ReadJson(Path("t.json"));
+  for (const char* phase : {"wakeup", "read", "compute", "write", "cycle"}) {
+    EXPECT_GT(timing["phases"][phase]["count"].get<long>(), 900) << phase;
+    EXPECT_GT(timing["phases"][phase]["max_us"].get<double>(), 0) << phase;
+  }
+  EXPECT_GT(timing["baseline_wakeup"]["count"].get<long>(), 450);
+  EXPECT_EQ(r.exit_code == 0, timing["budget"]["within"].get<bool>());
+  EXPECT_NE(r.output.find("baseline wake-up"), std::string::npos);
+  // An impossible budget fails with the reason.
+  const std::string config =
+      EditedConfig("rig.yaml", "wakeup_p99: 0.0005", "wakeup_p99: 1.0e-9");
+  r = RunKcrig("timing-check --config " + config +
+               " --duration 0.3 --baseline 0");
+  EXPECT_EQ(r.exit_code, 4) << r.output;
+  EXPECT_NE(r.output.find("over budget: wake-up latency p99"),
+            std::string::npos)
+      << r.output;
+}
+
+}  // namespace
+}  // namespace kcrig
