@@ -11,10 +11,12 @@
 
 #include "apps/design_command.h"
 #include "apps/progress.h"
+#include "apps/rig_factory.h"
 #include "designer/campaign.h"
 #include "emulator/simulated_run.h"
 #include "estimator/estimate_io.h"
 #include "io_drivers/config_loader.h"
+#include "io_drivers/rig_session.h"
 #include "io_drivers/run_log.h"
 
 namespace kcrig {
@@ -87,16 +89,50 @@ int RunCampaignCommand(const CampaignArgs& args) {
                             csv_path);
     };
     rig_text = "embedded emulated rig (plant.yaml)";
-  } else if (args.rig.rfind("modbus-tcp://", 0) == 0 ||
+  } else if (args.rig.rfind("modbus-", 0) == 0 ||
              args.rig.rfind("can:", 0) == 0) {
-    return fail(Status::Error(
-        "--rig " + args.rig +
-        ": rig transports arrive with the HIL core (Modbus) and SocketCAN "
-        "issues; use --rig sim"));
+    RigConfig rig_config;
+    status = LoadRigConfig(config.directory, &rig_config);
+    if (!status.ok()) return fail(status);
+    std::unique_ptr<RigInterface> probe;  // checks the URI and the map now
+    status = MakeRig(args.rig, rig_config, &probe);
+    if (!status.ok()) return fail(status);
+    const std::atomic<int>* stop = &InstallStopSignalHandlers();
+    const std::string uri = args.rig;
+    rig = [config, rig_config, uri, stop](const Design& design, int run,
+                                          const std::string& csv_path) {
+      namespace fs = std::filesystem;
+      if (fs::path(csv_path).filename() != "run.csv") {
+        return Status::Error(csv_path + ": a rig run writes run.csv");
+      }
+      std::unique_ptr<RigInterface> transport;
+      Status made = MakeRig(uri, rig_config, &transport);
+      if (!made.ok()) return made;
+      made = transport->Configure();
+      if (!made.ok()) return made;
+      RigSessionOptions options;
+      options.phi = design.phi;
+      options.z_a = design.z_a;
+      options.fmax = config.experiment.fmax;
+      options.tf = config.experiment.duration;
+      options.log_dir = fs::path(csv_path).parent_path().string();
+      options.stop_signal = stop;
+      RigSessionResult result;
+      const Status ran =
+          RunRigSession(config, rig_config, transport.get(), options, &result);
+      if (!ran.ok()) return ran;
+      if (!result.completed) {
+        return Status::Error("run " + std::to_string(run) + " on " + uri + " " +
+                             result.trip_message + " (log in " +
+                             options.log_dir + ")");
+      }
+      return Status::Ok();
+    };
+    rig_text = "rig at " + args.rig;
   } else {
     return fail(Status::Error("--rig " + args.rig +
-                              ": expected sim, modbus-tcp://HOST:PORT or "
-                              "can:IFACE"));
+                              ": expected sim, modbus-tcp://HOST:PORT, "
+                              "modbus-rtu://DEVICE or can:IFACE"));
   }
   CampaignOptions options;
   options.iterations = args.iterations;
@@ -157,8 +193,8 @@ void AddCampaignCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");
   cmd->add_option("--rig", args->rig,
-                  "sim (embedded emulated rig), modbus-tcp://HOST:PORT or "
-                  "can:IFACE")
+                  "sim (embedded emulated rig), modbus-tcp://HOST:PORT, "
+                  "modbus-rtu://DEVICE (a rig or kcrig emulate) or can:IFACE")
       ->capture_default_str();
   cmd->add_option("--iterations", args->iterations,
                   "Designed experiments after the initial one")

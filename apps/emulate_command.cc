@@ -12,6 +12,7 @@
 #include "emulator/rig_emulator.h"
 #include "io_drivers/config_loader.h"
 #include "rt_core/plant_effects.h"
+#include "rt_core/realtime.h"
 
 namespace kcrig {
 namespace {
@@ -76,6 +77,13 @@ int RunEmulate(const EmulateArgs& args) {
     if (!status.ok()) return fail(status);
   }
 
+  // A real rig's servo controller is real-time too; without it the
+  // controller sees more late replies. Refusal is a warning, not an error.
+  RealtimeOptions realtime;
+  realtime.priority = plant.priority;
+  for (const std::string& warning : SetUpRealtime(realtime).warnings) {
+    std::fprintf(stderr, "kcrig emulate: warning: %s\n", warning.c_str());
+  }
   const std::atomic<int>& stop = InstallStopSignalHandlers();
   RigEmulator rig(config, plant, effects);
   std::string effect_text;

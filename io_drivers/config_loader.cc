@@ -379,6 +379,8 @@ Status LoadPlantConfig(const std::string& directory,
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "rig", &rig));
   KCRIG_RETURN_IF_ERROR(reader.Positive(rig, "rig", "step", &plant->step));
   KCRIG_RETURN_IF_ERROR(
+      reader.Integer(rig, "rig", "priority", 0, 99, &plant->priority));
+  KCRIG_RETURN_IF_ERROR(
       reader.Positive(rig, "rig", "travel_max", &plant->travel_max));
   KCRIG_RETURN_IF_ERROR(
       reader.Positive(rig, "rig", "command_timeout", &plant->command_timeout));

@@ -212,6 +212,28 @@ TEST_F(HilCliTest, FullRampLogsEveryCycleAndTheEstimateFindsTheTruePlant) {
   }
 }
 
+TEST_F(HilCliTest, CampaignRunsItsExperimentsOnTheEmulatedRig) {
+  const int port = StartEmulator();
+  const CliResult r =
+      RunKcrig("campaign --config " + std::string(KCRIG_TEST_CONFIG_DIR) +
+               " --rig modbus-tcp://127.0.0.1:" + std::to_string(port) +
+               " --iterations 1 --budget 30 --quiet --out " + Path("campaign"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* run : {"iteration_0", "iteration_1"}) {
+    const std::string dir = Path("campaign") + "/" + run;
+    const nlohmann::json sidecar = ReadJson(dir + "/run.json");
+    EXPECT_TRUE(sidecar["hil"]["completed"]) << run;
+    EXPECT_EQ(sidecar["transport"],
+              "modbus-tcp://127.0.0.1:" + std::to_string(port));
+    EXPECT_TRUE(std::filesystem::exists(dir + "/timing.json")) << run;
+  }
+  // The second experiment is the designed one.
+  const nlohmann::json first = ReadJson(Path("campaign/iteration_0/run.json"));
+  const nlohmann::json second = ReadJson(Path("campaign/iteration_1/run.json"));
+  EXPECT_NE(first["excitation"]["phi_rad"], second["excitation"]["phi_rad"]);
+  EXPECT_TRUE(std::filesystem::exists(Path("campaign/campaign.json")));
+}
+
 TEST_F(HilCliTest, MbpollReadsTheDocumentedRegistersAndTheRigProtectsItself) {
   const int port = StartEmulator();
   const std::string target = "-p " + std::to_string(port) + " 127.0.0.1";
@@ -260,9 +282,9 @@ TEST_F(HilCliTest, RunsARampAgainstAPymodbusRig) {
   config = EditedConfig("rig.yaml", "response_timeout: 0.0004",
                         "response_timeout: 0.004");
   // Its plant is not the suspension: no error detector against the model.
-  config = EditedConfig("rig.yaml", "error_position_max: 0.001",
+  config = EditedConfig("rig.yaml", "error_position_max: 0.002",
                         "error_position_max: 0.1");
-  config = EditedConfig("rig.yaml", "error_angle_max_deg: 0.3",
+  config = EditedConfig("rig.yaml", "error_angle_max_deg: 0.5",
                         "error_angle_max_deg: 5.0");
   ChildProcess server(
       {"/usr/bin/python3", KCRIG_TEST_PEERS_DIR "/pymodbus_rig.py",
@@ -316,7 +338,7 @@ TEST_F(HilCliTest, FrozenEmulatorTripsTheWatchdog) {
 
 TEST_F(HilCliTest, MeasurementBeyondTravelTripsTheTravelLimit) {
   const std::string config =
-      EditedConfig("rig.yaml", "travel_max: 0.02", "travel_max: 0.0008");
+      EditedConfig("rig.yaml", "travel_max: 0.05", "travel_max: 0.0008");
   const int port = StartEmulator({}, config);
   const std::string log_dir = Path("run");
   auto run = StartRun(port, log_dir, {}, config);
@@ -325,8 +347,8 @@ TEST_F(HilCliTest, MeasurementBeyondTravelTripsTheTravelLimit) {
 }
 
 TEST_F(HilCliTest, RigFarFromTheModelTripsTheErrorDetector) {
-  // A soft rig mount: 4 kN give 1.3 mm more than the model predicts.
-  const int port = StartEmulator({"--effect", "rig_compliance:k=3e6"});
+  // A soft rig mount: 4 kN give 2.7 mm more than the model predicts.
+  const int port = StartEmulator({"--effect", "rig_compliance:k=1.5e6"});
   const std::string log_dir = Path("run");
   auto run = StartRun(port, log_dir);
   const int code = run->Wait();
