@@ -6,33 +6,12 @@
 
 #include <atomic>
 #include <cmath>
-#include <cstdlib>
-#include <new>
 #include <vector>
 
 #include "gtest/gtest.h"
 #include "rt_core/rig_plant.h"
+#include "tests/support/allocation_counter.h"
 #include "tests/support/test_config.h"
-
-// The replacements pair malloc with free; GCC cannot see that through
-// inlined std::allocator and warns.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-
-namespace {
-thread_local bool g_count_allocations = false;
-thread_local long g_allocations = 0;
-}  // namespace
-
-void* operator new(std::size_t size) {
-  if (g_count_allocations) ++g_allocations;
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t size) { return operator new(size); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 
 namespace kcrig {
 namespace {
@@ -207,27 +186,28 @@ TEST_F(ControlLoopTest, ACycleNeverAllocates) {
   options_.safety.ramp_down_time = 0.1;
   ControlLoop loop(config_.model, options_, &rig_, &ring_, &stop_);
   // Through every phase, a trip and the ramp-down.
-  g_allocations = 0;
   std::int64_t k = 0;
   bool go_on = true;
-  g_count_allocations = true;
-  for (; go_on && k < 100000; ++k) {
-    if (k == 5500) stop_ = 2;
-    go_on = loop.Cycle(k);
-    CycleRecord record;
-    while (ring_.Pop(&record)) {
+  long allocations = 0;
+  {
+    AllocationCounter counter;
+    for (; go_on && k < 100000; ++k) {
+      if (k == 5500) stop_ = 2;
+      go_on = loop.Cycle(k);
+      CycleRecord record;
+      while (ring_.Pop(&record)) {
+      }
     }
+    allocations = counter.count();
   }
-  g_count_allocations = false;
   EXPECT_EQ(loop.result().cause, TripCause::kSignal);
   EXPECT_GT(k, 5500);
-  EXPECT_EQ(g_allocations, 0);
+  EXPECT_EQ(allocations, 0);
   // The counter works: an allocation on this thread is seen.
-  g_count_allocations = true;
+  AllocationCounter probe_counter;
   auto* probe = new std::vector<int>(3);
-  g_count_allocations = false;
+  EXPECT_GE(probe_counter.count(), 1);
   delete probe;
-  EXPECT_GE(g_allocations, 1);
 }
 
 TEST(RunProfileTest, PhasesAndLevels) {

@@ -1,0 +1,291 @@
+// The Modbus transport in one process: kcrig's master (ModbusRig) against
+// the emulator's libmodbus server on loopback, plus the register map and
+// rig.yaml loaders. Runs under the sanitizers.
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "emulator/modbus_front_end.h"
+#include "emulator/rig_emulator.h"
+#include "gtest/gtest.h"
+#include "io_drivers/modbus_registers.h"
+#include "io_drivers/modbus_rig.h"
+#include "io_drivers/modbus_server.h"
+#include "tests/support/allocation_counter.h"
+#include "tests/support/temp_dir_test.h"
+#include "tests/support/test_config.h"
+
+namespace kcrig {
+namespace {
+
+TEST(ModbusRegistersTest, Float32AndUint32InBothWordOrders) {
+  std::uint16_t words[2];
+  PutFloat32(1.0, true, words);
+  EXPECT_EQ(words[0], 0x3F80);
+  EXPECT_EQ(words[1], 0x0000);
+  PutFloat32(1.0, false, words);
+  EXPECT_EQ(words[0], 0x0000);
+  EXPECT_EQ(words[1], 0x3F80);
+  for (bool high_first : {true, false}) {
+    PutFloat32(-1234.5, high_first, words);
+    EXPECT_EQ(GetFloat32(words, high_first), -1234.5);
+    PutUint32(0xDEADBEEF, high_first, words);
+    EXPECT_EQ(GetUint32(words, high_first), 0xDEADBEEFu);
+  }
+}
+
+class ModbusConfigTest : public TempDirTest {
+ protected:
+  // The source file `name` with `from` replaced by `to`, written to dir_.
+  std::string Edited(const std::string& name, const std::string& from,
+                     const std::string& to) {
+    std::filesystem::copy(KCRIG_TEST_CONFIG_DIR, dir_,
+                          std::filesystem::copy_options::overwrite_existing |
+                              std::filesystem::copy_options::recursive);
+    std::ifstream in(Path(name));
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string content = text.str();
+    const size_t at = content.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    content.replace(at, from.size(), to);
+    std::ofstream(Path(name)) << content;
+    return Path(name);
+  }
+};
+
+TEST_F(ModbusConfigTest, TheSourceMapIsTheDocumentedOne) {
+  ModbusMap map;
+  const Status status = LoadModbusMap(
+      std::string(KCRIG_TEST_CONFIG_DIR) + "/modbus_map.yaml", &map);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(map.unit_id, 1);
+  EXPECT_TRUE(map.high_word_first);
+  EXPECT_EQ(map.setpoint[0], 2);
+  EXPECT_EQ(map.z_a, 8);
+  EXPECT_EQ(map.protocol, 5);
+  EXPECT_EQ(map.y[5], 22);
+  EXPECT_EQ(map.input_count(), 24);
+  EXPECT_EQ(map.holding_count(), 10);
+}
+
+TEST_F(ModbusConfigTest, BadMapsAndRigConfigsNameFileLineAndKey) {
+  const struct {
+    const char* file;
+    const char* from;
+    const char* to;
+    const char* message;
+  } cases[] = {
+      {"modbus_map.yaml", "  fy: 8", "  fy: 7",
+       "input_registers.fy: overlaps fx"},
+      {"modbus_map.yaml", "word_order: high_word_first", "word_order: middle",
+       "word_order: must be high_word_first or low_word_first"},
+      {"modbus_map.yaml", "unit_id: 1", "unit_id: 300",
+       "unit_id: must be a whole number in [0, 247]"},
+      {"modbus_map.yaml", "  sequence: 1", "  sequence: x",
+       "holding_registers.sequence: expected a number"},
+      {"rig.yaml", "response_timeout: 0.0004", "response_timeout: 0.0008",
+       "modbus.response_timeout: must be <= half of loop.period"},
+      {"rig.yaml", "parity: N", "parity: X",
+       "modbus.rtu.parity: must be N, E or O"},
+      {"rig.yaml", "ramp_down_time: 0.5", "ramp_down_time: 0.1",
+       "safety.ramp_down_time: a trip at force_max"},
+      {"rig.yaml", "priority: 80", "priority: 120",
+       "realtime.priority: must be a whole number in [0, 99]"},
+  };
+  for (const auto& c : cases) {
+    const std::string file = Edited(c.file, c.from, c.to);
+    Status status;
+    if (std::string(c.file) == "rig.yaml") {
+      RigConfig rig;
+      status = LoadRigConfig(dir_.string(), &rig);
+    } else {
+      ModbusMap map;
+      status = LoadModbusMap(file, &map);
+    }
+    ASSERT_FALSE(status.ok()) << c.to;
+    EXPECT_NE(status.message().find(file + ":"), std::string::npos)
+        << status.message();
+    EXPECT_NE(status.message().find(c.message), std::string::npos)
+        << status.message();
+  }
+}
+
+// The emulator's Modbus front end on a thread, on a free loopback port.
+class InProcessRig {
+ public:
+  explicit InProcessRig(const ModbusMap& map, int port = 0) {
+    config_ = SourceConfig();
+    EXPECT_TRUE(
+        LoadPlantConfig(KCRIG_TEST_CONFIG_DIR, config_.model, &plant_).ok());
+    emulator_ = std::make_unique<RigEmulator>(config_, plant_, PlantEffects());
+    thread_ = std::thread([this, map, port] {
+      const Status status = ServeModbus(emulator_.get(), map, "127.0.0.1", port,
+                                        stop_, [this](int p) { port_ = p; });
+      EXPECT_TRUE(status.ok()) << status.message();
+    });
+    while (port_ == 0)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ~InProcessRig() {
+    stop_ = 1;
+    thread_.join();
+  }
+  int port() const { return port_; }
+
+ private:
+  KcrigConfig config_;
+  PlantConfig plant_;
+  std::unique_ptr<RigEmulator> emulator_;
+  std::atomic<int> stop_{0};
+  std::atomic<int> port_{0};
+  std::thread thread_;
+};
+
+class ModbusRigTest : public ::testing::Test {
+ protected:
+  ModbusRigTest() {
+    EXPECT_TRUE(LoadRigConfig(KCRIG_TEST_CONFIG_DIR, &rig_config_).ok());
+    EXPECT_TRUE(LoadModbusMap(rig_config_.modbus.map_file, &map_).ok());
+  }
+  std::unique_ptr<ModbusRig> Master(int port) {
+    ModbusEndpoint endpoint;
+    EXPECT_TRUE(ParseModbusUri("modbus-tcp://127.0.0.1:" + std::to_string(port),
+                               &endpoint)
+                    .ok());
+    return std::make_unique<ModbusRig>(endpoint, map_, rig_config_.modbus);
+  }
+  RigConfig rig_config_;
+  ModbusMap map_;
+};
+
+TEST_F(ModbusRigTest, ReadsFreshSamplesAndWritesCommandsWithoutAllocating) {
+  InProcessRig rig(map_);
+  auto master = Master(rig.port());
+  Status status = master->Configure();
+  ASSERT_TRUE(status.ok()) << status.message();
+  ASSERT_TRUE(master->Activate().ok());
+  RigMeasurement m;
+  RigCommand command;
+  command.enable = true;
+  command.z_a = -0.45;
+  long allocations = 0;
+  int fresh = 0;
+  std::uint32_t first_sample = 0;
+  {
+    AllocationCounter counter;
+    for (int k = 0; k < 300; ++k) {
+      command.force << 0, 2.0 * k, 0;  // 600 N at the end
+      ++command.sequence;
+      if (master->Read(&m) == IoResult::kFresh) {
+        if (fresh++ == 0) first_sample = m.sample;
+      }
+      master->Write(command);
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
+    }
+    allocations = counter.count();
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_GE(fresh, 290);
+  EXPECT_GE(m.sample - first_sample, static_cast<std::uint32_t>(fresh - 1));
+  EXPECT_TRUE(m.status & kRigEnabled);
+  // The load cell follows the set-point (5 ms lag + 2 ms dead time).
+  EXPECT_NEAR(m.force(1), 600, 40);
+  EXPECT_GT(m.y(1), 1e-5);
+  EXPECT_TRUE(master->Deactivate().ok());
+}
+
+TEST_F(ModbusRigTest, AnExceptionIsAMissedSampleAndTheLinkStays) {
+  // A rig whose input table is two registers short: every read of the
+  // whole map draws "illegal data address".
+  ModbusMap short_map = map_;
+  short_map.y[5] = 20;
+  short_map.y[4] = 18;
+  short_map.y[3] = 16;
+  short_map.y[2] = 14;
+  short_map.y[1] = 12;
+  short_map.y[0] = 10;
+  short_map.force[2] = 8;
+  short_map.force[1] = 6;
+  short_map.force[0] = 4;
+  short_map.sequence_echo = 3;
+  short_map.protocol = 5;
+  ASSERT_LT(short_map.input_count(), map_.input_count());
+  auto rig = std::make_unique<InProcessRig>(map_);
+  const int port = rig->port();
+  auto master = Master(port);
+  ASSERT_TRUE(master->Configure().ok());
+  // The rig restarts with the short table; the master reconnects and its
+  // reads draw exceptions: each a quick kError, the link kept.
+  rig.reset();
+  rig = std::make_unique<InProcessRig>(short_map, port);
+  RigMeasurement m;
+  for (int k = 0; k < 100 && master->reconnects() == 0; ++k) {
+    master->Read(&m);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(master->reconnects(), 1);
+  for (int k = 0; k < 20; ++k) {
+    const auto start = std::chrono::steady_clock::now();
+    EXPECT_EQ(master->Read(&m), IoResult::kError);
+    EXPECT_LT(std::chrono::steady_clock::now() - start,
+              std::chrono::milliseconds(5));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(master->reconnects(), 1);  // never dropped for an exception
+  // And a fresh master names the problem when it configures.
+  auto second = Master(port);
+  const Status status = second->Configure();
+  ASSERT_FALSE(status.ok());
+  EXPECT_NE(status.message().find("Illegal data address"), std::string::npos)
+      << status.message();
+}
+
+TEST_F(ModbusRigTest, ALostLinkFailsFastAndIsReopenedOutsideTheCycle) {
+  int port = 0;
+  auto rig = std::make_unique<InProcessRig>(map_);
+  port = rig->port();
+  auto master = Master(port);
+  ASSERT_TRUE(master->Configure().ok());
+  RigMeasurement m;
+  EXPECT_EQ(master->Read(&m), IoResult::kFresh);
+  rig.reset();  // the server goes away
+  // Every read returns within its timeout, never blocks the cycle.
+  int errors = 0;
+  for (int k = 0; k < 50; ++k) {
+    const auto start = std::chrono::steady_clock::now();
+    errors += master->Read(&m) == IoResult::kError;
+    const auto took = std::chrono::steady_clock::now() - start;
+    EXPECT_LT(took, std::chrono::milliseconds(5));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  EXPECT_EQ(errors, 50);
+  // The rig comes back on the same port: the background thread reconnects.
+  rig = std::make_unique<InProcessRig>(map_, port);
+  IoResult result = IoResult::kError;
+  for (int k = 0; k < 100 && result != IoResult::kFresh; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    result = master->Read(&m);
+  }
+  EXPECT_EQ(result, IoResult::kFresh);
+  EXPECT_GE(master->reconnects(), 1);
+}
+
+TEST(ModbusUriTest, ParsesTcpAndRtuAndRejectsTheRest) {
+  ModbusEndpoint e;
+  ASSERT_TRUE(ParseModbusUri("modbus-tcp://10.0.0.2:1502", &e).ok());
+  EXPECT_EQ(e.host, "10.0.0.2");
+  EXPECT_EQ(e.port, 1502);
+  ASSERT_TRUE(ParseModbusUri("modbus-rtu:///dev/ttyUSB0", &e).ok());
+  EXPECT_TRUE(e.rtu);
+  EXPECT_EQ(e.device, "/dev/ttyUSB0");
+  EXPECT_FALSE(ParseModbusUri("modbus-tcp://host", &e).ok());
+  EXPECT_FALSE(ParseModbusUri("modbus-tcp://host:0", &e).ok());
+  EXPECT_FALSE(ParseModbusUri("tcp://host:502", &e).ok());
+}
+
+}  // namespace
+}  // namespace kcrig
