@@ -40,6 +40,16 @@ void TimingStatistics::Record(std::int64_t ns) {
   sum_ += static_cast<double>(ns);
 }
 
+void TimingStatistics::Merge(const TimingStatistics& other) {
+  if (other.count_ == 0) return;
+  for (size_t bin = 0; bin < bins_.size(); ++bin)
+    bins_[bin] += other.bins_[bin];
+  min_ = count_ ? std::min(min_, other.min_) : other.min_;
+  max_ = std::max(max_, other.max_);
+  count_ += other.count_;
+  sum_ += other.sum_;
+}
+
 double TimingStatistics::mean() const {
   return count_ ? sum_ / static_cast<double>(count_) : 0.0;
 }

@@ -18,6 +18,8 @@ class TimingStatistics {
   TimingStatistics();
 
   void Record(std::int64_t nanoseconds);
+  // Adds every sample of `other`.
+  void Merge(const TimingStatistics& other);
 
   std::int64_t count() const { return count_; }
   // All in nanoseconds; 0 when nothing was recorded.

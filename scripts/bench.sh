@@ -1,16 +1,20 @@
 #!/usr/bin/env bash
 # Builds (Release) and runs the benchmarks; Google Benchmark JSON goes to
-# build/bench/<name>.json, the console table to stdout. Medians of 5.
+# build/bench/<name>.json, the console table to stdout. Medians of 5
+# (rt_bench: percentiles of one long run).
 #   scripts/bench.sh [extra Google Benchmark flags]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 cmake --preset release >/dev/null
-cmake --build --preset release --target model_bench estimator_bench designer_bench
+cmake --build --preset release --target model_bench estimator_bench designer_bench rt_bench
 mkdir -p build/bench
 for bench in model_bench estimator_bench designer_bench; do
   build/bin/$bench --benchmark_repetitions=5 \
     --benchmark_report_aggregates_only=true \
     --benchmark_out=build/bench/$bench.json --benchmark_out_format=json "$@"
 done
+# Latency distributions (percentiles as counters): one long repetition.
+build/bin/rt_bench --benchmark_out=build/bench/rt_bench.json \
+  --benchmark_out_format=json "$@"
 echo "bench: JSON in build/bench/"

@@ -1,0 +1,260 @@
+// Real-time figures of the HIL core (issue: HIL core), each as a latency
+// distribution (counters in us: p50, p99, p999, max):
+//  - CycleCompute: one cycle's compute phase (excitation + safety + the
+//    model's semi-implicit Euler step) over a whole run profile with an
+//    in-memory rig (target: p99 <= 10 us);
+//  - ModbusRoundTrip: one function-4 read of the input registers from
+//    `kcrig emulate` on loopback, both at their configured SCHED_FIFO
+//    priorities (target: p99 <= 300 us);
+//  - WakeupVsCyclictest: the loop's wake-up latency (ControlLoop::Run, 1 kHz,
+//    SCHED_FIFO 80) and cyclictest's (rt-tests, same priority and interval)
+//    back to back; counter `ratio_p99` (target: <= 1.5).
+// Run: build/bin/rt_bench --benchmark_format=json
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "benchmark/benchmark.h"
+#include "io_drivers/config_loader.h"
+#include "io_drivers/modbus_rig.h"
+#include "rt_core/control_loop.h"
+#include "rt_core/realtime.h"
+
+extern char** environ;
+
+namespace kcrig {
+namespace {
+
+const KcrigConfig& Config() {
+  static const KcrigConfig config = [] {
+    KcrigConfig c;
+    if (!LoadConfig(KCRIG_BENCH_CONFIG_DIR, &c).ok()) std::abort();
+    return c;
+  }();
+  return config;
+}
+
+const RigConfig& Rig() {
+  static const RigConfig rig = [] {
+    RigConfig r;
+    if (!LoadRigConfig(KCRIG_BENCH_CONFIG_DIR, &r).ok()) std::abort();
+    return r;
+  }();
+  return rig;
+}
+
+void Report(benchmark::State& state, const TimingStatistics& s,
+            const std::string& prefix = "") {
+  state.counters[prefix + "p50_us"] = s.Percentile(0.5) * 1e-3;
+  state.counters[prefix + "p99_us"] = s.Percentile(0.99) * 1e-3;
+  state.counters[prefix + "p999_us"] = s.Percentile(0.999) * 1e-3;
+  state.counters[prefix + "max_us"] = s.max() * 1e-3;
+  state.counters[prefix + "count"] = static_cast<double>(s.count());
+}
+
+// A rig that answers at once with a fixed sample.
+class StaticRig : public RigInterface {
+ public:
+  Status Configure() override { return Status::Ok(); }
+  Status Activate() override { return Status::Ok(); }
+  Status Deactivate() override { return Status::Ok(); }
+  void OnError() override {}
+  IoResult Read(RigMeasurement* m) override {
+    m->sample = ++sample_;
+    return IoResult::kFresh;
+  }
+  IoResult Write(const RigCommand&) override { return IoResult::kFresh; }
+  std::string Describe() const override { return "static"; }
+
+ private:
+  std::uint32_t sample_ = 0;
+};
+
+LoopOptions PaperRun() {
+  LoopOptions o;
+  o.period = 1e-3;
+  o.phi = Config().experiment.phi;
+  o.z_a = Config().experiment.z_a;
+  o.fmax = Config().experiment.fmax;
+  o.tf = Config().experiment.duration;
+  o.profile = Rig().profile;
+  o.safety = Rig().safety;
+  o.safety.error_position_max = 1.0;  // the static rig is not the model
+  o.safety.error_angle_max = 1.0;
+  return o;
+}
+
+void BM_CycleCompute(benchmark::State& state) {
+  TimingStatistics compute;
+  for (auto _ : state) {
+    StaticRig rig;
+    SpscRing<CycleRecord> ring(1 << 14);
+    ControlLoop loop(Config().model, PaperRun(), &rig, &ring, nullptr);
+    CycleRecord record;
+    for (std::int64_t k = 0; loop.Cycle(k); ++k) {
+      while (ring.Pop(&record)) {
+      }
+    }
+    // The loop's own compute-phase statistics: one per cycle.
+    compute.Merge(loop.timing().compute);
+  }
+  Report(state, compute);
+}
+BENCHMARK(BM_CycleCompute)->Unit(benchmark::kMillisecond)->Iterations(5);
+
+// `kcrig emulate` as its own process on a free port.
+class EmulatorProcess {
+ public:
+  EmulatorProcess() {
+    output_ = "/tmp/kcrig_rt_bench_emulate_" + std::to_string(getpid());
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, output_.c_str(),
+                                     O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const char* argv[] = {
+        KCRIG_BINARY,   "emulate",     "--config", KCRIG_BENCH_CONFIG_DIR,
+        "--modbus-tcp", "127.0.0.1:0", nullptr};
+    posix_spawn(&pid_, KCRIG_BINARY, &actions, nullptr,
+                const_cast<char**>(argv), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    const std::regex re("127\\.0\\.0\\.1:([0-9]+)");
+    for (int k = 0; k < 500 && port_ == 0; ++k) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      std::ifstream in(output_);
+      std::stringstream text;
+      text << in.rdbuf();
+      std::smatch match;
+      const std::string s = text.str();
+      if (std::regex_search(s, match, re)) port_ = std::stoi(match[1]);
+    }
+  }
+  ~EmulatorProcess() {
+    kill(pid_, SIGTERM);
+    waitpid(pid_, nullptr, 0);
+    std::remove(output_.c_str());
+  }
+  int port() const { return port_; }
+
+ private:
+  pid_t pid_ = -1;
+  int port_ = 0;
+  std::string output_;
+};
+
+void BM_ModbusRoundTrip(benchmark::State& state) {
+  EmulatorProcess emulator;
+  if (emulator.port() == 0) {
+    state.SkipWithError("kcrig emulate did not start");
+    return;
+  }
+  ModbusMap map;
+  LoadModbusMap(Rig().modbus.map_file, &map);
+  ModbusEndpoint endpoint;
+  ParseModbusUri("modbus-tcp://127.0.0.1:" + std::to_string(emulator.port()),
+                 &endpoint);
+  ModbusRig rig(endpoint, map, Rig().modbus);
+  if (!rig.Configure().ok()) {
+    state.SkipWithError("cannot connect to kcrig emulate");
+    return;
+  }
+  const RealtimeReport realtime = SetUpRealtime(Rig().realtime);
+  TimingStatistics round_trip;
+  long errors = 0;
+  RigMeasurement m;
+  for (auto _ : state) {
+    // 1 kHz like the loop, 5000 reads.
+    std::int64_t next = MonotonicNanoseconds();
+    for (int k = 0; k < 5000; ++k) {
+      next += 1000000;
+      const timespec ts{static_cast<time_t>(next / 1000000000),
+                        static_cast<long>(next % 1000000000)};
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+      const std::int64_t start = MonotonicNanoseconds();
+      errors += rig.Read(&m) != IoResult::kFresh;
+      round_trip.Record(MonotonicNanoseconds() - start);
+    }
+  }
+  LeaveRealtime();
+  Report(state, round_trip);
+  state.counters["errors"] = static_cast<double>(errors);
+  state.counters["sched_fifo"] = realtime.fifo;
+}
+BENCHMARK(BM_ModbusRoundTrip)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+// cyclictest's p99 from its histogram (-h: one line per us, "us count").
+double CyclictestP99(int loops, int priority, std::string* error) {
+  const std::string command = "cyclictest -q -m -p " +
+                              std::to_string(priority) + " -i 1000 -l " +
+                              std::to_string(loops) + " -h 2000 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) {
+    *error = "cannot run cyclictest";
+    return -1;
+  }
+  std::array<char, 512> line;
+  std::vector<std::pair<int, long>> histogram;
+  long total = 0;
+  while (fgets(line.data(), line.size(), pipe) != nullptr) {
+    int us = 0;
+    long count = 0;
+    if (line[0] != '#' &&
+        std::sscanf(line.data(), "%d %ld", &us, &count) == 2) {
+      histogram.emplace_back(us, count);
+      total += count;
+    }
+  }
+  if (pclose(pipe) != 0 || total == 0) {
+    *error = "cyclictest failed (installed? rt-tests)";
+    return -1;
+  }
+  long seen = 0;
+  for (const auto& [us, count] : histogram) {
+    seen += count;
+    if (seen >= 0.99 * total) return us + 1.0;  // bins are 1 us wide
+  }
+  return histogram.back().first + 1.0;
+}
+
+void BM_WakeupVsCyclictest(benchmark::State& state) {
+  const double seconds = 10;
+  TimingStatistics kcrig_wakeup;
+  double cyclictest_p99 = 0;
+  for (auto _ : state) {
+    LoopOptions options = PaperRun();
+    options.fmax = 0;
+    options.max_duration = seconds;
+    SpscRing<CycleRecord> ring(1 << 15);
+    ControlLoop loop(Config().model, options, nullptr, &ring, nullptr);
+    SetUpRealtime(Rig().realtime);
+    loop.Run();
+    LeaveRealtime();
+    kcrig_wakeup = loop.timing().wakeup;
+    std::string error;
+    cyclictest_p99 = CyclictestP99(static_cast<int>(seconds * 1000),
+                                   Rig().realtime.priority, &error);
+    if (cyclictest_p99 < 0) {
+      state.SkipWithError(error.c_str());
+      return;
+    }
+  }
+  Report(state, kcrig_wakeup, "kcrig_");
+  state.counters["cyclictest_p99_us"] = cyclictest_p99;
+  state.counters["ratio_p99"] =
+      kcrig_wakeup.Percentile(0.99) * 1e-3 / cyclictest_p99;
+}
+BENCHMARK(BM_WakeupVsCyclictest)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+}  // namespace
+}  // namespace kcrig
+
+BENCHMARK_MAIN();
