@@ -100,6 +100,10 @@ int RunRun(const RunArgs& args) {
                   RunPhaseName(phase), t, profile.duration());
     progress.Show(text);
   };
+  options.on_warning = [&](const std::string& warning) {
+    progress.Clear();
+    std::fprintf(stderr, "kcrig run: warning: %s\n", warning.c_str());
+  };
   std::printf(
       "kcrig run: %s, phi %.2f deg, z_a %.3f m, Fmax %.2f kN, ramp %.2f s "
       "(whole run %.2f s at %.0f Hz)\n",

@@ -178,6 +178,8 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
     CycleRecord record;
     std::int64_t next_cycle = 0;
     auto last_progress = std::chrono::steady_clock::now();
+    auto last_warning = last_progress;
+    std::int64_t skipped_since_warning = 0;
     for (;;) {
       const bool done = loop_done.load(std::memory_order_acquire);
       while (ring.Pop(&record)) {
@@ -189,12 +191,21 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
           filler.fresh = false;
           log.samples.push_back(filler);
           ++result->filled_rows;
+          ++skipped_since_warning;
         }
         log.samples.push_back(ToSample(record, period));
         next_cycle = record.cycle + 1;
       }
       if (done) break;
       const auto now = std::chrono::steady_clock::now();
+      if (options.on_warning && skipped_since_warning > 0 &&
+          now - last_warning >= std::chrono::seconds(1)) {
+        options.on_warning(
+            "overrun: " + std::to_string(skipped_since_warning) +
+            " cycle(s) skipped since the last warning (see timing.json)");
+        skipped_since_warning = 0;
+        last_warning = now;
+      }
       if (options.on_progress &&
           now - last_progress > std::chrono::milliseconds(250)) {
         last_progress = now;

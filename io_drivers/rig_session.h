@@ -32,6 +32,9 @@ struct RigSessionOptions {
   // Called from the logger thread about every 0.25 s with the run time [s]
   // and the phase, for progress lines. Optional.
   std::function<void(double, RunPhase)> on_progress;
+  // Called from the logger thread, at most once a second, when cycles were
+  // skipped by overruns since the last call: one line. Optional.
+  std::function<void(const std::string&)> on_warning;
 };
 
 struct RigSessionResult {
