@@ -417,6 +417,18 @@ TEST_F(HilCliTest, TimingCheckReportsPhasesBaselineAndBudget) {
   EXPECT_GT(timing["baseline_wakeup"]["count"].get<long>(), 450);
   EXPECT_EQ(r.exit_code == 0, timing["budget"]["within"].get<bool>());
   EXPECT_NE(r.output.find("baseline wake-up"), std::string::npos);
+  // Without the privileges (a user namespace has no CAP_SYS_NICE in the
+  // host), the loop goes on and says so, on the terminal and in the file.
+  r = RunKcrig("timing-check --config " + std::string(KCRIG_TEST_CONFIG_DIR) +
+                   " --duration 0.3 --baseline 0 --out " + Path("u.json"),
+               "unshare --user ");
+  EXPECT_TRUE(r.exit_code == 0 || r.exit_code == 4) << r.output;
+  EXPECT_NE(r.output.find("warning: SCHED_FIFO priority 80 refused"),
+            std::string::npos)
+      << r.output;
+  const nlohmann::json unprivileged = ReadJson(Path("u.json"));
+  EXPECT_FALSE(unprivileged["realtime"]["sched_fifo"].get<bool>());
+  EXPECT_GE(unprivileged["realtime"]["warnings"].size(), 1u);
   // An impossible budget fails with the reason.
   const std::string config =
       EditedConfig("rig.yaml", "wakeup_p99: 0.0005", "wakeup_p99: 1.0e-9");
