@@ -97,6 +97,13 @@ int RunCampaignCommand(const CampaignArgs& args) {
     std::unique_ptr<RigInterface> probe;  // checks the URI and the map now
     status = MakeRig(args.rig, rig_config, &probe);
     if (!status.ok()) return fail(status);
+    RigSessionOptions check;  // the campaign's excitations, at their limits
+    check.phi = 0;
+    check.z_a = config.experiment.z_a_bounds.lower;
+    check.fmax = config.experiment.fmax;
+    check.tf = config.experiment.duration;
+    status = ValidateRunRequest(rig_config, check);
+    if (!status.ok()) return fail(status);
     const std::atomic<int>* stop = &InstallStopSignalHandlers();
     const std::string uri = args.rig;
     rig = [config, rig_config, uri, stop](const Design& design, int run,
@@ -104,6 +111,10 @@ int RunCampaignCommand(const CampaignArgs& args) {
       namespace fs = std::filesystem;
       if (fs::path(csv_path).filename() != "run.csv") {
         return Status::Error(csv_path + ": a rig run writes run.csv");
+      }
+      if (stop->load() != 0) {
+        return Status::Error("interrupted by a signal before run " +
+                             std::to_string(run));
       }
       std::unique_ptr<RigInterface> transport;
       Status made = MakeRig(uri, rig_config, &transport);

@@ -8,6 +8,8 @@ namespace kcrig {
 namespace {
 
 std::atomic<int> g_stop_signal{0};
+static_assert(std::atomic<int>::is_always_lock_free,
+              "the signal handler stores into it");
 
 extern "C" void OnStopSignal(int signal) { g_stop_signal.store(signal); }
 
@@ -34,6 +36,8 @@ Status MakeRig(const std::string& uri, const RigConfig& rig_config,
 const std::atomic<int>& InstallStopSignalHandlers() {
   struct sigaction action {};
   action.sa_handler = OnStopSignal;
+  // The first signal asks for the ramp-down; a second one acts as usual.
+  action.sa_flags = SA_RESETHAND;
   sigemptyset(&action.sa_mask);
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);

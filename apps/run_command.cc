@@ -64,26 +64,8 @@ int RunRun(const RunArgs& args) {
   options.fmax = args.fmax.value_or(config.experiment.fmax);
   options.tf = args.duration.value_or(config.experiment.duration);
   options.log_dir = args.log_dir;
-  if (!std::isfinite(options.phi))
-    return fail(Status::Error("--phi: must be finite"));
-  if (!(std::abs(options.z_a) <= 2.0)) {
-    return fail(Status::Error(
-        "--z: must be a finite height within +-2 m of the wheel centre"));
-  }
-  if (!(options.fmax > 0) || options.fmax > rig_config.safety.force_max) {
-    char text[160];
-    std::snprintf(text, sizeof(text),
-                  "--fmax: must be > 0 and <= safety.force_max = %.0f N "
-                  "(rig.yaml)",
-                  rig_config.safety.force_max);
-    return fail(Status::Error(text));
-  }
-  const double ramp_rate = 2 * options.fmax / options.tf;
-  if (!(options.tf > 0) || ramp_rate > rig_config.safety.force_rate_max) {
-    return fail(
-        Status::Error("--duration: the ramp must take > 0 s and stay within "
-                      "safety.force_rate_max (rig.yaml)"));
-  }
+  status = ValidateRunRequest(rig_config, options);
+  if (!status.ok()) return fail(status);
   if (args.log_dir.empty()) return fail(Status::Error("give --log-dir DIR"));
 
   std::unique_ptr<RigInterface> rig;

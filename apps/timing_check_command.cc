@@ -55,6 +55,11 @@ int RunTimingCheck(const TimingCheckArgs& args) {
       return fail(Status::Error("--rate: must be within [10, 10000] Hz"));
     }
     rig_config.period = 1.0 / *args.rate;
+    if (rig_config.modbus.response_timeout > 0.5 * rig_config.period) {
+      return fail(Status::Error(
+          "--rate: the period is shorter than twice modbus.response_timeout "
+          "(rig.yaml)"));
+    }
   }
   if (!(args.duration > 0 && args.duration <= 3600) ||
       !(args.baseline >= 0 && args.baseline <= 3600)) {

@@ -59,8 +59,10 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
       return Status::Error("simulation diverged at t = " + std::to_string(t) +
                            " s (state beyond the model's range)");
     }
-    LogSample sample{t, ramp.LoadAt(t).force, rig.Sensed(),
-                     Vec3<double>::Zero()};
+    LogSample sample;
+    sample.t = t;
+    sample.force = ramp.LoadAt(t).force;
+    sample.y = rig.Sensed();
     if (options.noise) noise.Apply(&sample.y);
     log->samples.push_back(sample);
   }

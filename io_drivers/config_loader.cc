@@ -41,6 +41,12 @@ class YamlReader {
   Status Child(const YAML::Node& parent, const std::string& parent_key,
                const std::string& key, YAML::Node* out) const {
     const std::string full = parent_key.empty() ? key : parent_key + "." + key;
+    // Indexing a scalar or a list would throw: say what was expected.
+    if (!parent.IsMap()) {
+      return Status::Error(Where(parent) +
+                           (parent_key.empty() ? "document" : parent_key) +
+                           ": expected a mapping with '" + key + "'");
+    }
     const YAML::Node child = parent[key];
     if (!child) {
       return Status::Error(Where(parent) + full + ": missing key");
@@ -80,6 +86,18 @@ class YamlReader {
                        ", " + std::to_string(upper) + "]");
     }
     *out = static_cast<int>(value);
+    return Status::Ok();
+  }
+
+  // A plain string (not a list, not a mapping, not empty).
+  Status String(const YAML::Node& parent, const std::string& parent_key,
+                const std::string& key, std::string* out) const {
+    YAML::Node node;
+    KCRIG_RETURN_IF_ERROR(Child(parent, parent_key, key, &node));
+    if (!node.IsScalar() || node.Scalar().empty()) {
+      return Error(node, Join(parent_key, key), "expected a text value");
+    }
+    *out = node.Scalar();
     return Status::Ok();
   }
 
@@ -468,12 +486,15 @@ Status LoadRigConfig(const std::string& directory, RigConfig* rig) {
 
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "modbus", &modbus));
   ModbusSettings& m = rig->modbus;
-  YAML::Node map;
-  KCRIG_RETURN_IF_ERROR(reader.Child(modbus, "modbus", "map", &map));
-  m.map_file =
-      (std::filesystem::path(directory) / map.as<std::string>()).string();
+  std::string map;
+  KCRIG_RETURN_IF_ERROR(reader.String(modbus, "modbus", "map", &map));
+  m.map_file = (std::filesystem::path(directory) / map).string();
   KCRIG_RETURN_IF_ERROR(reader.Positive(modbus, "modbus", "response_timeout",
                                         &m.response_timeout));
+  if (m.response_timeout < 1e-5) {
+    return reader.Error(modbus["response_timeout"], "modbus.response_timeout",
+                        "must be >= 0.00001 s");
+  }
   if (m.response_timeout > 0.5 * rig->period) {
     return reader.Error(modbus["response_timeout"], "modbus.response_timeout",
                         "must be <= half of loop.period (a read and a write "
@@ -481,6 +502,10 @@ Status LoadRigConfig(const std::string& directory, RigConfig* rig) {
   }
   KCRIG_RETURN_IF_ERROR(reader.Positive(modbus, "modbus", "reconnect_interval",
                                         &m.reconnect_interval));
+  if (m.reconnect_interval < 0.01) {
+    return reader.Error(modbus["reconnect_interval"],
+                        "modbus.reconnect_interval", "must be >= 0.01 s");
+  }
   KCRIG_RETURN_IF_ERROR(reader.Child(modbus, "modbus", "rtu", &rtu));
   KCRIG_RETURN_IF_ERROR(
       reader.Integer(rtu, "modbus.rtu", "baud", 300, 4000000, &m.baud));
@@ -488,11 +513,12 @@ Status LoadRigConfig(const std::string& directory, RigConfig* rig) {
       reader.Integer(rtu, "modbus.rtu", "data_bits", 5, 8, &m.data_bits));
   KCRIG_RETURN_IF_ERROR(
       reader.Integer(rtu, "modbus.rtu", "stop_bits", 1, 2, &m.stop_bits));
-  YAML::Node parity;
-  KCRIG_RETURN_IF_ERROR(reader.Child(rtu, "modbus.rtu", "parity", &parity));
-  const std::string parity_text = parity.as<std::string>();
+  std::string parity_text;
+  KCRIG_RETURN_IF_ERROR(
+      reader.String(rtu, "modbus.rtu", "parity", &parity_text));
   if (parity_text != "N" && parity_text != "E" && parity_text != "O") {
-    return reader.Error(parity, "modbus.rtu.parity", "must be N, E or O");
+    return reader.Error(rtu["parity"], "modbus.rtu.parity",
+                        "must be N, E or O");
   }
   m.parity = parity_text[0];
   return Status::Ok();
@@ -515,14 +541,14 @@ int ModbusMap::input_count() const {
 
 Status LoadModbusMap(const std::string& file, ModbusMap* map) {
   YamlReader reader(file);
-  YAML::Node root, holding, input, order;
+  YAML::Node root;
   KCRIG_RETURN_IF_ERROR(reader.Load(&root));
   KCRIG_RETURN_IF_ERROR(
       reader.Integer(root, "", "unit_id", 0, 247, &map->unit_id));
-  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "word_order", &order));
-  const std::string order_text = order.as<std::string>();
+  std::string order_text;
+  KCRIG_RETURN_IF_ERROR(reader.String(root, "", "word_order", &order_text));
   if (order_text != "high_word_first" && order_text != "low_word_first") {
-    return reader.Error(order, "word_order",
+    return reader.Error(root["word_order"], "word_order",
                         "must be high_word_first or low_word_first");
   }
   map->high_word_first = order_text == "high_word_first";

@@ -1,5 +1,6 @@
 #include "io_drivers/modbus_rig.h"
 
+#include <arpa/inet.h>
 #include <modbus/modbus.h>
 
 #include <cerrno>
@@ -12,11 +13,17 @@
 namespace kcrig {
 namespace {
 
+// The whole reply must arrive within `seconds`: a zero byte timeout makes
+// libmodbus keep counting down the response timeout across partial reads
+// (a per-byte timeout would restart with every fragment).
 void SetTimeout(modbus_t* context, double seconds) {
   const auto micros = static_cast<std::uint32_t>(seconds * 1e6);
   modbus_set_response_timeout(context, micros / 1000000, micros % 1000000);
-  modbus_set_byte_timeout(context, micros / 1000000, micros % 1000000);
+  modbus_set_byte_timeout(context, 0, 0);
 }
+
+// libmodbus uses the response timeout as the TCP connect timeout too.
+constexpr double kConnectTimeout = 1.0;  // [s]
 
 }  // namespace
 
@@ -49,6 +56,11 @@ Status ParseModbusUri(const std::string& uri, ModbusEndpoint* endpoint) {
   }
   endpoint->rtu = false;
   endpoint->host = rest.substr(0, colon);
+  in_addr address;
+  if (inet_pton(AF_INET, endpoint->host.c_str(), &address) != 1) {
+    return Status::Error("--rig " + uri + ": host '" + endpoint->host +
+                         "' must be an IPv4 address (e.g. 127.0.0.1)");
+  }
   endpoint->port = static_cast<int>(port);
   return Status::Ok();
 }
@@ -58,7 +70,10 @@ ModbusRig::ModbusRig(const ModbusEndpoint& endpoint, const ModbusMap& map,
     : endpoint_(endpoint), map_(map), settings_(settings) {}
 
 ModbusRig::~ModbusRig() {
-  stopping_ = true;
+  {
+    std::lock_guard<std::mutex> lock(wake_mutex_);
+    stopping_ = true;
+  }
   wake_.notify_all();
   if (reconnect_thread_.joinable()) reconnect_thread_.join();
   if (context_ != nullptr) {
@@ -84,7 +99,7 @@ Status ModbusRig::Configure() {
   }
   modbus_set_slave(context_, map_.unit_id);
   // Set-up gets a patient timeout; the cycle's short one comes after.
-  SetTimeout(context_, 1.0);
+  SetTimeout(context_, kConnectTimeout);
   if (modbus_connect(context_) == -1) {
     return Status::Error(Describe() + ": cannot connect (" +
                          modbus_strerror(errno) + ")");
@@ -131,10 +146,32 @@ Status ModbusRig::WriteControl(std::uint16_t control_word, int attempts) {
 }
 
 Status ModbusRig::Activate() {
-  // Reset a latched fault, then enable at zero force.
+  // Reset a latched fault, then enable at zero force, then see the rig
+  // report itself enabled and without fault (a rig in local mode or still
+  // faulted must not run a test at zero force and call it complete).
   Status status = WriteControl(kControlResetFault, 5);
   if (!status.ok()) return status;
-  return WriteControl(kControlEnable, 5);
+  status = WriteControl(kControlEnable, 5);
+  if (!status.ok()) return status;
+  const int count = map_.input_count();
+  for (int attempt = 0; attempt < 20; ++attempt) {
+    if (connected_) FlushIfNeeded();
+    if (connected_ &&
+        modbus_read_input_registers(context_, 0, count, input_) == count) {
+      const std::uint16_t rig_status = input_[map_.status];
+      if ((rig_status & kRigEnabled) && !(rig_status & kRigFault)) {
+        // Keep the rig's command watchdog fed until the loop starts.
+        return WriteControl(kControlEnable, 5);
+      }
+    } else if (connected_) {
+      OnRequestFailed();
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return Status::Error(Describe() +
+                       ": the rig did not report itself enabled (status " +
+                       std::to_string(input_[map_.status]) + ", fault code " +
+                       std::to_string(input_[map_.fault_code]) + ")");
 }
 
 Status ModbusRig::Deactivate() { return WriteControl(0, 20); }
@@ -150,7 +187,8 @@ void ModbusRig::OnRequestFailed() {
     flush_before_request_ = true;
     return;
   }
-  modbus_close(context_);
+  // Closing (on a tty it may wait for output to drain) and reconnecting
+  // are the reconnect thread's.
   connected_.store(false, std::memory_order_release);
   wake_.notify_one();
 }
@@ -213,7 +251,11 @@ void ModbusRig::ReconnectLoop() {
   while (!stopping_) {
     wake_.wait_for(lock, interval);
     if (stopping_ || connected_.load(std::memory_order_acquire)) continue;
+    modbus_close(context_);
+    SetTimeout(context_, kConnectTimeout);
     if (modbus_connect(context_) == 0) {
+      SetTimeout(context_, settings_.response_timeout);
+      flush_before_request_ = false;
       ++reconnects_;
       connected_.store(true, std::memory_order_release);
     }

@@ -79,7 +79,9 @@ Status ModbusServer::Serve(const std::atomic<int>& stop, double tick_interval,
       if (!FD_ISSET(fd, &ready)) continue;
       if (fd == listen_socket_) {
         const int client = accept(listen_socket_, nullptr, nullptr);
-        if (client >= 0) {
+        if (client >= FD_SETSIZE) {  // select() cannot watch it
+          close(client);
+        } else if (client >= 0) {
           // Without TCP_NODELAY, Nagle holds each small reply until the
           // client acknowledges the previous one: one cycle late.
           const int on = 1;

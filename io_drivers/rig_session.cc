@@ -1,7 +1,9 @@
 #include "io_drivers/rig_session.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <thread>
 
@@ -65,7 +67,10 @@ std::string TripMessage(const LoopResult& loop, double period) {
       what += " (no fresh measurement for the configured number of cycles)";
       break;
     case TripCause::kRigFault:
-      what += " (the rig reported a fault)";
+      what += " (the rig reported a fault or stopped being enabled)";
+      break;
+    case TripCause::kInvalidMeasurement:
+      what += " (the rig sent a non-finite value)";
       break;
     case TripCause::kSignal:
       what += std::string(" (") +
@@ -87,10 +92,10 @@ std::string TripMessage(const LoopResult& loop, double period) {
 
 std::string TimingJson(const LoopTiming& timing, const LoopResult& loop,
                        const RealtimeReport& realtime, double period,
-                       const TimingBudget& budget) {
+                       const TimingBudget& budget, bool with_transport) {
   std::vector<std::string> violations;
-  const bool within = WithinBudget(timing, loop, period, budget,
-                                   timing.read.max() > 0, &violations);
+  const bool within =
+      WithinBudget(timing, period, budget, with_transport, &violations);
   nlohmann::ordered_json doc;
   doc["format"] = "kcrig timing 1";
   doc["period_us"] = period * 1e6;
@@ -115,10 +120,9 @@ std::string TimingJson(const LoopTiming& timing, const LoopResult& loop,
   return doc.dump(2) + "\n";
 }
 
-bool WithinBudget(const LoopTiming& timing, const LoopResult& loop,
-                  double period, const TimingBudget& budget,
-                  bool with_transport, std::vector<std::string>* violations) {
-  (void)loop;
+bool WithinBudget(const LoopTiming& timing, double period,
+                  const TimingBudget& budget, bool with_transport,
+                  std::vector<std::string>* violations) {
   const double period_ns = period * 1e9;
   auto check = [&](const char* what, double value_ns, double limit_ns) {
     if (value_ns > limit_ns) {
@@ -139,12 +143,50 @@ bool WithinBudget(const LoopTiming& timing, const LoopResult& loop,
   return violations->empty();
 }
 
+Status ValidateRunRequest(const RigConfig& rig_config,
+                          const RigSessionOptions& options) {
+  const SafetyLimits& limits = rig_config.safety;
+  const RunProfileTimes& p = rig_config.profile;
+  char text[200];
+  if (!std::isfinite(options.phi)) return Status::Error("phi: must be finite");
+  if (!(std::abs(options.z_a) <= 2.0)) {
+    return Status::Error(
+        "z_a: must be a finite height within +-2 m of the wheel centre");
+  }
+  if (!(options.fmax >= 0) || options.fmax > limits.force_max) {
+    std::snprintf(text, sizeof(text),
+                  "fmax: must be >= 0 N and <= safety.force_max = %.0f N "
+                  "(rig.yaml)",
+                  limits.force_max);
+    return Status::Error(text);
+  }
+  if (!(options.tf > 0) || options.tf > 3600) {
+    return Status::Error("ramp time: must be within (0, 3600] s");
+  }
+  // The limiter would lag a faster profile, and a run could then end with
+  // a force still applied.
+  const double fastest =
+      std::max({options.fmax / p.lead_in, 2 * options.fmax / options.tf,
+                options.fmax / p.ramp_down});
+  if (fastest > limits.force_rate_max) {
+    std::snprintf(text, sizeof(text),
+                  "the run would change the force at %.0f N/s, beyond "
+                  "safety.force_rate_max = %.0f N/s (rig.yaml: lengthen the "
+                  "ramp, run_profile.lead_in or run_profile.ramp_down)",
+                  fastest, limits.force_rate_max);
+    return Status::Error(text);
+  }
+  return Status::Ok();
+}
+
 Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
                      RigInterface* rig, const RigSessionOptions& options,
                      RigSessionResult* result) {
   namespace fs = std::filesystem;
   *result = RigSessionResult();
   const double period = rig_config.period;
+  const Status valid = ValidateRunRequest(rig_config, options);
+  if (!valid.ok()) return valid;
   if (!options.log_dir.empty()) {
     std::error_code error;
     fs::create_directories(options.log_dir, error);
@@ -171,7 +213,10 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   log.has_measured_force = true;
   log.has_commanded_force = true;
   log.has_loop_columns = true;
-  log.samples.reserve(static_cast<size_t>(profile.duration() / period) + 16);
+  const bool keep_log = !options.log_dir.empty();
+  if (keep_log) {
+    log.samples.reserve(static_cast<size_t>(profile.duration() / period) + 16);
+  }
 
   std::atomic<bool> loop_done{false};
   std::thread logger([&] {
@@ -183,6 +228,10 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
     for (;;) {
       const bool done = loop_done.load(std::memory_order_acquire);
       while (ring.Pop(&record)) {
+        if (!keep_log) {
+          next_cycle = record.cycle + 1;
+          continue;
+        }
         // Cycles skipped by an overrun get a row without a fresh sample, so
         // that the log's time column stays uniform.
         while (next_cycle < record.cycle && !log.samples.empty()) {
@@ -216,13 +265,13 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
     }
   });
 
+  // Real-time set-up first (mlockall faults every page in, which takes
+  // time), then enable the rig, whose command watchdog is running from then.
+  result->realtime = SetUpRealtime(rig_config.realtime);
   Status activated = Status::Ok();
   if (rig != nullptr) activated = rig->Activate();
-  if (activated.ok()) {
-    result->realtime = SetUpRealtime(rig_config.realtime);
-    result->loop = loop.Run();
-    LeaveRealtime();
-  }
+  if (activated.ok()) result->loop = loop.Run();
+  LeaveRealtime();
   loop_done.store(true, std::memory_order_release);
   logger.join();
   if (rig != nullptr) {
@@ -237,7 +286,7 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   result->trip_message = TripMessage(lr, period);
   result->logged_rows = static_cast<std::int64_t>(log.samples.size());
   result->timing_json = TimingJson(loop.timing(), lr, result->realtime, period,
-                                   rig_config.budget);
+                                   rig_config.budget, rig != nullptr);
   if (options.log_dir.empty()) return Status::Ok();
 
   RunMetadata& m = log.metadata;

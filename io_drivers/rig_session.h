@@ -47,6 +47,12 @@ struct RigSessionResult {
   std::string timing_json;       // what timing.json holds
 };
 
+// The excitation against the safety limits of rig.yaml: finite direction,
+// height within +-2 m, 0 <= Fmax <= force_max, 0 < tf <= 3600 s, and every
+// phase of the run within force_rate_max. One-line errors.
+Status ValidateRunRequest(const RigConfig& rig_config,
+                          const RigSessionOptions& options);
+
 // `rig` may be null: the loop runs the model alone (timing checks). Returns
 // an error only when the experiment could not start or its outputs could
 // not be written; a trip is a result (completed = false, trip_message).
@@ -59,13 +65,13 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
 // and its warnings; the budget and whether it held.
 std::string TimingJson(const LoopTiming& timing, const LoopResult& loop,
                        const RealtimeReport& realtime, double period,
-                       const TimingBudget& budget);
+                       const TimingBudget& budget, bool with_transport);
 
 // Whether the timing is within `budget`; `violations` gets one line per
 // violated item.
-bool WithinBudget(const LoopTiming& timing, const LoopResult& loop,
-                  double period, const TimingBudget& budget,
-                  bool with_transport, std::vector<std::string>* violations);
+bool WithinBudget(const LoopTiming& timing, double period,
+                  const TimingBudget& budget, bool with_transport,
+                  std::vector<std::string>* violations);
 
 }  // namespace kcrig
 

@@ -1,5 +1,6 @@
 #include "rt_core/control_loop.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "rt_core/semi_implicit_euler.h"
@@ -30,7 +31,7 @@ LoopResult ControlLoop::Run() {
     const CycleTimer::Wake wake = timer.WaitForNextCycle();
     cycle_start_ = wake.deadline + wake.latency;
     timing_.wakeup.Record(wake.latency);
-    const bool go_on = Cycle(wake.cycle);
+    const bool go_on = Cycle(wake.cycle, wake.skipped);
     timing_.cycle.Record(MonotonicNanoseconds() - cycle_start_);
     if (!go_on) break;
   }
@@ -40,7 +41,11 @@ LoopResult ControlLoop::Run() {
   return result_;
 }
 
-bool ControlLoop::Cycle(std::int64_t cycle) {
+bool ControlLoop::Valid(const RigMeasurement& m) const {
+  return m.force.allFinite() && m.y.allFinite();
+}
+
+bool ControlLoop::Cycle(std::int64_t cycle, std::int64_t skipped) {
   ++result_.cycles;
   const std::int64_t t0 = MonotonicNanoseconds();
   bool fresh = false;
@@ -50,19 +55,29 @@ bool ControlLoop::Cycle(std::int64_t cycle) {
     fresh = read == IoResult::kFresh;
     if (read == IoResult::kStale) ++result_.stale;
     if (read == IoResult::kError) ++result_.read_errors;
+    if (fresh && !Valid(measurement_)) {
+      // Never let a NaN reach the model or the log: keep the last good
+      // sample and trip (in Compute).
+      measurement_ = last_good_;
+      invalid_sample_ = true;
+      fresh = false;
+    }
     if (fresh) {
       ++result_.fresh;
-      if (have_sample_ && measurement_.sample - previous > 1) {
-        result_.lost_rig_samples += measurement_.sample - previous - 1;
+      // A counter that went backwards is a restarted rig, not a loss.
+      const std::uint32_t step = measurement_.sample - previous;
+      if (have_sample_ && step > 1 && step < (1u << 31)) {
+        result_.lost_rig_samples += step - 1;
       }
       have_sample_ = true;
+      last_good_ = measurement_;
     }
   }
   const std::int64_t t1 = MonotonicNanoseconds();
   timing_.read.Record(t1 - t0);
 
   CycleRecord record;
-  Compute(cycle, fresh, &record);
+  Compute(cycle, skipped, fresh, &record);
   const std::int64_t t2 = MonotonicNanoseconds();
   timing_.compute.Record(t2 - t1);
 
@@ -78,7 +93,8 @@ bool ControlLoop::Cycle(std::int64_t cycle) {
   return !(disabled || finished);
 }
 
-void ControlLoop::Compute(std::int64_t cycle, bool fresh, CycleRecord* record) {
+void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
+                          CycleRecord* record) {
   const double t = cycle * options_.period;
   const RunPhase phase = profile_.Phase(t);
 
@@ -99,14 +115,23 @@ void ControlLoop::Compute(std::int64_t cycle, bool fresh, CycleRecord* record) {
       int channel = -1;
       TripCause cause = safety_.CheckMeasurement(
           measurement_.y, rest, state_.y, phase != RunPhase::kTare, &channel);
-      if (measurement_.status & kRigFault) cause = TripCause::kRigFault;
+      // The rig faulted, or stopped being enabled (local mode, e-stop).
+      if ((measurement_.status & kRigFault) ||
+          !(measurement_.status & kRigEnabled)) {
+        cause = TripCause::kRigFault;
+      }
       if (cause != TripCause::kNone &&
           safety_.state() == SafetyState::kNormal) {
         result_.trip_channel = channel;
         safety_.Trip(cause, cycle);
       }
-    } else if (safety_.MissedSample()) {
+    } else if (safety_.MissedSamples(static_cast<int>(
+                   std::min<std::int64_t>(skipped + 1, 1 << 20)))) {
       safety_.Trip(TripCause::kWatchdog, cycle);
+    }
+    if (invalid_sample_) {
+      invalid_sample_ = false;
+      safety_.Trip(TripCause::kInvalidMeasurement, cycle);
     }
   }
   if (stop_signal_ != nullptr) {
@@ -132,12 +157,18 @@ void ControlLoop::Compute(std::int64_t cycle, bool fresh, CycleRecord* record) {
   command_.enable = safety_.state() != SafetyState::kDisabled;
   ++command_.sequence;
 
+  // Logged with the measurement it was checked against (time t).
+  for (int k = 0; k < 6; ++k) record->predicted[k] = state_.y(k);
+
   // The live prediction: the model under the measured force (the command
-  // when no sample arrived).
+  // when no sample arrived), over the cycles skipped too (bounded).
   RigLoad<double> load;
   load.force = fresh ? measurement_.force : command;
   load.point << 0.0, 0.0, options_.z_a;
-  SemiImplicitEulerStep(model_, load, options_.period, &state_);
+  const std::int64_t steps = 1 + std::min<std::int64_t>(skipped, 50);
+  for (std::int64_t s = 0; s < steps; ++s) {
+    SemiImplicitEulerStep(model_, load, options_.period, &state_);
+  }
 
   record->cycle = cycle;
   record->rig_sample = measurement_.sample;
@@ -150,10 +181,7 @@ void ControlLoop::Compute(std::int64_t cycle, bool fresh, CycleRecord* record) {
     record->force[k] = measurement_.force(k);
     record->commanded[k] = command(k);
   }
-  for (int k = 0; k < 6; ++k) {
-    record->y[k] = measurement_.y(k);
-    record->predicted[k] = state_.y(k);
-  }
+  for (int k = 0; k < 6; ++k) record->y[k] = measurement_.y(k);
   if (tare_count_ > 0) result_.rest_pose = tare_sum_ / tare_count_;
 }
 

@@ -82,16 +82,19 @@ class ControlLoop {
   // on absolute deadlines. The rig must be activated.
   LoopResult Run();
 
-  // The cycle body, for Run() and for tests that step without sleeping.
-  // Returns false once the run is over (profile done, or disabled after a
-  // trip).
-  bool Cycle(std::int64_t cycle);
+  // The cycle body, for Run() and for tests that step without sleeping;
+  // `skipped` cycles were lost to an overrun just before this one. Returns
+  // false once the run is over (profile done, or disabled after a trip).
+  bool Cycle(std::int64_t cycle, std::int64_t skipped = 0);
 
   const LoopResult& result() const { return result_; }
   const LoopTiming& timing() const { return timing_; }
 
  private:
-  void Compute(std::int64_t cycle, bool fresh, CycleRecord* record);
+  void Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
+               CycleRecord* record);
+  // A sample with a non-finite value: replaced by the last good one.
+  bool Valid(const RigMeasurement& m) const;
 
   SuspensionModel<double> model_;
   LoopOptions options_;
@@ -102,6 +105,8 @@ class ControlLoop {
   SafetyMonitor safety_;
   ModelState<double> state_;
   RigMeasurement measurement_;
+  RigMeasurement last_good_;
+  bool invalid_sample_ = false;
   RigCommand command_;
   Vec3<double> direction_;
   Vec6<double> tare_sum_ = Vec6<double>::Zero();

@@ -32,10 +32,10 @@ void CycleTimer::Start() {
 CycleTimer::Wake CycleTimer::WaitForNextCycle() {
   Wake wake;
   const std::int64_t now = MonotonicNanoseconds();
-  if (now > next_deadline_ + period_) {
-    // The last cycle ran past one or more whole periods: skip to the next
-    // deadline still ahead.
-    const std::int64_t missed = (now - next_deadline_) / period_;
+  if (now > next_deadline_) {
+    // The last cycle ran past the next deadline: skip to the first deadline
+    // still ahead rather than running late cycles back to back.
+    const std::int64_t missed = (now - next_deadline_) / period_ + 1;
     next_deadline_ += missed * period_;
     next_cycle_ += missed;
     wake.skipped = missed;

@@ -1,8 +1,8 @@
 // The loop's timing policy: absolute deadlines on CLOCK_MONOTONIC, slept to
 // with clock_nanosleep(TIMER_ABSTIME) so that the period never drifts with
 // the cycle's own duration. A cycle that ends after the next deadline is an
-// overrun: the missed deadlines are skipped (not caught up in a burst) and
-// counted.
+// overrun: every deadline already passed is skipped (not caught up in a
+// burst) and counted, and the loop resumes on the next one ahead.
 #ifndef KCRIG_RT_CORE_CYCLE_TIMER_H_
 #define KCRIG_RT_CORE_CYCLE_TIMER_H_
 

@@ -11,7 +11,8 @@
 //                          gains d * dl/dt.             d [N s/m] = 3e5
 //   hysteresis             Dahl friction in every bushing: an extra axial
 //                          force h with dh/dl = sigma (1 - h/F sgn(dl/dt)),
-//                          rate-independent, |h| < F.   force F [N] = 400,
+//                          solved exactly per step; rate-independent,
+//                          |h| < F.                     force F [N] = 400,
 //                                                       sigma [N/m] = 4e7
 //   progressive_stiffness  cubic rubber stiffening: every bushing's axial
 //                          force gains c3 (l - l0)^3.   c3 [N/m^3] = 4e11

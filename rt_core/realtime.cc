@@ -10,6 +10,10 @@
 namespace kcrig {
 namespace {
 
+// The calling thread's CPU set before SetUpRealtime pinned it.
+thread_local cpu_set_t g_saved_affinity;
+thread_local bool g_affinity_saved = false;
+
 // Touches a stack region once so that the cycle does not fault it in later.
 void PrefaultStack() {
   constexpr std::size_t kBytes = 256 * 1024;
@@ -33,6 +37,9 @@ RealtimeReport SetUpRealtime(const RealtimeOptions& options) {
   }
   PrefaultStack();
   if (options.cpu >= 0) {
+    g_affinity_saved =
+        pthread_getaffinity_np(pthread_self(), sizeof(g_saved_affinity),
+                               &g_saved_affinity) == 0;
     cpu_set_t set;
     CPU_ZERO(&set);
     CPU_SET(options.cpu, &set);
@@ -66,6 +73,11 @@ void LeaveRealtime() {
   sched_param param{};
   param.sched_priority = 0;
   pthread_setschedparam(pthread_self(), SCHED_OTHER, &param);
+  if (g_affinity_saved) {
+    pthread_setaffinity_np(pthread_self(), sizeof(g_saved_affinity),
+                           &g_saved_affinity);
+    g_affinity_saved = false;
+  }
   munlockall();
 }
 

@@ -29,8 +29,9 @@ struct RealtimeReport {
 // Applies `options` to the calling thread (and the process for mlockall).
 RealtimeReport SetUpRealtime(const RealtimeOptions& options);
 
-// Returns the calling thread to the time-sharing scheduler and unlocks
-// memory: the work after the loop (writing logs) must not starve others.
+// Returns the calling thread to the time-sharing scheduler, restores its CPU
+// affinity and unlocks memory: the work after the loop (writing logs,
+// estimating) must not starve others or stay pinned.
 void LeaveRealtime();
 
 }  // namespace kcrig

@@ -74,9 +74,10 @@ void RigPlant::Step(const Vec3<double>& force) {
   if (effects_.hysteresis.enabled) UpdateHysteresis();
 }
 
-// Dahl's model integrated over the step's deflection change (it depends on
-// the path, not on time): dh = sigma (1 - h/F sgn(dl)) dl, |h| <= F. The
-// tangent for the next step assumes the motion goes on in the same direction.
+// Dahl's model over the step's deflection change (it depends on the path,
+// not on time): dh/dl = sigma (1 - h/F s), s = sgn(dl), solved exactly along
+// the step, h' = sF - (sF - h) exp(-sigma |dl| / F), so |h| < F for any step.
+// The tangent for the next step assumes the motion goes on the same way.
 void RigPlant::UpdateHysteresis() {
   const std::array<double, kNumBushings> deflection =
       model_.BushingDeflections(state_.y);
@@ -84,11 +85,12 @@ void RigPlant::UpdateHysteresis() {
   const double sigma = effects_.hysteresis.sigma;
   for (int i = 0; i < kNumBushings; ++i) {
     const double change = deflection[i] - hysteresis_.reference[i];
-    const double direction = change > 0 ? 1.0 : (change < 0 ? -1.0 : 0.0);
     double& h = hysteresis_.force[i];
-    h = std::clamp(h + sigma * change * (1.0 - h / f * direction), -f, f);
-    hysteresis_.stiffness[i] =
-        direction == 0 ? sigma : sigma * (1.0 - h / f * direction);
+    if (change != 0.0) {
+      const double s = change > 0 ? 1.0 : -1.0;
+      h = s * f - (s * f - h) * std::exp(-sigma * std::abs(change) / f);
+      hysteresis_.stiffness[i] = sigma * (1.0 - h / f * s);
+    }
     hysteresis_.reference[i] = deflection[i];
   }
   model_.SetExtraBushingForce(hysteresis_);

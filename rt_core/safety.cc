@@ -21,6 +21,8 @@ const char* TripCauseName(TripCause cause) {
       return "rig_fault";
     case TripCause::kSignal:
       return "signal";
+    case TripCause::kInvalidMeasurement:
+      return "invalid_measurement";
   }
   return "unknown";
 }

@@ -32,6 +32,7 @@ enum class TripCause : std::uint8_t {
   kWatchdog,
   kRigFault,
   kSignal,
+  kInvalidMeasurement,
 };
 
 const char* TripCauseName(TripCause cause);
@@ -57,8 +58,12 @@ class SafetyMonitor {
                              const Vec6<double>& predicted, bool detect_error,
                              int* channel) const;
 
-  // Counts a cycle without a fresh sample; true when the watchdog expires.
-  bool MissedSample() { return ++missed_ >= limits_.watchdog_cycles; }
+  // Counts `cycles` cycles without a fresh sample (more than one when the
+  // loop skipped cycles after an overrun); true when the watchdog expires.
+  bool MissedSamples(int cycles) {
+    missed_ += cycles;
+    return missed_ >= limits_.watchdog_cycles;
+  }
   void FreshSample() { missed_ = 0; }
 
   // Latches a trip (the first cause wins).

@@ -228,6 +228,32 @@ TEST(RunProfileTest, PhasesAndLevels) {
   EXPECT_EQ(profile.Level(6.8), 0.0);
 }
 
+TEST(CycleTimerTest, AnOverrunSkipsToTheNextDeadlineAhead) {
+  constexpr std::int64_t kPeriod = 2000000;  // 2 ms
+  CycleTimer timer(kPeriod);
+  timer.Start();
+  CycleTimer::Wake wake = timer.WaitForNextCycle();
+  EXPECT_EQ(wake.cycle, 0);
+  EXPECT_EQ(wake.skipped, 0);
+  // Cycle 0 works for 2.5 periods: deadlines 1 and 2 have passed.
+  const std::int64_t busy_until = wake.deadline + 5 * kPeriod / 2;
+  while (MonotonicNanoseconds() < busy_until) {
+  }
+  wake = timer.WaitForNextCycle();
+  EXPECT_EQ(wake.cycle, 3);
+  EXPECT_EQ(wake.skipped, 2);
+  EXPECT_GE(MonotonicNanoseconds(), wake.deadline);
+  // A cycle that ends just after the next deadline is an overrun too.
+  const std::int64_t just_late = wake.deadline + kPeriod + kPeriod / 10;
+  while (MonotonicNanoseconds() < just_late) {
+  }
+  wake = timer.WaitForNextCycle();
+  EXPECT_EQ(wake.cycle, 5);
+  EXPECT_EQ(wake.skipped, 1);
+  EXPECT_EQ(timer.overruns(), 2);
+  EXPECT_EQ(timer.skipped_cycles(), 3);
+}
+
 TEST(TimingStatisticsTest, PercentilesFromTheHistogram) {
   TimingStatistics s;
   for (int i = 1; i <= 1000; ++i) s.Record(i * 1000);  // 1 .. 1000 us
