@@ -71,6 +71,7 @@ class StaticRig : public RigInterface {
   void OnError() override {}
   IoResult Read(RigMeasurement* m) override {
     m->sample = ++sample_;
+    m->status = kRigEnabled;
     return IoResult::kFresh;
   }
   IoResult Write(const RigCommand&) override { return IoResult::kFresh; }

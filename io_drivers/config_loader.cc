@@ -436,6 +436,8 @@ Status LoadRigConfig(const std::string& directory, RigConfig* rig) {
                                        &rig->realtime.cpu));
   KCRIG_RETURN_IF_ERROR(reader.Boolean(realtime, "realtime", "lock_memory",
                                        &rig->realtime.lock_memory));
+  KCRIG_RETURN_IF_ERROR(reader.Boolean(realtime, "realtime", "no_cpu_idle",
+                                       &rig->realtime.no_cpu_idle));
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "run_profile", &profile));
   RunProfileTimes& p = rig->profile;
   KCRIG_RETURN_IF_ERROR(

@@ -106,6 +106,7 @@ std::string TimingJson(const LoopTiming& timing, const LoopResult& loop,
   doc["realtime"] = {{"sched_fifo", realtime.fifo},
                      {"cpu_affinity", realtime.affinity},
                      {"memory_locked", realtime.locked},
+                     {"no_cpu_idle", realtime.no_cpu_idle},
                      {"warnings", realtime.warnings}};
   doc["phases"] = {{"wakeup", PhaseJson(timing.wakeup)},
                    {"read", PhaseJson(timing.read)},

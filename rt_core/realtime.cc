@@ -1,10 +1,13 @@
 #include "rt_core/realtime.h"
 
+#include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
+#include <unistd.h>
 
 #include <cerrno>
+#include <cstdint>
 #include <cstring>
 
 namespace kcrig {
@@ -13,6 +16,8 @@ namespace {
 // The calling thread's CPU set before SetUpRealtime pinned it.
 thread_local cpu_set_t g_saved_affinity;
 thread_local bool g_affinity_saved = false;
+// The open /dev/cpu_dma_latency request (released when closed).
+int g_dma_latency_fd = -1;
 
 // Touches a stack region once so that the cycle does not fault it in later.
 void PrefaultStack() {
@@ -36,6 +41,20 @@ RealtimeReport SetUpRealtime(const RealtimeOptions& options) {
     }
   }
   PrefaultStack();
+  if (options.no_cpu_idle && g_dma_latency_fd < 0) {
+    const int fd = open("/dev/cpu_dma_latency", O_RDWR | O_CLOEXEC);
+    const std::int32_t zero = 0;
+    if (fd >= 0 && write(fd, &zero, sizeof(zero)) == sizeof(zero)) {
+      g_dma_latency_fd = fd;
+      report.no_cpu_idle = true;
+    } else {
+      report.warnings.push_back(
+          std::string("/dev/cpu_dma_latency refused (") + std::strerror(errno) +
+          "): CPUs may enter deep idle states, whose exit adds wake-up "
+          "latency");
+      if (fd >= 0) close(fd);
+    }
+  }
   if (options.cpu >= 0) {
     g_affinity_saved =
         pthread_getaffinity_np(pthread_self(), sizeof(g_saved_affinity),
@@ -77,6 +96,10 @@ void LeaveRealtime() {
     pthread_setaffinity_np(pthread_self(), sizeof(g_saved_affinity),
                            &g_saved_affinity);
     g_affinity_saved = false;
+  }
+  if (g_dma_latency_fd >= 0) {
+    close(g_dma_latency_fd);
+    g_dma_latency_fd = -1;
   }
   munlockall();
 }

@@ -17,12 +17,17 @@ struct RealtimeOptions {
   int cpu = -1;
   // mlockall(MCL_CURRENT | MCL_FUTURE) so the cycle never page-faults.
   bool lock_memory = true;
+  // Hold /dev/cpu_dma_latency at 0 us while the loop runs (as cyclictest
+  // does): CPUs stay out of deep idle states whose exit costs wake-up
+  // latency.
+  bool no_cpu_idle = true;
 };
 
 struct RealtimeReport {
   bool fifo = false;                  // SCHED_FIFO at the requested priority
   bool affinity = false;              // pinned to the requested CPU
   bool locked = false;                // memory locked
+  bool no_cpu_idle = false;           // /dev/cpu_dma_latency held at 0
   std::vector<std::string> warnings;  // one line per step not permitted
 };
 
@@ -30,8 +35,8 @@ struct RealtimeReport {
 RealtimeReport SetUpRealtime(const RealtimeOptions& options);
 
 // Returns the calling thread to the time-sharing scheduler, restores its CPU
-// affinity and unlocks memory: the work after the loop (writing logs,
-// estimating) must not starve others or stay pinned.
+// affinity, releases /dev/cpu_dma_latency and unlocks memory: the work after
+// the loop (writing logs, estimating) must not starve others or stay pinned.
 void LeaveRealtime();
 
 }  // namespace kcrig
