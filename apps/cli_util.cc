@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <numbers>
 
 namespace kcrig {
 
@@ -63,6 +64,30 @@ Status ParseChannels(const std::string& text, std::vector<int>* channels) {
   }
   if (channels->empty()) return Status::Error("--channels: empty list");
   return Status::Ok();
+}
+
+void AddExcitationOptions(CLI::App* cmd, ExcitationArgs* args) {
+  // Sets the optional only when the option is given.
+  auto optional_number = [cmd](const char* name, std::optional<double>* target,
+                               const char* help) {
+    cmd->add_option_function<double>(
+        name, [target](const double& value) { *target = value; }, help);
+  };
+  optional_number("--phi", &args->phi_deg,
+                  "Force direction in the x-y plane [deg] (default: config)");
+  optional_number("--z", &args->z_a,
+                  "Acting point height relative to the wheel centre [m]");
+  optional_number("--fmax", &args->fmax, "Ramp amplitude [N]");
+  optional_number("--duration", &args->duration, "Ramp time tf [s]");
+}
+
+RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
+                                   const ExperimentConfig& experiment) {
+  constexpr double kDegree = std::numbers::pi / 180.0;
+  return {args.phi_deg ? *args.phi_deg * kDegree : experiment.phi,
+          args.z_a.value_or(experiment.z_a),
+          args.fmax.value_or(experiment.fmax),
+          args.duration.value_or(experiment.duration)};
 }
 
 }  // namespace kcrig

@@ -2,9 +2,13 @@
 #ifndef KCRIG_APPS_CLI_UTIL_H_
 #define KCRIG_APPS_CLI_UTIL_H_
 
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "CLI/CLI.hpp"
+#include "io_drivers/config_loader.h"
+#include "rt_core/excitation.h"
 #include "rt_core/status.h"
 
 namespace kcrig {
@@ -21,6 +25,18 @@ Status ParseChannels(const std::string& text, std::vector<int>* channels);
 
 // "a,b,c" -> {"a", "b", "c"}; empty items are dropped.
 std::vector<std::string> SplitList(const std::string& text);
+
+// The ramp options --phi DEG, --z M, --fmax N, --duration S shared by the
+// commands that run one experiment; unset means the config's value.
+struct ExcitationArgs {
+  std::optional<double> phi_deg, z_a, fmax, duration;
+};
+
+void AddExcitationOptions(CLI::App* cmd, ExcitationArgs* args);
+
+// The given values over the config's defaults; phi in rad. Unchecked.
+RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
+                                   const ExperimentConfig& experiment);
 
 }  // namespace kcrig
 

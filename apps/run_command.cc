@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "apps/cli_util.h"
 #include "apps/progress.h"
 #include "apps/rig_factory.h"
 #include "io_drivers/config_loader.h"
@@ -22,7 +23,7 @@ constexpr int kTripped = 3;
 struct RunArgs {
   std::string config_dir;
   std::string rig;
-  std::optional<double> phi_deg, z_a, fmax, duration;
+  ExcitationArgs excitation;
   std::string log_dir;
   bool quiet = false;
 };
@@ -59,10 +60,12 @@ int RunRun(const RunArgs& args) {
   status = LoadRigConfig(config.directory, &rig_config);
   if (!status.ok()) return fail(status);
   RigSessionOptions options;
-  options.phi = args.phi_deg ? *args.phi_deg * kDegree : config.experiment.phi;
-  options.z_a = args.z_a.value_or(config.experiment.z_a);
-  options.fmax = args.fmax.value_or(config.experiment.fmax);
-  options.tf = args.duration.value_or(config.experiment.duration);
+  const RampExcitation<double> ramp =
+      ResolveRamp(args.excitation, config.experiment);
+  options.phi = ramp.phi;
+  options.z_a = ramp.z_a;
+  options.fmax = ramp.fmax;
+  options.tf = ramp.duration;
   options.log_dir = args.log_dir;
   status = ValidateRunRequest(rig_config, options);
   if (!status.ok()) return fail(status);
@@ -117,17 +120,7 @@ void AddRunCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--rig", args->rig,
                   "modbus-tcp://HOST:PORT or modbus-rtu://DEVICE")
       ->required();
-  auto optional_number = [cmd](const char* name, std::optional<double>* target,
-                               const char* help) {
-    cmd->add_option_function<double>(
-        name, [target](const double& value) { *target = value; }, help);
-  };
-  optional_number("--phi", &args->phi_deg,
-                  "Force direction in the x-y plane [deg] (default: config)");
-  optional_number("--z", &args->z_a,
-                  "Acting point height relative to the wheel centre [m]");
-  optional_number("--fmax", &args->fmax, "Ramp amplitude [N]");
-  optional_number("--duration", &args->duration, "Ramp time tf [s]");
+  AddExcitationOptions(cmd, &args->excitation);
   cmd->add_option("--log-dir", args->log_dir,
                   "Directory for run.csv, run.json and timing.json")
       ->required();

@@ -20,7 +20,8 @@ constexpr double kDegree = std::numbers::pi / 180.0;
 struct SimulateArgs {
   std::string config_dir;
   // Unset means "the config's default".
-  std::optional<double> phi_deg, z_a, fmax, duration, rate;
+  ExcitationArgs excitation;
+  std::optional<double> rate;
   std::vector<std::string> sets;
   std::vector<std::string> effects;
   bool noise = false;
@@ -48,10 +49,7 @@ Status ApplySet(const std::string& assignment,
 Status ResolveExcitation(const SimulateArgs& args,
                          const ExperimentConfig& experiment,
                          RampExcitation<double>* excitation, double* rate) {
-  excitation->phi = args.phi_deg ? *args.phi_deg * kDegree : experiment.phi;
-  excitation->z_a = args.z_a.value_or(experiment.z_a);
-  excitation->fmax = args.fmax.value_or(experiment.fmax);
-  excitation->duration = args.duration.value_or(experiment.duration);
+  *excitation = ResolveRamp(args.excitation, experiment);
   *rate = args.rate.value_or(experiment.rate);
   if (!std::isfinite(excitation->phi))
     return Status::Error("--phi: must be finite");
@@ -154,19 +152,10 @@ void AddSimulateCommand(CLI::App* app, std::function<int()>* run) {
       "Run the suspension model for one ramp excitation and write a run log");
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");
-  // Sets the optional only when the option is given.
-  auto optional_number = [cmd](const char* name, std::optional<double>* target,
-                               const char* help) {
-    cmd->add_option_function<double>(
-        name, [target](const double& value) { *target = value; }, help);
-  };
-  optional_number("--phi", &args->phi_deg,
-                  "Force direction in the x-y plane [deg] (default: config)");
-  optional_number("--z", &args->z_a,
-                  "Acting point height relative to the wheel centre [m]");
-  optional_number("--fmax", &args->fmax, "Ramp amplitude [N]");
-  optional_number("--duration", &args->duration, "Ramp time tf [s]");
-  optional_number("--rate", &args->rate, "Sample rate [Hz]");
+  AddExcitationOptions(cmd, &args->excitation);
+  cmd->add_option_function<double>(
+      "--rate", [args](const double& rate) { args->rate = rate; },
+      "Sample rate [Hz]");
   cmd->add_option("--set", args->sets,
                   "Override a model parameter, NAME=VALUE in SI (repeatable)");
   cmd->add_flag("--noise", args->noise,

@@ -17,6 +17,7 @@
 #include "nlohmann/json.hpp"
 #include "tests/support/child_process.h"
 #include "tests/support/cli_runner.h"
+#include "tests/support/edited_config.h"
 #include "tests/support/temp_dir_test.h"
 
 namespace kcrig {
@@ -87,23 +88,10 @@ class HilCliTest : public TempDirTest {
     return std::make_unique<ChildProcess>(argv, Path("run.out"));
   }
 
-  // A copy of the source config with `file` edited: `from` -> `to`.
+  // The source config with one edit, in this test's directory.
   std::string EditedConfig(const std::string& file, const std::string& from,
                            const std::string& to) {
-    const std::string dir = Path("config");
-    if (!std::filesystem::exists(dir)) {
-      std::filesystem::copy(KCRIG_TEST_CONFIG_DIR, dir,
-                            std::filesystem::copy_options::recursive);
-    }
-    std::ifstream in(dir + "/" + file);
-    std::stringstream text;
-    text << in.rdbuf();
-    std::string content = text.str();
-    const size_t at = content.find(from);
-    EXPECT_NE(at, std::string::npos) << from;
-    content.replace(at, from.size(), to);
-    std::ofstream(dir + "/" + file) << content;
-    return dir;
+    return EditConfig(Path("config"), file, from, to);
   }
 
   // The documented safe state after a trip: exit 3, cause in run.json, the

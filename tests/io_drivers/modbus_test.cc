@@ -15,6 +15,7 @@
 #include "io_drivers/modbus_rig.h"
 #include "io_drivers/modbus_server.h"
 #include "tests/support/allocation_counter.h"
+#include "tests/support/edited_config.h"
 #include "tests/support/temp_dir_test.h"
 #include "tests/support/test_config.h"
 
@@ -39,20 +40,12 @@ TEST(ModbusRegistersTest, Float32AndUint32InBothWordOrders) {
 
 class ModbusConfigTest : public TempDirTest {
  protected:
-  // The source file `name` with `from` replaced by `to`, written to dir_.
+  // Per case a fresh copy of the source config with `from` -> `to` in
+  // `name`; returns the edited file's path.
   std::string Edited(const std::string& name, const std::string& from,
                      const std::string& to) {
-    std::filesystem::copy(KCRIG_TEST_CONFIG_DIR, dir_,
-                          std::filesystem::copy_options::overwrite_existing |
-                              std::filesystem::copy_options::recursive);
-    std::ifstream in(Path(name));
-    std::stringstream text;
-    text << in.rdbuf();
-    std::string content = text.str();
-    const size_t at = content.find(from);
-    EXPECT_NE(at, std::string::npos) << from;
-    content.replace(at, from.size(), to);
-    std::ofstream(Path(name)) << content;
+    std::filesystem::remove_all(dir_);
+    EditConfig(dir_.string(), name, from, to);
     return Path(name);
   }
 };
