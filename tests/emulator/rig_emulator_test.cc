@@ -1,0 +1,162 @@
+// The software rig as a controller sees it (transport-free: commands in,
+// samples out, simulated time): the actuator follows the set-point through
+// its lag and dead time, the rig protects itself, and every unmodelled
+// effect changes the sampled response in its documented direction.
+#include "emulator/rig_emulator.h"
+
+#include <cmath>
+#include <functional>
+#include <vector>
+
+#include "gtest/gtest.h"
+#include "tests/support/test_config.h"
+
+namespace kcrig {
+namespace {
+
+constexpr double kPeriod = 1e-3;
+constexpr int kLateral = 1;
+
+struct Trace {
+  std::vector<RigMeasurement> samples;  // one per ms
+};
+
+// Commands `force(t)` every millisecond for `duration` and samples once per
+// millisecond, sensors noise-free.
+Trace Drive(const char* effect, const std::function<double(double)>& force,
+            double duration) {
+  const KcrigConfig config = SourceConfig();
+  PlantConfig plant;
+  EXPECT_TRUE(
+      LoadPlantConfig(KCRIG_TEST_CONFIG_DIR, config.model, &plant).ok());
+  plant.noise = false;
+  PlantEffects effects;
+  if (effect != nullptr) EXPECT_TRUE(ParseEffect(effect, &effects).ok());
+  RigEmulator rig(config, plant, effects);
+  EXPECT_TRUE(rig.Start(0.0).ok());
+  Trace trace;
+  RigCommand command;
+  command.enable = true;
+  command.z_a = -0.45;
+  const int cycles = static_cast<int>(std::lround(duration / kPeriod));
+  for (int k = 0; k <= cycles; ++k) {
+    const double t = k * kPeriod;
+    rig.AdvanceTo(t);
+    trace.samples.push_back(rig.TakeSample());
+    command.force << 0, force(t), 0;
+    ++command.sequence;
+    rig.ApplyCommand(command, false);
+  }
+  return trace;
+}
+
+// 0 -> 4 kN lateral over 2 s, hold 1 s, back to 0 over 2 s, hold 1 s.
+double UpHoldDown(double t) {
+  if (t < 2) return 2000 * t;
+  if (t < 3) return 4000;
+  if (t < 5) return 4000 - 2000 * (t - 3);
+  return 0;
+}
+
+double Y(const Trace& trace, double t) {
+  return trace.samples[std::lround(t / kPeriod)].y(kLateral);
+}
+
+TEST(RigEmulatorTest, TheLoadCellFollowsTheSetPointThroughLagAndDeadTime) {
+  const Trace trace = Drive(nullptr, UpHoldDown, 6);
+  // On the 2000 N/s ramp the actuator trails by tau + dead time = 7 ms
+  // (plant.yaml) plus the one-cycle hold of the command.
+  const double trail =
+      (2000 * 1.0 - trace.samples[1000].force(kLateral)) / 2000;
+  EXPECT_NEAR(trail, 0.008, 0.0015);
+  EXPECT_NEAR(trace.samples[2900].force(kLateral), 4000, 1.0);
+  EXPECT_TRUE(trace.samples[100].status & kRigEnabled);
+  EXPECT_EQ(trace.samples.back().sample, trace.samples.size());
+}
+
+TEST(RigEmulatorTest, ASilentControllerFaultsTheRigAndItsForceRampsDown) {
+  const KcrigConfig config = SourceConfig();
+  PlantConfig plant;
+  ASSERT_TRUE(
+      LoadPlantConfig(KCRIG_TEST_CONFIG_DIR, config.model, &plant).ok());
+  RigEmulator rig(config, plant, PlantEffects());
+  ASSERT_TRUE(rig.Start(0.0).ok());
+  RigCommand command;
+  command.enable = true;
+  command.force << 0, 1000, 0;
+  rig.ApplyCommand(command, false);
+  rig.AdvanceTo(0.04);  // within command_timeout (0.05 s)
+  EXPECT_EQ(rig.fault(), kFaultNone);
+  EXPECT_NEAR(rig.actuator_force()(kLateral), 1000, 5);
+  rig.AdvanceTo(0.06);
+  EXPECT_EQ(rig.fault(), kFaultCommandTimeout);
+  EXPECT_TRUE(rig.status() & kRigFault);
+  EXPECT_TRUE(rig.status() & kRigWatchdog);
+  rig.AdvanceTo(0.4);  // ramp_down_time 0.2 s + lag
+  EXPECT_LT(std::abs(rig.actuator_force()(kLateral)), 1.0);
+}
+
+// Each effect against the nominal rig under the same commands.
+class RigEffectTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    nominal_ = new Trace(Drive(nullptr, UpHoldDown, 6));
+    rising_ = Y(*nominal_, 1.0);  // rising at 2 kN: deflection grows with +y
+    held_ = Y(*nominal_, 2.9);    // held at 4 kN
+  }
+  static void TearDownTestSuite() { delete nominal_; }
+  static Trace* nominal_;
+  static double rising_, held_;
+};
+Trace* RigEffectTest::nominal_ = nullptr;
+double RigEffectTest::rising_ = 0;
+double RigEffectTest::held_ = 0;
+
+TEST_F(RigEffectTest, NominalDeflectsWithTheLoad) {
+  EXPECT_GT(held_, rising_);
+  EXPECT_GT(rising_, Y(*nominal_, 0.0));
+}
+
+TEST_F(RigEffectTest, BushingDampingLagsWhileMovingAndRelaxesWhenHeld) {
+  const Trace damped = Drive("bushing_damping", UpHoldDown, 6);
+  EXPECT_LT(Y(damped, 1.0), rising_ - 2e-6);
+  EXPECT_NEAR(Y(damped, 2.9), held_, 0.05 * (rising_ - Y(damped, 1.0)));
+}
+
+TEST_F(RigEffectTest, HysteresisLagsAndStaysDeflectedAfterUnloading) {
+  const Trace dahl = Drive("hysteresis", UpHoldDown, 6);
+  EXPECT_LT(Y(dahl, 1.0), rising_ - 2e-6);
+  EXPECT_GT(Y(dahl, 6.0) - Y(dahl, 0.0), 2e-6);
+  EXPECT_LT(std::abs(Y(*nominal_, 6.0) - Y(*nominal_, 0.0)), 2e-7);
+}
+
+TEST_F(RigEffectTest, ProgressiveStiffnessDeflectsLessAndRelativelyLessAtMore) {
+  const Trace cubic = Drive("progressive_stiffness", UpHoldDown, 6);
+  const double base = Y(*nominal_, 0.0);
+  EXPECT_LT((Y(cubic, 2.9) - base) / (held_ - base),
+            (Y(cubic, 1.0) - base) / (rising_ - base));
+  EXPECT_LT(Y(cubic, 2.9), held_ - 2e-6);
+}
+
+TEST_F(RigEffectTest, ActuatorLagPutsTheWheelWhereItWasTauPlusDeadTimeAgo) {
+  const Trace lag = Drive("actuator_lag", UpHoldDown, 6);
+  // The load cell reads the same; the wheel trails by 60 ms.
+  EXPECT_NEAR(lag.samples[1000].force(kLateral),
+              nominal_->samples[1000].force(kLateral), 1e-9);
+  const double earlier = Y(*nominal_, 0.94);
+  EXPECT_NEAR(Y(lag, 1.0), earlier, 0.1 * (rising_ - earlier));
+}
+
+TEST_F(RigEffectTest, RigComplianceAddsForceOverStiffness) {
+  const Trace soft = Drive("rig_compliance:k=5e7", UpHoldDown, 6);
+  EXPECT_NEAR(Y(soft, 2.9) - held_, soft.samples[2900].force(kLateral) / 5e7,
+              2e-6);  // quantization 1 um
+}
+
+TEST_F(RigEffectTest, SensorOffsetScalesAndShiftsTheReadings) {
+  const Trace offset = Drive("sensor_offset", UpHoldDown, 6);
+  EXPECT_NEAR(Y(offset, 2.9), 1.03 * held_ - 1e-4, 2e-6);
+}
+
+}  // namespace
+}  // namespace kcrig
