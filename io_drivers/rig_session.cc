@@ -1,9 +1,11 @@
 #include "io_drivers/rig_session.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <thread>
 
@@ -215,9 +217,24 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   log.has_commanded_force = true;
   log.has_loop_columns = true;
   const bool keep_log = !options.log_dir.empty();
+  // The logger streams rows to run.csv.partial as they come (a crash of
+  // this process keeps every row up to it); the end renames it to run.csv
+  // beside its sidecar.
+  const std::string csv_path =
+      keep_log ? (fs::path(options.log_dir) / "run.csv").string() : "";
+  const std::string partial_path = csv_path + ".partial";
+  std::FILE* partial = nullptr;
   if (keep_log) {
     log.samples.reserve(static_cast<size_t>(profile.duration() / period) + 16);
+    partial = std::fopen(partial_path.c_str(), "wb");
+    if (partial == nullptr) {
+      return Status::Error(partial_path + ": cannot write (" +
+                           std::strerror(errno) + ")");
+    }
+    const std::string header = RunLogCsvHeader(log);
+    std::fwrite(header.data(), 1, header.size(), partial);
   }
+  bool stream_failed = false;
 
   std::atomic<bool> loop_done{false};
   std::thread logger([&] {
@@ -226,6 +243,8 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
     auto last_progress = std::chrono::steady_clock::now();
     auto last_warning = last_progress;
     std::int64_t skipped_since_warning = 0;
+    std::string rows;
+    size_t streamed = 0;  // samples already in `rows` or on disk
     for (;;) {
       const bool done = loop_done.load(std::memory_order_acquire);
       while (ring.Pop(&record)) {
@@ -245,6 +264,15 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
         }
         log.samples.push_back(ToSample(record, period));
         next_cycle = record.cycle + 1;
+      }
+      if (keep_log && streamed < log.samples.size()) {
+        for (; streamed < log.samples.size(); ++streamed) {
+          AppendRunLogCsvRow(log, log.samples[streamed], &rows);
+        }
+        stream_failed |=
+            std::fwrite(rows.data(), 1, rows.size(), partial) != rows.size() ||
+            std::fflush(partial) != 0;
+        rows.clear();
       }
       if (done) break;
       const auto now = std::chrono::steady_clock::now();
@@ -280,7 +308,13 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
     // the link is gone: the rig's own watchdog then does it).
     if (!rig->Deactivate().ok()) rig->OnError();
   }
-  if (!activated.ok()) return activated;
+  if (!activated.ok()) {
+    if (partial != nullptr) {
+      std::fclose(partial);
+      std::remove(partial_path.c_str());
+    }
+    return activated;
+  }
 
   const LoopResult& lr = result->loop;
   result->completed = lr.cause == TripCause::kNone;
@@ -330,11 +364,18 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   hil["realtime_warnings"] = result->realtime.warnings;
   m.hil_json = hil.dump();
   if (log.samples.size() < 2) {
+    std::fclose(partial);
+    std::remove(partial_path.c_str());
     return Status::Error(options.log_dir +
                          ": the run ended before two cycles were logged");
   }
-  const std::string csv = (fs::path(options.log_dir) / "run.csv").string();
-  Status status = WriteRunLog(csv, log);
+  if (std::fclose(partial) != 0 || stream_failed) {
+    return Status::Error(partial_path +
+                         ": writing the log failed (disk "
+                         "full?); the rows written so far are "
+                         "in this file");
+  }
+  Status status = FinishStreamedRunLog(partial_path, csv_path, log);
   if (!status.ok()) return status;
   return WriteFilesAtomically(
       {{(fs::path(options.log_dir) / "timing.json").string(),

@@ -24,7 +24,9 @@ void AppendNumber(double value, std::string* out) {
   out->append(buffer, result.ptr);
 }
 
-std::string FormatCsv(const RunLog& log) {
+}  // namespace
+
+std::string RunLogCsvHeader(const RunLog& log) {
   std::string csv = log.has_measured_force
                         ? "t,Fx,Fy,Fz,x,y,z,toe,camber,caster"
                         : "t,x,y,z,toe,camber,caster";
@@ -35,35 +37,45 @@ std::string FormatCsv(const RunLog& log) {
         "toe_model,camber_model,caster_model";
   }
   csv += '\n';
-  csv.reserve(log.samples.size() * 200);
-  for (const LogSample& s : log.samples) {
-    AppendNumber(s.t, &csv);
-    for (int k = 0; log.has_measured_force && k < 3; ++k) {
-      csv += ',';
-      AppendNumber(s.force(k), &csv);
-    }
-    for (int k = 0; k < 6; ++k) {
-      csv += ',';
-      AppendNumber(s.y(k), &csv);
-    }
-    if (log.has_commanded_force) {
-      for (int k = 0; k < 3; ++k) {
-        csv += ',';
-        AppendNumber(s.commanded(k), &csv);
-      }
-    }
-    if (log.has_loop_columns) {
-      csv += s.fresh ? ",1," : ",0,";
-      csv += s.phase;
-      csv += ',' + std::to_string(s.safety) + ',' +
-             std::to_string(s.rig_sample) + ',' + std::to_string(s.rig_status);
-      for (int k = 0; k < 6; ++k) {
-        csv += ',';
-        AppendNumber(s.predicted(k), &csv);
-      }
-    }
-    csv += '\n';
+  return csv;
+}
+
+void AppendRunLogCsvRow(const RunLog& log, const LogSample& s,
+                        std::string* csv) {
+  AppendNumber(s.t, csv);
+  for (int k = 0; log.has_measured_force && k < 3; ++k) {
+    *csv += ',';
+    AppendNumber(s.force(k), csv);
   }
+  for (int k = 0; k < 6; ++k) {
+    *csv += ',';
+    AppendNumber(s.y(k), csv);
+  }
+  if (log.has_commanded_force) {
+    for (int k = 0; k < 3; ++k) {
+      *csv += ',';
+      AppendNumber(s.commanded(k), csv);
+    }
+  }
+  if (log.has_loop_columns) {
+    *csv += s.fresh ? ",1," : ",0,";
+    *csv += s.phase;
+    *csv += ',' + std::to_string(s.safety) + ',' +
+            std::to_string(s.rig_sample) + ',' + std::to_string(s.rig_status);
+    for (int k = 0; k < 6; ++k) {
+      *csv += ',';
+      AppendNumber(s.predicted(k), csv);
+    }
+  }
+  *csv += '\n';
+}
+
+namespace {
+
+std::string FormatCsv(const RunLog& log) {
+  std::string csv = RunLogCsvHeader(log);
+  csv.reserve(log.samples.size() * 200);
+  for (const LogSample& s : log.samples) AppendRunLogCsvRow(log, s, &csv);
   return csv;
 }
 
@@ -347,6 +359,20 @@ Status WriteFilesAtomically(
       remove_temporaries();
       return Status::Error(files[i].first + ": cannot write: " + reason);
     }
+  }
+  return Status::Ok();
+}
+
+Status FinishStreamedRunLog(const std::string& partial_path,
+                            const std::string& csv_path, const RunLog& log) {
+  const std::string sidecar = SidecarPath(csv_path);
+  Status status = WriteFilesAtomically({{sidecar, FormatSidecar(log)}});
+  if (!status.ok()) return status;
+  if (std::rename(partial_path.c_str(), csv_path.c_str()) != 0) {
+    const std::string reason = std::strerror(errno);
+    std::remove(sidecar.c_str());
+    return Status::Error(csv_path + ": cannot move " + partial_path +
+                         " into place (" + reason + ")");
   }
   return Status::Ok();
 }

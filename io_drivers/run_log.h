@@ -71,6 +71,19 @@ std::string SidecarPath(const std::string& csv_path);
 // Writes csv_path and its sidecar atomically; on failure neither exists.
 Status WriteRunLog(const std::string& csv_path, const RunLog& log);
 
+// For writers that stream a log row by row as it is recorded (kcrig run):
+// the header line and one row, exactly as WriteRunLog writes them (the
+// columns follow log's flags).
+std::string RunLogCsvHeader(const RunLog& log);
+void AppendRunLogCsvRow(const RunLog& log, const LogSample& sample,
+                        std::string* csv);
+
+// Completes a streamed log: writes the sidecar of `log` (which holds the
+// same samples) and renames `partial_path` to `csv_path`. Until then only
+// the partial file exists, so a crash leaves no run.csv without sidecar.
+Status FinishStreamedRunLog(const std::string& partial_path,
+                            const std::string& csv_path, const RunLog& log);
+
 // Reads a run log and its sidecar, checking everything an estimator relies
 // on: the header has every channel, each row is complete and finite, time
 // increases strictly, the file ends with a complete line, and the sidecar

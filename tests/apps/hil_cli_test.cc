@@ -103,6 +103,7 @@ class HilCliTest : public TempDirTest {
     EXPECT_EQ(exit_code, 3) << output;
     EXPECT_NE(output.find("tripped: " + cause), std::string::npos) << output;
     const nlohmann::json sidecar = ReadJson(log_dir + "/run.json");
+    EXPECT_FALSE(std::filesystem::exists(log_dir + "/run.csv.partial"));
     EXPECT_EQ(sidecar["hil"]["safety"]["cause"], cause);
     EXPECT_TRUE(sidecar["hil"]["safety"]["tripped"]);
     const Csv csv = ReadCsv(log_dir + "/run.csv");
@@ -150,6 +151,8 @@ TEST_F(HilCliTest, FullRampLogsEveryCycleAndTheEstimateFindsTheTruePlant) {
   ASSERT_EQ(run->Wait(), 0) << run->Output();
   const nlohmann::json sidecar = ReadJson(log_dir + "/run.json");
   const nlohmann::json& hil = sidecar["hil"];
+  // Streamed to run.csv.partial during the run, renamed at the end.
+  EXPECT_FALSE(std::filesystem::exists(log_dir + "/run.csv.partial"));
   const Csv csv = ReadCsv(log_dir + "/run.csv");
   // 0.2 + 1.0 + 0.5 + 4.0 + 1.0 s at 1 kHz: every cycle is a row.
   ASSERT_EQ(csv.rows.size(), 6700u);
