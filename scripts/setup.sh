@@ -9,7 +9,7 @@ packages=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libsundials-dev can-utils minpack-dev
-  mbpoll python3-pymodbus rt-tests
+  mbpoll python3-pymodbus python3-serial python3-serial-asyncio rt-tests
 )
 
 missing=()
