@@ -76,6 +76,7 @@ class StaticRig : public RigInterface {
   }
   IoResult Write(const RigCommand&) override { return IoResult::kFresh; }
   std::string Describe() const override { return "static"; }
+  std::string CountersJson() const override { return "{}"; }
 
  private:
   std::uint32_t sample_ = 0;

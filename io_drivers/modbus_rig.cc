@@ -88,6 +88,10 @@ std::string ModbusRig::Describe() const {
          std::to_string(endpoint_.port);
 }
 
+std::string ModbusRig::CountersJson() const {
+  return "{\"reconnects\": " + std::to_string(reconnects_.load()) + "}";
+}
+
 Status ModbusRig::Configure() {
   context_ = endpoint_.rtu
                  ? modbus_new_rtu(endpoint_.device.c_str(), settings_.baud,

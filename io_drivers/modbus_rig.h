@@ -46,6 +46,7 @@ class ModbusRig : public RigInterface {
   IoResult Read(RigMeasurement* measurement) override;
   IoResult Write(const RigCommand& command) override;
   std::string Describe() const override;
+  std::string CountersJson() const override;
 
   // Reconnections made by the background thread.
   int reconnects() const { return reconnects_.load(); }

@@ -53,7 +53,9 @@ std::string Channel(int k) {
   return k >= 0 && k < 6 ? kNames[k] : "?";
 }
 
-std::string TripMessage(const LoopResult& loop, double period) {
+// `transport_fault`: what the transport reported, for kTransportFault.
+std::string TripMessage(const LoopResult& loop, double period,
+                        const std::string& transport_fault) {
   if (loop.cause == TripCause::kNone) return "";
   std::string what = TripCauseName(loop.cause);
   switch (loop.cause) {
@@ -73,6 +75,9 @@ std::string TripMessage(const LoopResult& loop, double period) {
       break;
     case TripCause::kInvalidMeasurement:
       what += " (the rig sent a non-finite value)";
+      break;
+    case TripCause::kTransportFault:
+      what += " (" + transport_fault + ")";
       break;
     case TripCause::kSignal:
       what += std::string(" (") +
@@ -318,7 +323,17 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
 
   const LoopResult& lr = result->loop;
   result->completed = lr.cause == TripCause::kNone;
-  result->trip_message = TripMessage(lr, period);
+  nlohmann::ordered_json transport = nlohmann::ordered_json::object();
+  if (rig != nullptr) {
+    transport = nlohmann::ordered_json::parse(rig->CountersJson(), nullptr,
+                                              /*allow_exceptions=*/false);
+    if (transport.is_discarded()) transport = nlohmann::ordered_json::object();
+  }
+  result->trip_message =
+      TripMessage(lr, period,
+                  transport.contains("fault") && transport["fault"].is_string()
+                      ? transport["fault"].get<std::string>()
+                      : "the transport failed");
   result->logged_rows = static_cast<std::int64_t>(log.samples.size());
   result->timing_json = TimingJson(loop.timing(), lr, result->realtime, period,
                                    rig_config.budget, rig != nullptr);
@@ -362,6 +377,7 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   hil["rest_pose"] =
       std::vector<double>(lr.rest_pose.data(), lr.rest_pose.data() + 6);
   hil["realtime_warnings"] = result->realtime.warnings;
+  hil["transport"] = transport;
   m.hil_json = hil.dump();
   if (log.samples.size() < 2) {
     std::fclose(partial);

@@ -55,6 +55,10 @@ bool ControlLoop::Cycle(std::int64_t cycle, std::int64_t skipped) {
     fresh = read == IoResult::kFresh;
     if (read == IoResult::kStale) ++result_.stale;
     if (read == IoResult::kError) ++result_.read_errors;
+    if (read == IoResult::kFault) {
+      ++result_.read_errors;
+      transport_fault_ = true;
+    }
     if (fresh && !Valid(measurement_)) {
       // Never let a NaN reach the model or the log: keep the last good
       // sample and trip (in Compute).
@@ -133,6 +137,10 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
       invalid_sample_ = false;
       safety_.Trip(TripCause::kInvalidMeasurement, cycle);
     }
+    if (transport_fault_) {
+      transport_fault_ = false;
+      safety_.Trip(TripCause::kTransportFault, cycle);
+    }
   }
   if (stop_signal_ != nullptr) {
     const int signal = stop_signal_->load(std::memory_order_relaxed);
@@ -155,7 +163,9 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
   command_.force = command;
   command_.z_a = options_.z_a;
   command_.enable = safety_.state() != SafetyState::kDisabled;
-  ++command_.sequence;
+  command_.sequence = static_cast<std::uint16_t>(cycle);
+  command_.phase = static_cast<std::uint8_t>(1 + static_cast<int>(phase));
+  command_.safety = static_cast<std::uint8_t>(safety_.state());
 
   // Logged with the measurement it was checked against (time t).
   for (int k = 0; k < 6; ++k) record->predicted[k] = state_.y(k);

@@ -4,7 +4,7 @@
 // inside it. read() and write() must return within a bounded time (the
 // transport's response timeout), never allocate, never throw; a failure is a
 // missed sample for the watchdog, not an exception. The loop never knows
-// which transport it talks to (Modbus now, SocketCAN next).
+// which transport it talks to (Modbus or SocketCAN).
 #ifndef KCRIG_RT_CORE_RIG_INTERFACE_H_
 #define KCRIG_RT_CORE_RIG_INTERFACE_H_
 
@@ -41,13 +41,20 @@ struct RigCommand {
   // rig's fixture; with moment actuators, M = r x F at the wheel centre).
   double z_a = 0;
   bool enable = false;
-  std::uint16_t sequence = 0;  // incremented every cycle
+  // The loop's cycle index mod 2^16: a gap is cycles skipped by overruns.
+  std::uint16_t sequence = 0;
+  // For transports that tell the rig (and their logs) where the run is:
+  // 0 outside the loop (lifecycle), else 1 + RunPhase; and SafetyState.
+  std::uint8_t phase = 0;
+  std::uint8_t safety = 0;
 };
 
 enum class IoResult {
   kFresh,  // a new sample arrived (read) / the command was accepted (write)
   kStale,  // the transport answered, but nothing new (read only)
   kError,  // timeout, exception, disconnect: counted by the watchdog
+  kFault,  // the transport itself failed (CAN bus-off, error-passive, tx
+           // timeout): the loop trips at once
 };
 
 class RigInterface {
@@ -69,6 +76,10 @@ class RigInterface {
 
   // For logs and messages: "modbus-tcp://127.0.0.1:1502".
   virtual std::string Describe() const = 0;
+
+  // The transport's own counters and faults as a JSON object, for run.json
+  // ("transport" in the hil block), read after the loop.
+  virtual std::string CountersJson() const = 0;
 };
 
 }  // namespace kcrig

@@ -23,6 +23,8 @@ const char* TripCauseName(TripCause cause) {
       return "signal";
     case TripCause::kInvalidMeasurement:
       return "invalid_measurement";
+    case TripCause::kTransportFault:
+      return "transport_fault";
   }
   return "unknown";
 }

@@ -33,6 +33,7 @@ enum class TripCause : std::uint8_t {
   kRigFault,
   kSignal,
   kInvalidMeasurement,
+  kTransportFault,  // the bus failed (CAN bus-off, error-passive, tx timeout)
 };
 
 const char* TripCauseName(TripCause cause);

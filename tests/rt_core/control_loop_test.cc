@@ -44,6 +44,7 @@ class FakeRig : public RigInterface {
     return IoResult::kFresh;
   }
   std::string Describe() const override { return "fake"; }
+  std::string CountersJson() const override { return "{}"; }
 
   bool silent = false;
   Vec6<double> offset = Vec6<double>::Zero();

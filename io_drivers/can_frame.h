@@ -1,0 +1,29 @@
+// A classic CAN frame as kcrig's codec, logs and transports see it: plain
+// data, independent of the kernel's struct can_frame (so the offline log
+// reader and the fuzzers build anywhere).
+#ifndef KCRIG_IO_DRIVERS_CAN_FRAME_H_
+#define KCRIG_IO_DRIVERS_CAN_FRAME_H_
+
+#include <cstdint>
+
+namespace kcrig {
+
+struct CanFrame {
+  std::uint32_t id = 0;   // 11 or 29 bits, no flags; error frames: the class
+  bool extended = false;  // 29-bit id
+  bool remote = false;    // RTR
+  bool error = false;     // an error frame (id = CAN_ERR_* class bits)
+  std::uint8_t dlc = 0;   // 0..8
+  std::uint8_t data[8] = {};
+};
+
+// A frame with its time stamp [us since the epoch] (the kernel's receive
+// time, or the send time for frames kcrig sent).
+struct TimedCanFrame {
+  std::int64_t time_us = 0;
+  CanFrame frame;
+};
+
+}  // namespace kcrig
+
+#endif  // KCRIG_IO_DRIVERS_CAN_FRAME_H_
