@@ -95,7 +95,7 @@ int RunCampaignCommand(const CampaignArgs& args) {
     status = LoadRigConfig(config.directory, &rig_config);
     if (!status.ok()) return fail(status);
     std::unique_ptr<RigInterface> probe;  // checks the URI and the map now
-    status = MakeRig(args.rig, rig_config, &probe);
+    status = MakeRig(args.rig, rig_config, "", &probe);
     if (!status.ok()) return fail(status);
     RigSessionOptions check;  // the campaign's excitations, at their limits
     check.phi = 0;
@@ -117,7 +117,9 @@ int RunCampaignCommand(const CampaignArgs& args) {
                              std::to_string(run));
       }
       std::unique_ptr<RigInterface> transport;
-      Status made = MakeRig(uri, rig_config, &transport);
+      Status made = MakeRig(uri, rig_config,
+                            fs::path(csv_path).parent_path().string(),
+                            &transport);
       if (!made.ok()) return made;
       made = transport->Configure();
       if (!made.ok()) return made;

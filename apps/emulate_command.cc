@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "apps/rig_factory.h"
+#include "emulator/can_front_end.h"
 #include "emulator/modbus_front_end.h"
 #include "emulator/rig_emulator.h"
 #include "io_drivers/config_loader.h"
@@ -46,18 +47,17 @@ int RunEmulate(const EmulateArgs& args) {
     std::fprintf(stderr, "kcrig emulate: %s\n", status.message().c_str());
     return 1;
   };
-  if (!args.can.empty()) {
-    return fail(Status::Error("--can " + args.can +
-                              ": the CAN node is not built yet (it comes "
-                              "with the SocketCAN issue); use --modbus-tcp"));
-  }
-  if (args.modbus_tcp.empty()) {
-    return fail(Status::Error("give --modbus-tcp HOST:PORT"));
+  if (args.modbus_tcp.empty() == args.can.empty()) {
+    return fail(Status::Error("give one of --modbus-tcp HOST:PORT or --can "
+                              "IFACE"));
   }
   std::string host;
   int port = 0;
-  Status status = ParseHostPort(args.modbus_tcp, &host, &port);
-  if (!status.ok()) return fail(status);
+  Status status = Status::Ok();
+  if (!args.modbus_tcp.empty()) {
+    status = ParseHostPort(args.modbus_tcp, &host, &port);
+    if (!status.ok()) return fail(status);
+  }
   KcrigConfig config;
   status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);
@@ -69,8 +69,10 @@ int RunEmulate(const EmulateArgs& args) {
   status = LoadRigConfig(config.directory, &rig_config);
   if (!status.ok()) return fail(status);
   ModbusMap map;
-  status = LoadModbusMap(rig_config.modbus.map_file, &map);
-  if (!status.ok()) return fail(status);
+  if (args.can.empty()) {
+    status = LoadModbusMap(rig_config.modbus.map_file, &map);
+    if (!status.ok()) return fail(status);
+  }
   PlantEffects effects;
   for (const std::string& effect : args.effects) {
     status = ParseEffect(effect, &effects);
@@ -89,6 +91,30 @@ int RunEmulate(const EmulateArgs& args) {
   std::string effect_text;
   for (const std::string& e : DescribeEffects(effects)) {
     effect_text += (effect_text.empty() ? "" : " ") + e;
+  }
+  if (!args.can.empty()) {
+    CanNodeCounters counters;
+    status = ServeCan(
+        &rig, rig_config.can.dbc_file, args.can, stop,
+        [&] {
+          std::printf(
+              "kcrig emulate: on can:%s (DBC %s); true plant from "
+              "plant.yaml, effects: %s\n",
+              args.can.c_str(), rig_config.can.dbc_file.c_str(),
+              effect_text.empty() ? "none" : effect_text.c_str());
+          std::fflush(stdout);
+        },
+        &counters);
+    if (!status.ok()) return fail(status);
+    std::printf(
+        "kcrig emulate: stopped (signal %d); commands %lld, samples sent "
+        "%lld, heartbeats %lld, malformed frames %lld, send failures %lld\n",
+        stop.load(), static_cast<long long>(counters.commands),
+        static_cast<long long>(counters.samples_sent),
+        static_cast<long long>(counters.heartbeats),
+        static_cast<long long>(counters.malformed),
+        static_cast<long long>(counters.send_failures));
+    return 0;
   }
   status = ServeModbus(&rig, map, host, port, stop, [&](int bound_port) {
     std::printf(
@@ -111,14 +137,16 @@ void AddEmulateCommand(CLI::App* app, std::function<int()>* run) {
   CLI::App* cmd = app->add_subcommand(
       "emulate",
       "The software rig: hydraulic actuator, true plant with optional "
-      "unmodelled effects, sensors, served over Modbus TCP until SIGINT/"
-      "SIGTERM");
+      "unmodelled effects, sensors, served over Modbus TCP or as a CAN node "
+      "until SIGINT/SIGTERM");
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");
   cmd->add_option("--modbus-tcp", args->modbus_tcp,
                   "Serve Modbus TCP on HOST:PORT (PORT 0: any free port, "
                   "printed on start)");
-  cmd->add_option("--can", args->can, "CAN interface (SocketCAN issue)");
+  cmd->add_option("--can", args->can,
+                  "Be the rig's CAN node on this SocketCAN interface (e.g. "
+                  "vcan0), speaking config/kc_rig.dbc");
   cmd->add_option("--effect", args->effects,
                   "Unmodelled effect of the true plant, NAME[:k=v,...] "
                   "(repeatable; as kcrig simulate)");

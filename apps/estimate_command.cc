@@ -68,7 +68,7 @@ int RunEstimate(const EstimateArgs& args) {
   }
 
   std::vector<Experiment> experiments;
-  status = LoadExperiments(args.logs, config.experiment.step, &experiments);
+  status = LoadExperiments(args.logs, config, &experiments);
   if (!status.ok()) return fail(status);
   EstimationResult result;
   status = Estimate(config.model, experiments, options, initial,

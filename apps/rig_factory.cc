@@ -2,6 +2,9 @@
 
 #include <csignal>
 
+#include <filesystem>
+
+#include "io_drivers/can_rig.h"
 #include "io_drivers/modbus_rig.h"
 
 namespace kcrig {
@@ -16,12 +19,18 @@ extern "C" void OnStopSignal(int signal) { g_stop_signal.store(signal); }
 }  // namespace
 
 Status MakeRig(const std::string& uri, const RigConfig& rig_config,
-               std::unique_ptr<RigInterface>* rig) {
+               const std::string& log_dir, std::unique_ptr<RigInterface>* rig) {
   if (uri.rfind("can:", 0) == 0) {
-    return Status::Error("--rig " + uri +
-                         ": the SocketCAN transport is not built yet (it "
-                         "comes with the SocketCAN issue); use "
-                         "modbus-tcp://HOST:PORT");
+    CanRigOptions options;
+    Status status = ParseCanUri(uri, &options.interface);
+    if (!status.ok()) return status;
+    options.settings = rig_config.can;
+    options.period = rig_config.period;
+    if (!log_dir.empty()) {
+      options.bus_log = (std::filesystem::path(log_dir) / "can.log").string();
+    }
+    *rig = std::make_unique<CanRig>(options);
+    return Status::Ok();
   }
   ModbusEndpoint endpoint;
   Status status = ParseModbusUri(uri, &endpoint);

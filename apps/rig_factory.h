@@ -12,10 +12,11 @@
 
 namespace kcrig {
 
-// modbus-tcp://HOST:PORT or modbus-rtu://DEVICE (can:IFACE comes with the
-// SocketCAN transport). The rig is created, not configured.
+// modbus-tcp://HOST:PORT, modbus-rtu://DEVICE or can:IFACE. The rig is
+// created, not configured. A CAN rig writes its bus log to
+// `log_dir`/can.log (none when `log_dir` is empty).
 Status MakeRig(const std::string& uri, const RigConfig& rig_config,
-               std::unique_ptr<RigInterface>* rig);
+               const std::string& log_dir, std::unique_ptr<RigInterface>* rig);
 
 // Installs handlers for SIGINT and SIGTERM that store the signal number in
 // the returned flag (the loop ramps down when it is non-zero).

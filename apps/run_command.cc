@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -44,7 +45,10 @@ void PrintOutcome(const char* who, const RigSessionResult& r,
       static_cast<long long>(l.lost_rig_samples),
       static_cast<long long>(l.overruns));
   if (!log_dir.empty()) {
-    std::printf("  wrote %s/run.csv, run.json, timing.json\n", log_dir.c_str());
+    const bool can = std::filesystem::exists(
+        std::filesystem::path(log_dir) / "can.log");
+    std::printf("  wrote %s/run.csv, run.json, timing.json%s\n",
+                log_dir.c_str(), can ? ", can.log" : "");
   }
 }
 
@@ -72,7 +76,7 @@ int RunRun(const RunArgs& args) {
   if (args.log_dir.empty()) return fail(Status::Error("give --log-dir DIR"));
 
   std::unique_ptr<RigInterface> rig;
-  status = MakeRig(args.rig, rig_config, &rig);
+  status = MakeRig(args.rig, rig_config, args.log_dir, &rig);
   if (!status.ok()) return fail(status);
   status = rig->Configure();
   if (!status.ok()) return fail(status);
@@ -118,11 +122,12 @@ void AddRunCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");
   cmd->add_option("--rig", args->rig,
-                  "modbus-tcp://HOST:PORT or modbus-rtu://DEVICE")
+                  "modbus-tcp://HOST:PORT, modbus-rtu://DEVICE or can:IFACE")
       ->required();
   AddExcitationOptions(cmd, &args->excitation);
   cmd->add_option("--log-dir", args->log_dir,
-                  "Directory for run.csv, run.json and timing.json")
+                  "Directory for run.csv, run.json, timing.json (and the "
+                  "CAN bus log can.log)")
       ->required();
   cmd->add_flag("--quiet", args->quiet, "No progress line");
   cmd->callback([args, run] { *run = [args] { return RunRun(*args); }; });

@@ -82,7 +82,7 @@ int RunScreen(const ScreenArgs& args) {
   options.levels = args.levels;
   options.seed = args.seed;
   std::vector<Experiment> experiments;
-  status = LoadExperiments(args.logs, config.experiment.step, &experiments);
+  status = LoadExperiments(args.logs, config, &experiments);
   if (!status.ok()) return fail(status);
   ScreeningResult result;
   status = Screen(config.model, experiments, estimator_options, options,

@@ -68,7 +68,7 @@ int RunTimingCheck(const TimingCheckArgs& args) {
   }
   std::unique_ptr<RigInterface> rig;
   if (!args.rig.empty()) {
-    status = MakeRig(args.rig, rig_config, &rig);
+    status = MakeRig(args.rig, rig_config, "", &rig);
     if (!status.ok()) return fail(status);
     status = rig->Configure();
     if (!status.ok()) return fail(status);

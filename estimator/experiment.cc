@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "io_drivers/can_log_decoder.h"
 #include "rt_core/excitation.h"
 
 namespace kcrig {
@@ -78,27 +79,32 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
   return Status::Ok();
 }
 
-Status LoadExperiment(const std::string& csv_path, double integrator_step,
+Status LoadExperiment(const std::string& path, const KcrigConfig& config,
                       Experiment* experiment) {
-  if (csv_path.size() >= 4 && csv_path.substr(csv_path.size() - 4) == ".log") {
-    return Status::Error(csv_path +
-                         ": candump logs are decoded with the DBC codec, which "
-                         "arrives with the SocketCAN transport; give the "
-                         "decoded run.csv");
-  }
   RunLog log;
-  const Status status = ReadRunLog(csv_path, &log);
-  if (!status.ok()) return status;
-  return MakeExperiment(csv_path, log, integrator_step, experiment);
+  if (path.size() >= 4 && path.substr(path.size() - 4) == ".log") {
+    RigConfig rig;
+    Status status = LoadRigConfig(config.directory, &rig);
+    if (!status.ok()) return status;
+    CanLogDecoderOptions options;
+    options.dbc_file = rig.can.dbc_file;
+    options.sigma_position = config.experiment.sigma_position;
+    options.sigma_angle = config.experiment.sigma_angle;
+    status = DecodeCanLog(path, options, &log);
+    if (!status.ok()) return status;
+  } else {
+    const Status status = ReadRunLog(path, &log);
+    if (!status.ok()) return status;
+  }
+  return MakeExperiment(path, log, config.experiment.step, experiment);
 }
 
-Status LoadExperiments(const std::vector<std::string>& csv_paths,
-                       double integrator_step,
+Status LoadExperiments(const std::vector<std::string>& paths,
+                       const KcrigConfig& config,
                        std::vector<Experiment>* experiments) {
-  experiments->assign(csv_paths.size(), Experiment());
-  for (size_t i = 0; i < csv_paths.size(); ++i) {
-    const Status status =
-        LoadExperiment(csv_paths[i], integrator_step, &(*experiments)[i]);
+  experiments->assign(paths.size(), Experiment());
+  for (size_t i = 0; i < paths.size(); ++i) {
+    const Status status = LoadExperiment(paths[i], config, &(*experiments)[i]);
     if (!status.ok()) return status;
   }
   return Status::Ok();

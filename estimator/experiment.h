@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "io_drivers/config_loader.h"
 #include "io_drivers/run_log.h"
 #include "rt_core/rotation.h"
 #include "rt_core/status.h"
@@ -33,13 +34,16 @@ struct Experiment {
 Status MakeExperiment(const std::string& source, const RunLog& log,
                       double integrator_step, Experiment* experiment);
 
-// ReadRunLog + MakeExperiment.
-Status LoadExperiment(const std::string& csv_path, double integrator_step,
+// A run log (run.csv with its sidecar: ReadRunLog) or a CAN bus log (a
+// `.log` in candump -l format: DecodeCanLog with the DBC of the config's
+// rig.yaml and the sigmas of its experiment.yaml), then MakeExperiment with
+// the config's integrator step.
+Status LoadExperiment(const std::string& path, const KcrigConfig& config,
                       Experiment* experiment);
 
 // LoadExperiment for each path, in order.
-Status LoadExperiments(const std::vector<std::string>& csv_paths,
-                       double integrator_step,
+Status LoadExperiments(const std::vector<std::string>& paths,
+                       const KcrigConfig& config,
                        std::vector<Experiment>* experiments);
 
 }  // namespace kcrig

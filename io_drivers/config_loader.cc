@@ -421,7 +421,7 @@ Status LoadRigConfig(const std::string& directory, RigConfig* rig) {
   const std::string file =
       (std::filesystem::path(directory) / "rig.yaml").string();
   YamlReader reader(file);
-  YAML::Node root, loop, realtime, profile, safety, budget, modbus, rtu;
+  YAML::Node root, loop, realtime, profile, safety, budget, modbus, rtu, can;
   KCRIG_RETURN_IF_ERROR(reader.Load(&root));
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "loop", &loop));
   KCRIG_RETURN_IF_ERROR(reader.Positive(loop, "loop", "period", &rig->period));
@@ -523,6 +523,24 @@ Status LoadRigConfig(const std::string& directory, RigConfig* rig) {
                         "must be N, E or O");
   }
   m.parity = parity_text[0];
+
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "can", &can));
+  CanSettings& c = rig->can;
+  std::string dbc;
+  KCRIG_RETURN_IF_ERROR(reader.String(can, "can", "dbc", &dbc));
+  c.dbc_file = (std::filesystem::path(directory) / dbc).string();
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(can, "can", "tx_timeout", &c.tx_timeout));
+  if (c.tx_timeout < rig->period || c.tx_timeout > 1) {
+    return reader.Error(can["tx_timeout"], "can.tx_timeout",
+                        "must be between loop.period and 1 s");
+  }
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(can, "can", "connect_timeout", &c.connect_timeout));
+  if (c.connect_timeout > 60) {
+    return reader.Error(can["connect_timeout"], "can.connect_timeout",
+                        "must be <= 60 s");
+  }
   return Status::Ok();
 }
 

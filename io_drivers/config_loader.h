@@ -92,6 +92,16 @@ struct ModbusSettings {
   int stop_bits = 1;
 };
 
+// The SocketCAN transport (rig.yaml `can:`).
+struct CanSettings {
+  std::string dbc_file;  // absolute path of the protocol's DBC
+  // The transmit queue may stay full (ENOBUFS) this long before it is a
+  // fault (tx timeout) [s].
+  double tx_timeout = 0.02;
+  // Configure waits this long for the rig's first heartbeat [s].
+  double connect_timeout = 1.0;
+};
+
 struct RigConfig {
   double period = 1e-3;  // [s]
   RealtimeOptions realtime;
@@ -99,6 +109,7 @@ struct RigConfig {
   SafetyLimits safety;
   TimingBudget budget;
   ModbusSettings modbus;
+  CanSettings can;
 };
 
 Status LoadRigConfig(const std::string& directory, RigConfig* rig);

@@ -18,7 +18,8 @@
 #
 # Environment: KCRIG_VM_CACHE (default ~/.cache/kcrig-vm),
 # KCRIG_VM_TIMEOUT [s] (default 900), KCRIG_VM_FORCE=1 (use the VM even
-# where the host has vcan), KCRIG_VM_SMP (default 2).
+# where the host has vcan), KCRIG_VM_SMP (default 2), KCRIG_VM_KEEP=1 (keep
+# the scratch directory, for a look at what the guest wrote).
 set -euo pipefail
 
 cache=${KCRIG_VM_CACHE:-${HOME:-/root}/.cache/kcrig-vm}
@@ -126,7 +127,11 @@ run() {
   prepare
   local scratch
   scratch=$(mktemp -d "${TMPDIR:-/tmp}/kcrig-vm.XXXXXX")
-  trap 'rm -rf "$scratch"' EXIT
+  if [[ ${KCRIG_VM_KEEP:-0} == 1 ]]; then
+    echo "vcan_vm: keeping the scratch directory $scratch" >&2
+  else
+    trap 'rm -rf "$scratch"' EXIT
+  fi
   {
     echo "cd $(printf %q "$PWD") || exit 126"
     echo "export PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin"

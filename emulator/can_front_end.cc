@@ -1,0 +1,96 @@
+#include "emulator/can_front_end.h"
+
+#include "io_drivers/kc_rig_protocol.h"
+#include "io_drivers/socket_can.h"
+#include "rt_core/cycle_timer.h"
+
+namespace kcrig {
+namespace {
+
+double Now() { return static_cast<double>(MonotonicNanoseconds()) * 1e-9; }
+
+}  // namespace
+
+Status ServeCan(RigEmulator* rig, const std::string& dbc_file,
+                const std::string& interface, const std::atomic<int>& stop,
+                const std::function<void()>& on_ready,
+                CanNodeCounters* counters) {
+  Dbc dbc;
+  Status status = LoadDbc(dbc_file, &dbc);
+  if (!status.ok()) return status;
+  KcRigProtocol protocol;
+  status = protocol.Bind(dbc, dbc_file);
+  if (!status.ok()) return status;
+  CanSocket socket;
+  CanSocketOptions options;
+  options.interface = interface;
+  // The controller's page (KC_Command, KC_Setup).
+  options.filters = {{protocol.id(KcFrame::kCommand) & 0x700u, 0x700u}};
+  options.error_frames = false;
+  status = socket.Open(options);
+  if (!status.ok()) return status;
+  status = rig->Start(Now());
+  if (!status.ok()) return status;
+
+  auto send = [&](const CanFrame& frame) {
+    int error = 0;
+    if (socket.Send(frame, &error) != CanSocket::SendResult::kSent) {
+      ++counters->send_failures;
+    }
+  };
+  RigMeasurement last_sample = rig->TakeSample();
+  double z_a = 0;
+  double next_heartbeat = 0;
+  std::uint16_t last_status = 0xFFFF;
+  on_ready();
+  while (stop.load() == 0) {
+    socket.WaitReadable(1e-3);
+    const double now = Now();
+    rig->AdvanceTo(now);
+    TimedCanFrame timed;
+    int error = 0;
+    while (socket.Receive(&timed, &error)) {
+      const CanFrame& frame = timed.frame;
+      const KcFrame kind = protocol.Classify(frame);
+      if (kind != KcFrame::kCommand && kind != KcFrame::kSetup) continue;
+      if (!protocol.WellFormed(frame, kind)) {
+        ++counters->malformed;
+        continue;
+      }
+      bool clamped = false;
+      if (kind == KcFrame::kSetup) {
+        z_a = protocol.DecodeSetup(frame, &clamped).z_a;
+        continue;
+      }
+      const KcCommand decoded = protocol.DecodeCommand(frame, &clamped);
+      RigCommand command;
+      command.force = decoded.force;
+      command.z_a = z_a;
+      command.enable = decoded.enable;
+      command.sequence = decoded.sequence;
+      rig->AdvanceTo(Now());
+      rig->ApplyCommand(command, decoded.reset_fault);
+      ++counters->commands;
+      last_sample = rig->TakeSample();
+      CanFrame frames[kSampleFrames];
+      protocol.EncodeSample(last_sample, frames, &clamped);
+      for (const CanFrame& f : frames) send(f);
+      ++counters->samples_sent;
+    }
+    const std::uint16_t rig_status = rig->status();
+    if (now >= next_heartbeat || rig_status != last_status) {
+      KcHeartbeat heartbeat;
+      heartbeat.status = rig_status;
+      heartbeat.fault_code = rig->fault();
+      heartbeat.protocol = kKcRigProtocolVersion;
+      heartbeat.sample = last_sample.sample;
+      send(protocol.EncodeHeartbeat(heartbeat));
+      ++counters->heartbeats;
+      last_status = rig_status;
+      next_heartbeat = now + kHeartbeatPeriod;
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace kcrig

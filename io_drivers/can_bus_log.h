@@ -1,0 +1,59 @@
+// The raw bus log of a CAN run: every frame kcrig sent or took in, in the
+// order it did so, as `candump -l` lines (io_drivers/candump_log.h). The
+// producer (the control loop's thread) only pushes into a lock-free ring;
+// a writer thread formats and writes. The file is FILE.partial until
+// Close() renames it, so a crash never leaves a can.log that looks whole.
+#ifndef KCRIG_IO_DRIVERS_CAN_BUS_LOG_H_
+#define KCRIG_IO_DRIVERS_CAN_BUS_LOG_H_
+
+#include <atomic>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <thread>
+
+#include "io_drivers/can_frame.h"
+#include "rt_core/spsc_ring.h"
+#include "rt_core/status.h"
+
+namespace kcrig {
+
+class CanBusLog {
+ public:
+  CanBusLog() : ring_(kCapacity) {}
+  ~CanBusLog();
+  CanBusLog(const CanBusLog&) = delete;
+  CanBusLog& operator=(const CanBusLog&) = delete;
+
+  // Starts writing `path`.partial, naming frames' interface `interface`.
+  Status Open(const std::string& path, const std::string& interface);
+  bool is_open() const { return file_ != nullptr; }
+
+  // From one producer thread; no allocation, no I/O. A full ring drops the
+  // frame (counted).
+  void Push(const TimedCanFrame& frame) {
+    if (file_ != nullptr) ring_.Push(frame);
+  }
+
+  // Writes what is left, renames `path`.partial to `path`.
+  Status Close();
+
+  std::uint64_t dropped() const { return ring_.dropped(); }
+  std::int64_t written() const { return written_.load(); }
+
+ private:
+  static constexpr std::size_t kCapacity = 1 << 16;
+  void Drain();
+
+  SpscRing<TimedCanFrame> ring_;
+  std::string path_, interface_;
+  std::FILE* file_ = nullptr;
+  std::thread writer_;
+  std::atomic<bool> stop_{false};
+  std::atomic<std::int64_t> written_{0};
+  bool write_failed_ = false;
+};
+
+}  // namespace kcrig
+
+#endif  // KCRIG_IO_DRIVERS_CAN_BUS_LOG_H_

@@ -1,0 +1,97 @@
+// The SocketCAN transport: kcrig as the CAN controller of the rig, behind
+// the loop's RigInterface, speaking config/kc_rig.dbc (io_drivers/
+// kc_rig_protocol.h).
+//
+// Read() drains the socket without blocking (at most kMaxFramesPerRead
+// frames, so a flood cannot hold the cycle) and returns the newest complete
+// sample. Write() sends KC_Command (and KC_Setup every 100 cycles) without
+// blocking. Frames that are not the protocol's shape (wrong length, remote,
+// extended id), unknown ids within the rig's id pages, repeated (stale) and
+// out-of-sequence samples are counted and dropped. Error frames are opted
+// in: bus-off, error-passive and tx timeout are faults (Read returns
+// kFault, the loop trips); a transmit queue that stays full (ENOBUFS) for
+// can.tx_timeout is a tx timeout too. Other error frames are counted.
+//
+// Receive filters pass the 256-id pages of the rig's messages (0x200 and
+// 0x300 for kc_rig.dbc), so unknown ids there are seen and counted; the
+// rest of the bus never reaches the process.
+//
+// Every frame sent or taken in goes to the bus log (candump -l format) when
+// one is given, in the order the controller handled it.
+#ifndef KCRIG_IO_DRIVERS_CAN_RIG_H_
+#define KCRIG_IO_DRIVERS_CAN_RIG_H_
+
+#include <string>
+
+#include "io_drivers/can_bus_log.h"
+#include "io_drivers/config_loader.h"
+#include "io_drivers/kc_rig_protocol.h"
+#include "io_drivers/socket_can.h"
+#include "rt_core/rig_interface.h"
+
+namespace kcrig {
+
+// can:IFACE -> IFACE
+Status ParseCanUri(const std::string& uri, std::string* interface);
+
+struct CanRigOptions {
+  std::string interface;  // vcan0, can0
+  CanSettings settings;   // rig.yaml can:
+  double period = 1e-3;   // the loop's [s], sent in KC_Setup
+  std::string bus_log;    // can.log to write ("" = none)
+};
+
+class CanRig : public RigInterface {
+ public:
+  explicit CanRig(const CanRigOptions& options);
+  ~CanRig() override;
+
+  Status Configure() override;
+  Status Activate() override;
+  Status Deactivate() override;
+  void OnError() override;
+  IoResult Read(RigMeasurement* measurement) override;
+  IoResult Write(const RigCommand& command) override;
+  std::string Describe() const override;
+  std::string CountersJson() const override;
+
+  static constexpr int kMaxFramesPerRead = 64;
+
+ private:
+  // Handles one received frame (the cycle's and the lifecycle's path).
+  void Take(const TimedCanFrame& frame);
+  void DrainSocket(int max_frames);
+  bool SendFrame(const CanFrame& frame);
+  bool SendCommand(const KcCommand& command);
+  void SetFault(const char* what);
+  // Lifecycle: sends `command` every 5 ms for up to `timeout` until `done`.
+  template <typename Done>
+  bool Exchange(KcCommand command, double timeout, Done done);
+
+  CanRigOptions options_;
+  KcRigProtocol protocol_;
+  KcSampleAssembler assembler_{&protocol_};
+  CanSocket socket_;
+  CanBusLog bus_log_;
+  double z_a_ = 0;
+
+  RigMeasurement latest_;
+  bool have_new_sample_ = false;
+  bool have_heartbeat_ = false;
+  KcHeartbeat heartbeat_;
+  std::uint16_t fault_code_ = 0;
+
+  const char* fault_ = nullptr;  // the transport fault, once seen
+  bool fault_reported_ = false;
+  std::int64_t queue_full_since_us_ = -1;
+
+  // Counters (CountersJson).
+  std::int64_t frames_received_ = 0, frames_sent_ = 0;
+  std::int64_t malformed_ = 0, unknown_id_ = 0, unexpected_ = 0;
+  std::int64_t error_frames_ = 0, queue_full_ = 0, send_errors_ = 0;
+  std::int64_t clamped_commands_ = 0, heartbeats_ = 0, receive_errors_ = 0;
+};
+
+}  // namespace kcrig
+
+#endif  // KCRIG_IO_DRIVERS_CAN_RIG_H_
