@@ -117,9 +117,9 @@ int RunCampaignCommand(const CampaignArgs& args) {
                              std::to_string(run));
       }
       std::unique_ptr<RigInterface> transport;
-      Status made = MakeRig(uri, rig_config,
-                            fs::path(csv_path).parent_path().string(),
-                            &transport);
+      Status made =
+          MakeRig(uri, rig_config, fs::path(csv_path).parent_path().string(),
+                  &transport);
       if (!made.ok()) return made;
       made = transport->Configure();
       if (!made.ok()) return made;

@@ -48,8 +48,9 @@ int RunEmulate(const EmulateArgs& args) {
     return 1;
   };
   if (args.modbus_tcp.empty() == args.can.empty()) {
-    return fail(Status::Error("give one of --modbus-tcp HOST:PORT or --can "
-                              "IFACE"));
+    return fail(
+        Status::Error("give one of --modbus-tcp HOST:PORT or --can "
+                      "IFACE"));
   }
   std::string host;
   int port = 0;

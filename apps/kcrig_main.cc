@@ -5,6 +5,7 @@
 
 #include "CLI/CLI.hpp"
 #include "apps/campaign_command.h"
+#include "apps/can_log_command.h"
 #include "apps/design_command.h"
 #include "apps/emulate_command.h"
 #include "apps/estimate_command.h"
@@ -27,6 +28,7 @@ int main(int argc, char** argv) {
   kcrig::AddEmulateCommand(&app, &run);
   kcrig::AddRunCommand(&app, &run);
   kcrig::AddTimingCheckCommand(&app, &run);
+  kcrig::AddCanLogCommand(&app, &run);
   // CLI11 would call an unknown subcommand an "extra argument"; say it plainly.
   const auto is_subcommand = [&app](const std::string& name) {
     for (const CLI::App* sub : app.get_subcommands({})) {

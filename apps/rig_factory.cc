@@ -1,7 +1,6 @@
 #include "apps/rig_factory.h"
 
 #include <csignal>
-
 #include <filesystem>
 
 #include "io_drivers/can_rig.h"

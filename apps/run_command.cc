@@ -45,8 +45,8 @@ void PrintOutcome(const char* who, const RigSessionResult& r,
       static_cast<long long>(l.lost_rig_samples),
       static_cast<long long>(l.overruns));
   if (!log_dir.empty()) {
-    const bool can = std::filesystem::exists(
-        std::filesystem::path(log_dir) / "can.log");
+    const bool can =
+        std::filesystem::exists(std::filesystem::path(log_dir) / "can.log");
     std::printf("  wrote %s/run.csv, run.json, timing.json%s\n",
                 log_dir.c_str(), can ? ", can.log" : "");
   }

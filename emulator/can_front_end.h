@@ -18,8 +18,8 @@
 namespace kcrig {
 
 struct CanNodeCounters {
-  std::int64_t commands = 0, samples_sent = 0, heartbeats = 0,
-               malformed = 0, send_failures = 0;
+  std::int64_t commands = 0, samples_sent = 0, heartbeats = 0, malformed = 0,
+               send_failures = 0;
 };
 
 // Opens `interface`, calls `on_ready` once the node listens, serves until

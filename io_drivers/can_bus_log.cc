@@ -18,8 +18,8 @@ Status CanBusLog::Open(const std::string& path, const std::string& interface) {
   interface_ = interface;
   const std::string partial = path + ".partial";
   std::error_code ignored;  // fopen says what went wrong
-  std::filesystem::create_directories(
-      std::filesystem::path(path).parent_path(), ignored);
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path(),
+                                      ignored);
   file_ = std::fopen(partial.c_str(), "wb");
   if (file_ == nullptr) {
     return Status::Error(partial + ": cannot write (" + std::strerror(errno) +

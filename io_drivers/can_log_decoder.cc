@@ -77,9 +77,9 @@ Status DecodeCanLog(const std::string& path,
         }
         ++counts->commands;
         const std::int64_t step =
-            cycle < 0 ? 0
-                      : static_cast<std::uint8_t>(command.sequence -
-                                                  last_sequence);
+            cycle < 0
+                ? 0
+                : static_cast<std::uint8_t>(command.sequence - last_sequence);
         if (cycle >= 0 && step == 0) break;  // a repeated frame
         // Cycles skipped by the controller: rows without a fresh sample.
         for (std::int64_t k = 1; k < step && !log->samples.empty(); ++k) {

@@ -65,10 +65,9 @@ Status CanRig::Configure() {
     if (!status.ok()) return status;
   }
   // The rig must be there and speak this protocol before anything starts.
-  const auto deadline =
-      std::chrono::steady_clock::now() +
-      std::chrono::microseconds(
-          static_cast<long>(options_.settings.connect_timeout * 1e6));
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::microseconds(static_cast<long>(
+                            options_.settings.connect_timeout * 1e6));
   while (!have_heartbeat_ && std::chrono::steady_clock::now() < deadline) {
     if (socket_.WaitReadable(0.01)) DrainSocket(1000);
   }
@@ -175,9 +174,9 @@ bool CanRig::SendCommand(const KcCommand& command) {
 
 template <typename Done>
 bool CanRig::Exchange(KcCommand command, double timeout, Done done) {
-  const auto deadline = std::chrono::steady_clock::now() +
-                        std::chrono::microseconds(
-                            static_cast<long>(timeout * 1e6));
+  const auto deadline =
+      std::chrono::steady_clock::now() +
+      std::chrono::microseconds(static_cast<long>(timeout * 1e6));
   for (;;) {
     SendCommand(command);
     ++command.sequence;

@@ -34,12 +34,12 @@ Status CanSocket::Open(const CanSocketOptions& options) {
   if (options.interface.empty() || options.interface.size() >= IFNAMSIZ) {
     return Status::Error(where + ": not an interface name");
   }
-  const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC,
-                          CAN_RAW);
+  const int fd =
+      ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
   if (fd < 0) {
-    return Status::Error(where + ": cannot open a CAN socket (" +
-                         std::strerror(errno) +
-                         "; does this kernel have SocketCAN? modprobe can-raw)");
+    return Status::Error(
+        where + ": cannot open a CAN socket (" + std::strerror(errno) +
+        "; does this kernel have SocketCAN? modprobe can-raw)");
   }
   auto fail = [&](const std::string& what) {
     const int error = errno;
@@ -58,9 +58,9 @@ Status CanSocket::Open(const CanSocketOptions& options) {
     filters.push_back({f.id, f.mask | CAN_EFF_FLAG});
   }
   if (!options.filters.empty() &&
-      ::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters.data(),
-                   static_cast<socklen_t>(filters.size() *
-                                          sizeof(can_filter))) < 0) {
+      ::setsockopt(
+          fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters.data(),
+          static_cast<socklen_t>(filters.size() * sizeof(can_filter))) < 0) {
     return fail("cannot set the receive filters");
   }
   const can_err_mask_t errors = options.error_frames ? CAN_ERR_MASK : 0;
