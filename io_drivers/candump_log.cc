@@ -91,6 +91,9 @@ Status ParseCandumpLine(std::string_view line, const std::string& where,
     return fail("bad interface name");
   }
   record->interface = std::string(rest.substr(0, space));
+  for (char c : record->interface) {
+    if (c <= ' ' || c > '~') return fail("bad interface name");
+  }
   std::string_view frame_text = rest.substr(space + 1);
   const size_t hash = frame_text.find('#');
   if (hash == std::string_view::npos) return fail("no '#' in the frame");

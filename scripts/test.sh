@@ -1,13 +1,18 @@
 #!/usr/bin/env bash
 # Quick start (2): installs the dependencies, builds Release and the
-# AddressSanitizer + UBSan preset, and runs the test suite under both.
+# AddressSanitizer + UBSan preset, and runs the test suite under both, then
+# the libFuzzer targets (clang) for a short time each.
 #   scripts/test.sh          CI tier (labels ci, ci-statistical, ci-heavy,
-#                            ci-realtime); under the sanitizers the
+#                            ci-realtime, ci-vcan); under the sanitizers the
 #                            statistical and heavy ones (hundreds of seeded
 #                            re-estimations, long profiles: numbers, not
-#                            memory) and the real-time process tests (1 kHz
-#                            deadlines) are left to Release
+#                            memory), the real-time process tests (1 kHz
+#                            deadlines) and the vcan tests (a VM under TCG)
+#                            are left to Release
 #   scripts/test.sh --full   every tier under both presets
+# The vcan tests need vcan0: scripts/vcan_vm.sh boots Debian's kernel under
+# qemu where the host kernel has no CAN (its first run downloads the kernel
+# package with apt-get).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 full=0
@@ -23,9 +28,13 @@ for preset in release asan; do
   if ((full)); then
     ctest --preset "$preset"
   elif [[ "$preset" == asan ]]; then
-    ctest --preset "$preset" -L ci -LE 'statistical|heavy|realtime'
+    ctest --preset "$preset" -L ci -LE 'statistical|heavy|realtime|vcan'
   else
     ctest --preset "$preset" -L ci
   fi
 done
+echo "== fuzz: configure, build and run each fuzzer"
+cmake --preset fuzz >/dev/null
+cmake --build --preset fuzz
+ctest --preset fuzz
 echo "== tests done in $((SECONDS - start)) s"

@@ -269,17 +269,15 @@ TEST(CandumpLogTest, LinesAsCanUtilsWritesThem) {
   EXPECT_TRUE(record.frame.frame.error);
   EXPECT_EQ(record.frame.frame.id, 0x40u);
 
-  const char* bad[] = {"",
-                       "1436509052.249713 vcan0 044#2A",
-                       "(1436509052.2497) vcan0 044#2A",
-                       "(1436509052.249713) vcan0 44#2A",
-                       "(1436509052.249713) vcan0 800#2A",
-                       "(1436509052.249713) vcan0 044#2A3",
-                       "(1436509052.249713) vcan0 044#2G",
-                       "(1436509052.249713) vcan0 044#001122334455667788",
-                       "(1436509052.249713) vcan0 044##1020304",
-                       "(1436509052.249713) vcan0"};
-  for (const char* text : bad) {
+  const std::string_view bad[] = {
+      "", "1436509052.249713 vcan0 044#2A", "(1436509052.2497) vcan0 044#2A",
+      "(1436509052.249713) vcan0 44#2A", "(1436509052.249713) vcan0 800#2A",
+      "(1436509052.249713) vcan0 044#2A3", "(1436509052.249713) vcan0 044#2G",
+      "(1436509052.249713) vcan0 044#001122334455667788",
+      "(1436509052.249713) vcan0 044##1020304", "(1436509052.249713) vcan0",
+      // Found by the candump fuzzer: a NUL in the name.
+      std::string_view("(1436509052.249713) vc\0n0 044#2A", 33)};
+  for (const std::string_view text : bad) {
     const Status status = ParseCandumpLine(text, "can.log:3", &record);
     EXPECT_FALSE(status.ok()) << text;
     EXPECT_EQ(status.message().rfind("can.log:3: ", 0), 0u) << status.message();
