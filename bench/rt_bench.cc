@@ -8,7 +8,12 @@
 //    priorities (target: p99 <= 300 us);
 //  - WakeupVsCyclictest: the loop's wake-up latency (ControlLoop::Run, 1 kHz,
 //    SCHED_FIFO 80) and cyclictest's (rt-tests, same priority and interval)
-//    back to back; counter `ratio_p99` (target: <= 1.5).
+//    back to back; counter `ratio_p99` (target: <= 1.5);
+//  - CanCycleCodec: one cycle's CAN frames encoded and decoded, both ends
+//    (target: <= 1 us);
+//  - CanRoundTrip: KC_Command to `kcrig emulate --can vcan0` and its
+//    sample back, in the guest of scripts/vcan_vm.sh (TCG: not
+//    representative of a real machine).
 // Run: build/bin/rt_bench --benchmark_format=json
 #include <fcntl.h>
 #include <signal.h>
@@ -26,7 +31,9 @@
 
 #include "benchmark/benchmark.h"
 #include "io_drivers/config_loader.h"
+#include "io_drivers/kc_rig_protocol.h"
 #include "io_drivers/modbus_rig.h"
+#include "io_drivers/socket_can.h"
 #include "rt_core/control_loop.h"
 #include "rt_core/realtime.h"
 
@@ -114,30 +121,38 @@ void BM_CycleCompute(benchmark::State& state) {
 }
 BENCHMARK(BM_CycleCompute)->Unit(benchmark::kMillisecond)->Iterations(5);
 
-// `kcrig emulate` as its own process on a free port.
+// `kcrig emulate` as its own process, serving `option` `value` (a free
+// Modbus port, or a CAN interface); ready once its start line matches
+// `ready` (whose first group, if any, is the port).
 class EmulatorProcess {
  public:
-  EmulatorProcess() {
+  EmulatorProcess(const char* option = "--modbus-tcp",
+                  const char* value = "127.0.0.1:0",
+                  const char* ready = "127\\.0\\.0\\.1:([0-9]+)") {
     output_ = "/tmp/kcrig_rt_bench_emulate_" + std::to_string(getpid());
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_addopen(&actions, 1, output_.c_str(),
                                      O_WRONLY | O_CREAT | O_TRUNC, 0644);
     const char* argv[] = {
-        KCRIG_BINARY,   "emulate",     "--config", KCRIG_BENCH_CONFIG_DIR,
-        "--modbus-tcp", "127.0.0.1:0", nullptr};
+        KCRIG_BINARY, "emulate", "--config", KCRIG_BENCH_CONFIG_DIR,
+        option,       value,     nullptr};
     posix_spawn(&pid_, KCRIG_BINARY, &actions, nullptr,
                 const_cast<char**>(argv), environ);
     posix_spawn_file_actions_destroy(&actions);
-    const std::regex re("127\\.0\\.0\\.1:([0-9]+)");
-    for (int k = 0; k < 500 && port_ == 0; ++k) {
+    const std::regex re(ready);
+    // Up to 60 s: under qemu's TCG a process starts slowly.
+    for (int k = 0; k < 6000 && !ready_; ++k) {
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
       std::ifstream in(output_);
       std::stringstream text;
       text << in.rdbuf();
       std::smatch match;
       const std::string s = text.str();
-      if (std::regex_search(s, match, re)) port_ = std::stoi(match[1]);
+      if (std::regex_search(s, match, re)) {
+        ready_ = true;
+        if (match.size() > 1) port_ = std::stoi(match[1]);
+      }
     }
   }
   ~EmulatorProcess() {
@@ -146,9 +161,11 @@ class EmulatorProcess {
     std::remove(output_.c_str());
   }
   int port() const { return port_; }
+  bool ready() const { return ready_; }
 
  private:
   pid_t pid_ = -1;
+  bool ready_ = false;
   int port_ = 0;
   std::string output_;
 };
@@ -255,6 +272,116 @@ void BM_WakeupVsCyclictest(benchmark::State& state) {
       kcrig_wakeup.Percentile(0.99) * 1e-3 / cyclictest_p99;
 }
 BENCHMARK(BM_WakeupVsCyclictest)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+const KcRigProtocol& Protocol() {
+  static const KcRigProtocol protocol = [] {
+    Dbc dbc;
+    KcRigProtocol p;
+    if (!LoadDbc(Rig().can.dbc_file, &dbc).ok() ||
+        !p.Bind(dbc, Rig().can.dbc_file).ok()) {
+      std::abort();
+    }
+    return p;
+  }();
+  return protocol;
+}
+
+// One cycle's CAN traffic through the DBC codec, both ends: the controller
+// encodes KC_Command, the rig decodes it and encodes its sample (four
+// frames), the controller puts the sample back together (target: <= 1 us).
+void BM_CanCycleCodec(benchmark::State& state) {
+  const KcRigProtocol& protocol = Protocol();
+  KcSampleAssembler assembler(&protocol);
+  KcCommand command;
+  command.force << 1234.5, -2000, 3999.5;
+  command.enable = true;
+  command.phase = 4;
+  RigMeasurement sample;
+  sample.force << 1234.5, -2000, 3999.5;
+  sample.y << 1e-3, -2e-3, 3e-3, 1e-2, -2e-2, 3e-2;
+  sample.status = kRigEnabled;
+  RigMeasurement received;
+  bool clamped = false;
+  std::int64_t completed = 0;
+  for (auto _ : state) {
+    ++command.sequence;
+    ++sample.sample;
+    const CanFrame sent = protocol.EncodeCommand(command, &clamped);
+    const KcCommand at_rig = protocol.DecodeCommand(sent, &clamped);
+    sample.force = at_rig.force;
+    CanFrame frames[kSampleFrames];
+    protocol.EncodeSample(sample, frames, &clamped);
+    for (const CanFrame& f : frames) {
+      completed += assembler.Add(f, protocol.Classify(f), &received);
+    }
+    benchmark::DoNotOptimize(received);
+  }
+  if (completed != state.iterations()) state.SkipWithError("samples lost");
+}
+BENCHMARK(BM_CanCycleCodec);
+
+// Controller -> `kcrig emulate --can vcan0` -> controller: KC_Command out,
+// the sample's four frames back, 2000 times at 1 kHz. Needs vcan0 (run
+// inside scripts/vcan_vm.sh: under qemu's TCG the figures are the
+// emulator's, not a real machine's).
+void BM_CanRoundTrip(benchmark::State& state) {
+  if (access("/sys/class/net/vcan0", F_OK) != 0) {
+    state.SkipWithError("no vcan0 (run through scripts/vcan_vm.sh run)");
+    return;
+  }
+  EmulatorProcess emulator("--can", "vcan0", "on can:vcan0");
+  if (!emulator.ready()) {
+    state.SkipWithError("kcrig emulate --can vcan0 did not start");
+    return;
+  }
+  const KcRigProtocol& protocol = Protocol();
+  CanSocket socket;
+  CanSocketOptions options;
+  options.interface = "vcan0";
+  options.filters = {{protocol.id(KcFrame::kForce), 0x7FF}};
+  if (!socket.Open(options).ok()) {
+    state.SkipWithError("cannot open vcan0");
+    return;
+  }
+  const RealtimeReport realtime = SetUpRealtime(Rig().realtime);
+  TimingStatistics round_trip;
+  long timeouts = 0;
+  KcCommand command;  // zero force, not enabled: the rig still answers
+  for (auto _ : state) {
+    std::int64_t next = MonotonicNanoseconds();
+    for (int k = 0; k < 2000; ++k) {
+      next += 1000000;
+      const timespec ts{static_cast<time_t>(next / 1000000000),
+                        static_cast<long>(next % 1000000000)};
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+      TimedCanFrame stale;
+      int error = 0;
+      while (socket.Receive(&stale, &error)) {
+      }
+      bool clamped = false;
+      ++command.sequence;
+      const std::int64_t start = MonotonicNanoseconds();
+      socket.Send(protocol.EncodeCommand(command, &clamped), &error);
+      bool answered = false;
+      while (!answered && MonotonicNanoseconds() - start < 20000000) {
+        if (socket.WaitReadable(0.02)) {
+          TimedCanFrame frame;
+          answered = socket.Receive(&frame, &error);
+        }
+      }
+      if (answered) {
+        round_trip.Record(MonotonicNanoseconds() - start);
+      } else {
+        ++timeouts;
+      }
+    }
+  }
+  LeaveRealtime();
+  Report(state, round_trip);
+  state.counters["timeouts"] = static_cast<double>(timeouts);
+  state.counters["sched_fifo"] = realtime.fifo;
+}
+BENCHMARK(BM_CanRoundTrip)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace
 }  // namespace kcrig

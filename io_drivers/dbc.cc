@@ -1,8 +1,10 @@
 #include "io_drivers/dbc.h"
 
 #include <algorithm>
+#include <bit>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <limits>
@@ -479,20 +481,27 @@ class Parser {
   std::vector<int> message_lines_;
 };
 
+// The frame's first eight bytes as one integer, little- or big-endian.
 std::uint64_t ReadWord(const std::uint8_t* data, bool little_endian) {
-  std::uint64_t word = 0;
-  for (int k = 0; k < 8; ++k) {
-    const int byte = little_endian ? 7 - k : k;
-    word = (word << 8) | data[byte];
-  }
-  return word;
+  std::uint64_t word;
+  std::memcpy(&word, data, 8);
+  const bool swap =
+      little_endian != (std::endian::native == std::endian::little);
+  return swap ? __builtin_bswap64(word) : word;
 }
 
 void WriteWord(std::uint64_t word, bool little_endian, std::uint8_t* data) {
-  for (int k = 0; k < 8; ++k) {
-    const int byte = little_endian ? k : 7 - k;
-    data[byte] = static_cast<std::uint8_t>(word >> (8 * k));
-  }
+  const bool swap =
+      little_endian != (std::endian::native == std::endian::little);
+  if (swap) word = __builtin_bswap64(word);
+  std::memcpy(data, &word, 8);
+}
+
+// Round half to even without a libm call (the codec runs every cycle).
+double RoundToInteger(double x) {
+  constexpr double kShift = 0x1.8p52;
+  if (!(std::abs(x) < 0x1p51)) return x;  // integral already (or NaN)
+  return x >= 0 ? (x + kShift) - kShift : (x - kShift) + kShift;
 }
 
 }  // namespace
@@ -571,7 +580,7 @@ void EncodeSignal(const DbcSignal& signal, double value, std::uint8_t* data,
     *out_of_range = true;
     value = std::clamp(value, signal.lowest, signal.highest);
   }
-  double raw = std::nearbyint((value - signal.offset) / signal.factor);
+  double raw = RoundToInteger((value - signal.offset) / signal.factor);
   // Rounding may step past the range's last raw value: step back inside.
   const double back = raw * signal.factor + signal.offset;
   if (back > signal.highest + 1e-12 * std::abs(signal.highest)) {

@@ -42,8 +42,9 @@ struct DbcSignal {
   int shift = 0;
   std::uint64_t mask = 0;
   // The physical range the codec clamps to: [minimum|maximum] intersected
-  // with what the raw bits can hold.
+  // with what the raw bits can hold; and the raw range.
   double lowest = 0, highest = 0;
+  double raw_min = 0, raw_max = 0;
 };
 
 struct DbcMessage {
