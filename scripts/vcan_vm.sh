@@ -23,8 +23,10 @@
 set -euo pipefail
 
 cache=${KCRIG_VM_CACHE:-${HOME:-/root}/.cache/kcrig-vm}
+# In load order; sch_tbf lets a test fill vcan0's transmit queue (ENOBUFS).
 modules=(virtio_ring virtio virtio_pci_modern_dev virtio_pci_legacy_dev
-  virtio_pci netfs fscache 9pnet 9pnet_virtio 9p can can-raw can-dev vcan)
+  virtio_pci netfs fscache 9pnet 9pnet_virtio 9p can can-raw can-dev vcan
+  sch_tbf)
 
 die() {
   echo "vcan_vm: $*" >&2
@@ -36,7 +38,8 @@ as_root() {
 }
 
 prepare() {
-  [[ -f $cache/ready ]] && return 0
+  # Rebuilt when the module list changes.
+  [[ -f $cache/ready && $(cat "$cache/ready") == "${modules[*]}" ]] && return 0
   command -v qemu-system-x86_64 >/dev/null || die "qemu-system-x86_64 missing (scripts/setup.sh installs qemu-system-x86)"
   [[ -x /bin/busybox ]] || die "/bin/busybox missing (scripts/setup.sh installs busybox-static)"
   mkdir -p "$cache"
@@ -78,8 +81,7 @@ mount -t devtmpfs dev /dev
 say() { echo "$*" >/dev/ttyS0; }
 job=$(sed -n 's/.*kcrig_job=\([^ ]*\).*/\1/p' /proc/cmdline)
 scratch=$(sed -n 's/.*kcrig_scratch=\([^ ]*\).*/\1/p' /proc/cmdline)
-for m in virtio_ring virtio virtio_pci_modern_dev virtio_pci_legacy_dev \
-    virtio_pci netfs fscache 9pnet 9pnet_virtio 9p can can-raw can-dev vcan; do
+for m in $(cat /modules/order); do
   insmod /modules/$m.ko || say "KCRIG_VM_ERROR insmod $m"
 done
 mount -t 9p -o trans=virtio,version=9p2000.L,ro host /host ||
@@ -103,10 +105,11 @@ sync
 poweroff -f
 EOF
   chmod +x "$initramfs/init"
+  echo "${modules[*]}" >"$initramfs/modules/order"
   (cd "$initramfs" && find . | cpio -o -H newc --quiet | gzip -1) >"$work/initramfs.cpio.gz"
   cp "$work"/kernel/boot/vmlinuz-* "$cache/vmlinuz"
   mv "$work/initramfs.cpio.gz" "$cache/initramfs.cpio.gz"
-  echo "$package" >"$cache/ready"
+  echo "${modules[*]}" >"$cache/ready"
   echo "vcan_vm: guest kernel $release ready in $cache"
 }
 

@@ -386,6 +386,43 @@ TEST_F(VcanTest, BusOffErrorFrameEndsInTheSafeStateWithTheCauseLogged) {
   EXPECT_EQ(hil["transport"]["error_frames"], 1);
 }
 
+TEST_F(VcanTest, FullTransmitQueueIsATxTimeoutWithinTheBoundedTime) {
+  StartEmulator();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(log_dir);
+  WaitForLoop(log_dir);
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  // A token bucket of about 8 frames/s: vcan0's queue fills and sends fail
+  // with ENOBUFS, as on a rig bus that stopped taking frames.
+  const CliResult slow = RunCommand(
+      "/usr/sbin/tc qdisc add dev vcan0 root tbf rate 1kbit burst 1600 "
+      "limit 160");
+  ASSERT_EQ(slow.exit_code, 0) << slow.output;
+  const int code = run->Wait(300);
+  RunCommand("/usr/sbin/tc qdisc del dev vcan0 root");
+  // Within can.tx_timeout (20 ms), long before the watchdog (200 cycles).
+  ExpectSafeStop(code, log_dir, "transport_fault", run->Output());
+  const nlohmann::json transport =
+      ReadJson(log_dir + "/run.json")["hil"]["transport"];
+  EXPECT_EQ(transport["fault"],
+            "CAN tx timeout (transmit queue full, ENOBUFS)");
+  EXPECT_GT(transport["transmit_queue_full"].get<int>(), 0);
+}
+
+TEST_F(VcanTest, InterfaceDownEndsInTheSafeState) {
+  StartEmulator();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(log_dir);
+  WaitForLoop(log_dir);
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  ASSERT_EQ(RunCommand("/usr/sbin/ip link set vcan0 down").exit_code, 0);
+  const int code = run->Wait(300);
+  ASSERT_EQ(RunCommand("/usr/sbin/ip link set vcan0 up").exit_code, 0);
+  ExpectSafeStop(code, log_dir, "transport_fault", run->Output());
+  EXPECT_NE(run->Output().find("CAN interface down"), std::string::npos)
+      << run->Output();
+}
+
 TEST_F(VcanTest, CampaignRunsItsExperimentsOverCan) {
   StartEmulator();
   const CliResult r = RunKcrig("campaign --config " + config_ +
