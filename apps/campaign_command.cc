@@ -94,9 +94,13 @@ int RunCampaignCommand(const CampaignArgs& args) {
     RigConfig rig_config;
     status = LoadRigConfig(config.directory, &rig_config);
     if (!status.ok()) return fail(status);
-    std::unique_ptr<RigInterface> probe;  // checks the URI and the map now
+    // The URI, the map or DBC, and the rig itself are checked before any
+    // output exists.
+    std::unique_ptr<RigInterface> probe;
     status = MakeRig(args.rig, rig_config, "", &probe);
+    if (status.ok()) status = probe->Configure();
     if (!status.ok()) return fail(status);
+    probe.reset();
     RigSessionOptions check;  // the campaign's excitations, at their limits
     check.phi = 0;
     check.z_a = config.experiment.z_a_bounds.lower;

@@ -42,6 +42,17 @@ Status ParseCanUri(const std::string& uri, std::string* interface) {
   return Status::Ok();
 }
 
+const char* CanErrorFault(const CanFrame& frame) {
+  if (!frame.error) return nullptr;
+  if (frame.id & CAN_ERR_BUSOFF) return "CAN bus-off";
+  if (frame.id & CAN_ERR_TX_TIMEOUT) return "CAN tx timeout";
+  if ((frame.id & CAN_ERR_CRTL) && frame.dlc >= 2 &&
+      (frame.data[1] & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE))) {
+    return "CAN error-passive";
+  }
+  return nullptr;
+}
+
 CanRig::CanRig(const CanRigOptions& options) : options_(options) {}
 
 CanRig::~CanRig() { bus_log_.Close(); }
@@ -97,12 +108,8 @@ void CanRig::Take(const TimedCanFrame& timed) {
   const CanFrame& frame = timed.frame;
   if (frame.error) {
     ++error_frames_;
-    if (frame.id & CAN_ERR_BUSOFF) SetFault("CAN bus-off");
-    if (frame.id & CAN_ERR_TX_TIMEOUT) SetFault("CAN tx timeout");
-    if ((frame.id & CAN_ERR_CRTL) &&
-        (frame.data[1] & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE))) {
-      SetFault("CAN error-passive");
-    }
+    const char* fault = CanErrorFault(frame);
+    if (fault != nullptr) SetFault(fault);
     return;
   }
   const KcFrame kind = protocol_.Classify(frame);

@@ -34,6 +34,11 @@ namespace kcrig {
 // can:IFACE -> IFACE
 Status ParseCanUri(const std::string& uri, std::string* interface);
 
+// What an error frame means for the rig: "CAN bus-off", "CAN tx timeout",
+// "CAN error-passive", or nullptr for errors that are only counted
+// (error-warning, protocol violations, lost arbitration, no ACK, ...).
+const char* CanErrorFault(const CanFrame& error_frame);
+
 struct CanRigOptions {
   std::string interface;  // vcan0, can0
   CanSettings settings;   // rig.yaml can:

@@ -281,7 +281,9 @@ TEST_F(HilCliTest, BadRigsAndOptionsAreOneLineErrors) {
   } cases[] = {
       {"run --rig modbus-tcp://127.0.0.1:1 --log-dir " + Path("a"),
        "cannot connect"},
-      {"run --rig can:vcan0 --log-dir " + Path("a"), "SocketCAN"},
+      // No such interface: the kernel lacks CAN or the interface.
+      {"run --rig can:nocan7 --log-dir " + Path("a"), "can:nocan7: "},
+      {"run --rig can: --log-dir " + Path("a"), "expected can:IFACE"},
       {"run --rig serial:/dev/x --log-dir " + Path("a"),
        "expected modbus-tcp://HOST:PORT"},
       {"run --rig modbus-tcp://127.0.0.1:99999 --log-dir " + Path("a"),
@@ -291,7 +293,8 @@ TEST_F(HilCliTest, BadRigsAndOptionsAreOneLineErrors) {
        "safety.force_max"},
       {"emulate --modbus-tcp 127.0.0.1", "expected HOST:PORT"},
       {"emulate --modbus-tcp 127.0.0.1:0 --effect wobble", "unknown effect"},
-      {"emulate --can vcan0", "SocketCAN"},
+      {"emulate --can nocan7", "can:nocan7: "},
+      {"emulate --can vcan0 --modbus-tcp 127.0.0.1:0", "give one of"},
   };
   for (const auto& c : cases) {
     const CliResult r = RunKcrig(c.arguments);

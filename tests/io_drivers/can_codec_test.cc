@@ -6,6 +6,7 @@
 #include <random>
 #include <string>
 
+#include "io_drivers/can_rig.h"
 #include "io_drivers/candump_log.h"
 #include "io_drivers/dbc.h"
 #include "io_drivers/kc_rig_protocol.h"
@@ -377,6 +378,30 @@ TEST_F(RigProtocolTest, AssemblerCountsStaleOutOfSequenceAndIncomplete) {
   EXPECT_EQ(feed(255, 0, 3), 255);
   EXPECT_EQ(feed(256, 0, 3), 256);
   EXPECT_EQ(feed(260, 0, 3), 260);
+}
+
+TEST(CanErrorFaultTest, BusOffErrorPassiveAndTxTimeoutAreFaultsOthersNot) {
+  auto error_frame = [](std::uint32_t classes, std::uint8_t controller) {
+    CanFrame f;
+    f.error = true;
+    f.id = classes;
+    f.dlc = 8;
+    f.data[1] = controller;
+    return f;
+  };
+  // linux/can/error.h: TX_TIMEOUT 0x1, CRTL 0x4, PROT 0x8, ACK 0x20,
+  // BUSOFF 0x40; data[1]: RX_WARNING 0x4, TX_WARNING 0x8, RX_PASSIVE 0x10,
+  // TX_PASSIVE 0x20.
+  EXPECT_STREQ(CanErrorFault(error_frame(0x40, 0)), "CAN bus-off");
+  EXPECT_STREQ(CanErrorFault(error_frame(0x01, 0)), "CAN tx timeout");
+  EXPECT_STREQ(CanErrorFault(error_frame(0x04, 0x10)), "CAN error-passive");
+  EXPECT_STREQ(CanErrorFault(error_frame(0x04, 0x20)), "CAN error-passive");
+  EXPECT_EQ(CanErrorFault(error_frame(0x04, 0x0C)), nullptr);  // warning
+  EXPECT_EQ(CanErrorFault(error_frame(0x08, 0)), nullptr);     // protocol
+  EXPECT_EQ(CanErrorFault(error_frame(0x20, 0)), nullptr);     // no ACK
+  CanFrame data_frame;
+  data_frame.id = 0x40;
+  EXPECT_EQ(CanErrorFault(data_frame), nullptr);
 }
 
 TEST_F(RigProtocolTest, BindRefusesAnotherDatabase) {
