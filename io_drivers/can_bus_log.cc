@@ -13,6 +13,20 @@ CanBusLog::~CanBusLog() {
   if (file_ != nullptr) Close();
 }
 
+bool CanBusLog::Stop() {
+  stop_.store(true, std::memory_order_release);
+  if (writer_.joinable()) writer_.join();
+  const bool closed = std::fclose(file_) == 0;
+  file_ = nullptr;
+  return closed && !write_failed_;
+}
+
+void CanBusLog::Discard() {
+  if (file_ == nullptr) return;
+  Stop();
+  std::remove((path_ + ".partial").c_str());
+}
+
 Status CanBusLog::Open(const std::string& path, const std::string& interface) {
   path_ = path;
   interface_ = interface;
@@ -51,12 +65,9 @@ void CanBusLog::Drain() {
 
 Status CanBusLog::Close() {
   if (file_ == nullptr) return Status::Ok();
-  stop_.store(true, std::memory_order_release);
-  if (writer_.joinable()) writer_.join();
-  const bool closed = std::fclose(file_) == 0;
-  file_ = nullptr;
+  const bool written = Stop();
   const std::string partial = path_ + ".partial";
-  if (!closed || write_failed_) {
+  if (!written) {
     return Status::Error(partial +
                          ": writing the CAN log failed (disk full?); the "
                          "frames written so far are in this file");

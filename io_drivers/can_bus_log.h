@@ -37,6 +37,8 @@ class CanBusLog {
 
   // Writes what is left, renames `path`.partial to `path`.
   Status Close();
+  // Stops and removes `path`.partial (nothing worth keeping was logged).
+  void Discard();
 
   std::uint64_t dropped() const { return ring_.dropped(); }
   std::int64_t written() const { return written_.load(); }
@@ -44,6 +46,8 @@ class CanBusLog {
  private:
   static constexpr std::size_t kCapacity = 1 << 16;
   void Drain();
+  // Stops the writer and closes the file; false when writing failed.
+  bool Stop();
 
   SpscRing<TimedCanFrame> ring_;
   std::string path_, interface_;

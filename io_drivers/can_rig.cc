@@ -55,7 +55,8 @@ const char* CanErrorFault(const CanFrame& frame) {
 
 CanRig::CanRig(const CanRigOptions& options) : options_(options) {}
 
-CanRig::~CanRig() { bus_log_.Close(); }
+// A rig that was never activated ran no experiment: its bus log goes.
+CanRig::~CanRig() { bus_log_.Discard(); }
 
 std::string CanRig::Describe() const { return "can:" + options_.interface; }
 
@@ -219,6 +220,7 @@ Status CanRig::Activate() {
   }
   // The sample that showed the rig enabled is the loop's first (the bus
   // log's decoder counts it the same way).
+  activated_ = true;
   return Status::Ok();
 }
 
@@ -230,8 +232,12 @@ Status CanRig::Deactivate() {
   // Frames still under way belong in the log.
   std::this_thread::sleep_for(std::chrono::milliseconds(10));
   DrainSocket(10000);
-  const Status closed = bus_log_.Close();
-  if (!closed.ok()) return closed;
+  if (!activated_) {
+    bus_log_.Discard();
+  } else {
+    const Status closed = bus_log_.Close();
+    if (!closed.ok()) return closed;
+  }
   if (!disabled) {
     return Status::Error(Describe() +
                          ": the rig did not confirm it is disabled");
@@ -242,7 +248,11 @@ Status CanRig::Deactivate() {
 void CanRig::OnError() {
   KcCommand command;
   for (int k = 0; k < 3; ++k) SendCommand(command);
-  bus_log_.Close();
+  if (activated_) {
+    bus_log_.Close();
+  } else {
+    bus_log_.Discard();
+  }
 }
 
 IoResult CanRig::Read(RigMeasurement* measurement) {

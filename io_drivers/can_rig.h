@@ -17,7 +17,9 @@
 // rest of the bus never reaches the process.
 //
 // Every frame sent or taken in goes to the bus log (candump -l format) when
-// one is given, in the order the controller handled it.
+// one is given, in the order the controller handled it; it is kept (renamed
+// from .partial) when an activated rig is deactivated, and removed when the
+// rig never got activated.
 #ifndef KCRIG_IO_DRIVERS_CAN_RIG_H_
 #define KCRIG_IO_DRIVERS_CAN_RIG_H_
 
@@ -79,6 +81,7 @@ class CanRig : public RigInterface {
   CanSocket socket_;
   CanBusLog bus_log_;
   double z_a_ = 0;
+  bool activated_ = false;  // the bus log is kept only for an activated rig
 
   RigMeasurement latest_;
   bool have_new_sample_ = false;
