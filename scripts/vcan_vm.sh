@@ -38,8 +38,10 @@ as_root() {
 }
 
 prepare() {
-  # Rebuilt when the module list changes.
-  [[ -f $cache/ready && $(cat "$cache/ready") == "${modules[*]}" ]] && return 0
+  # Rebuilt whenever this script (module list, guest init) changes.
+  local stamp
+  stamp=$(sha256sum "${BASH_SOURCE[0]}" | cut -d' ' -f1)
+  [[ -f $cache/ready && $(cat "$cache/ready") == "$stamp" ]] && return 0
   command -v qemu-system-x86_64 >/dev/null || die "qemu-system-x86_64 missing (scripts/setup.sh installs qemu-system-x86)"
   [[ -x /bin/busybox ]] || die "/bin/busybox missing (scripts/setup.sh installs busybox-static)"
   mkdir -p "$cache"
@@ -81,6 +83,7 @@ mount -t devtmpfs dev /dev
 say() { echo "$*" >/dev/ttyS0; }
 job=$(sed -n 's/.*kcrig_job=\([^ ]*\).*/\1/p' /proc/cmdline)
 scratch=$(sed -n 's/.*kcrig_scratch=\([^ ]*\).*/\1/p' /proc/cmdline)
+keep=$(sed -n 's/.*kcrig_keep=\([^ ]*\).*/\1/p' /proc/cmdline | tr ',' ' ')
 for m in $(cat /modules/order); do
   insmod /modules/$m.ko || say "KCRIG_VM_ERROR insmod $m"
 done
@@ -91,7 +94,19 @@ mount -t sysfs sys /host/sys
 mount -t devtmpfs dev /host/dev
 mkdir -p /host/dev/shm /host/dev/pts
 mount -t tmpfs shm /host/dev/shm
+# The guest's /tmp is its own tmpfs; host folders under /tmp that the job
+# needs (a checkout there) stay visible through bind mounts.
+i=0
+for p in $keep; do
+  mkdir -p /keep/$i && mount -o bind "/host$p" /keep/$i || say "KCRIG_VM_ERROR keep $p"
+  i=$((i + 1))
+done
 mount -t tmpfs tmp /host/tmp
+i=0
+for p in $keep; do
+  mkdir -p "/host$p" && mount -o bind /keep/$i "/host$p"
+  i=$((i + 1))
+done
 mount -t tmpfs run /host/run
 mkdir -p "/host$scratch"
 mount -t 9p -o trans=virtio,version=9p2000.L,msize=262144 scratch "/host$scratch" ||
@@ -109,7 +124,7 @@ EOF
   (cd "$initramfs" && find . | cpio -o -H newc --quiet | gzip -1) >"$work/initramfs.cpio.gz"
   cp "$work"/kernel/boot/vmlinuz-* "$cache/vmlinuz"
   mv "$work/initramfs.cpio.gz" "$cache/initramfs.cpio.gz"
-  echo "${modules[*]}" >"$cache/ready"
+  echo "$stamp" >"$cache/ready"
   echo "vcan_vm: guest kernel $release ready in $cache"
 }
 
@@ -146,12 +161,23 @@ run() {
     printf ' %q' "$@"
     echo
   } >"$scratch/job.sh"
+  # Host folders under /tmp that the job needs: the caller's directory, this
+  # checkout and the command's own.
+  local keep=() p top
+  for p in "$PWD" "$(cd "$(dirname "$0")/.." && pwd)" "$(dirname "$(readlink -f "$1" 2>/dev/null || echo "$1")")"; do
+    [[ $p == /tmp/* ]] || continue
+    top=/tmp/$(echo "${p#/tmp/}" | cut -d/ -f1)
+    [[ $top =~ [[:space:],] ]] && die "$top: a path with spaces or commas cannot be shared with the guest"
+    [[ " ${keep[*]} " == *" $top "* ]] || keep+=("$top")
+  done
+  local keep_list
+  keep_list=$(IFS=,; echo "${keep[*]}")
   local console=$scratch/console
   local status=0
   timeout "${KCRIG_VM_TIMEOUT:-900}" qemu-system-x86_64 -accel tcg \
     -m 1536 -smp "${KCRIG_VM_SMP:-2}" -nographic -no-reboot -nic none \
     -kernel "$cache/vmlinuz" -initrd "$cache/initramfs.cpio.gz" \
-    -append "console=ttyS0 quiet loglevel=3 panic=-1 kcrig_job=$scratch/job.sh kcrig_scratch=$scratch" \
+    -append "console=ttyS0 quiet loglevel=3 panic=-1 kcrig_job=$scratch/job.sh kcrig_scratch=$scratch kcrig_keep=$keep_list" \
     -virtfs local,path=/,mount_tag=host,security_model=none,readonly=on,multidevs=remap \
     -virtfs "local,path=$scratch,mount_tag=scratch,security_model=none,multidevs=remap" \
     </dev/null >"$console" 2>&1 || status=$?
