@@ -41,12 +41,17 @@ const std::string kPeer =
 // Process start-up under TCG takes seconds.
 constexpr double kStartTimeout = 120;
 
-// ID#DATA of each frame (time stamps and interface left out).
+// ID#DATA of the frames sent by the rig (`rig` true: their time stamps are
+// the kernel's, the same in every listener's log) or by the controller
+// (kcrig logs those at send time, candump at the kernel's receive time),
+// within [from_us, to_us], sorted.
 std::vector<std::string> FrameTexts(const std::vector<CandumpRecord>& records,
-                                    std::int64_t from_us, std::int64_t to_us) {
+                                    bool rig, std::int64_t from_us,
+                                    std::int64_t to_us) {
   std::vector<std::string> texts;
   for (const CandumpRecord& r : records) {
     if (r.frame.time_us < from_us || r.frame.time_us > to_us) continue;
+    if ((r.frame.frame.id >= 0x200) != rig) continue;
     char line[kCandumpLineMax];
     const size_t n = FormatCandumpLine(r.frame, "x", line);
     const std::string text(line, n);
@@ -54,6 +59,12 @@ std::vector<std::string> FrameTexts(const std::vector<CandumpRecord>& records,
   }
   std::sort(texts.begin(), texts.end());
   return texts;
+}
+
+// Whether every frame of `inner` (with multiplicity) is in `outer`.
+bool Contains(const std::vector<std::string>& outer,
+              const std::vector<std::string>& inner) {
+  return std::includes(outer.begin(), outer.end(), inner.begin(), inner.end());
 }
 
 class VcanTest : public TempDirTest {
@@ -195,11 +206,19 @@ TEST_F(VcanTest, FullRampOverCanLogsEveryCycleAndCanLogGivesTheSameEstimate) {
     last = std::max(last, r.frame.time_us);
   }
   const std::int64_t from = first + 200000, to = last - 200000;
-  const auto our_frames = FrameTexts(ours, from, to);
-  EXPECT_GT(our_frames.size(), 20000u);
-  EXPECT_TRUE(our_frames == FrameTexts(theirs, from, to))
-      << our_frames.size() << " frames in can.log, "
-      << FrameTexts(theirs, from, to).size() << " in candump's capture";
+  const auto rig_frames = FrameTexts(ours, true, from, to);
+  EXPECT_GT(rig_frames.size(), 20000u);
+  EXPECT_TRUE(rig_frames == FrameTexts(theirs, true, from, to))
+      << rig_frames.size() << " rig frames in can.log, "
+      << FrameTexts(theirs, true, from, to).size() << " in candump's capture";
+  // The controller's frames: the same, up to the two clocks' difference at
+  // the window's ends.
+  const std::int64_t slack = 50000;
+  EXPECT_TRUE(Contains(FrameTexts(theirs, false, from - slack, to + slack),
+                       FrameTexts(ours, false, from, to)));
+  EXPECT_TRUE(Contains(FrameTexts(ours, false, from - slack, to + slack),
+                       FrameTexts(theirs, false, from, to)));
+  EXPECT_GT(FrameTexts(ours, false, from, to).size(), 5000u);
 
   // python-can reads the log and canmatrix decodes its samples, with
   // config/kc_rig.dbc alone, to the values run.csv logged.
