@@ -149,7 +149,9 @@ void ExpectSameEstimate(const nlohmann::json& a, const nlohmann::json& b) {
 TEST_F(VcanTest, FullRampOverCanLogsEveryCycleAndCanLogGivesTheSameEstimate) {
   StartEmulator();
   const std::string log_dir = Path("run");
-  ChildProcess candump({"/usr/bin/candump", "-L", "vcan0"},
+  // An 8 MiB receive buffer: under TCG candump can be descheduled long
+  // enough to overflow the default one, and then misses frames.
+  ChildProcess candump({"/usr/bin/candump", "-r", "8388608", "-L", "vcan0"},
                        Path("candump.log"));
   auto run = StartRun(log_dir);
   ASSERT_EQ(run->Wait(300), 0) << run->Output();
