@@ -8,7 +8,8 @@
 // Without vcan0 every test fails; none is skipped. TCG runs the guest
 // several times slower than the host and its timers are coarse, so the
 // guest's loop misses more samples than a real rig PC: the watchdog is
-// widened to 200 cycles here, and no timing is asserted.
+// widened to 200 cycles and the emulator's command timeout to 0.5 s here,
+// and no timing is asserted.
 #include <signal.h>
 #include <sys/stat.h>
 
@@ -76,6 +77,10 @@ class VcanTest : public TempDirTest {
         << "no vcan0: run this binary through scripts/vcan_vm.sh run";
     config_ = EditConfig(Path("config"), "rig.yaml", "watchdog_cycles: 20",
                          "watchdog_cycles: 200");
+    // The emulator's own command watchdog, likewise (a controller stalled
+    // by TCG for 0.1 s must not fault the rig).
+    EditConfig(config_, "plant.yaml", "command_timeout: 0.05",
+               "command_timeout: 0.5");
   }
 
   void StartEmulator(const std::vector<std::string>& extra = {}) {
