@@ -232,12 +232,8 @@ Status CanRig::Deactivate() {
   // Frames still under way belong in the log.
   std::this_thread::sleep_for(std::chrono::milliseconds(10));
   DrainSocket(10000);
-  if (!activated_) {
-    bus_log_.Discard();
-  } else {
-    const Status closed = bus_log_.Close();
-    if (!closed.ok()) return closed;
-  }
+  const Status closed = FinishBusLog();
+  if (!closed.ok()) return closed;
   if (!disabled) {
     return Status::Error(Describe() +
                          ": the rig did not confirm it is disabled");
@@ -245,14 +241,16 @@ Status CanRig::Deactivate() {
   return Status::Ok();
 }
 
+Status CanRig::FinishBusLog() {
+  if (activated_) return bus_log_.Close();
+  bus_log_.Discard();
+  return Status::Ok();
+}
+
 void CanRig::OnError() {
   KcCommand command;
   for (int k = 0; k < 3; ++k) SendCommand(command);
-  if (activated_) {
-    bus_log_.Close();
-  } else {
-    bus_log_.Discard();
-  }
+  FinishBusLog();
 }
 
 IoResult CanRig::Read(RigMeasurement* measurement) {

@@ -71,6 +71,9 @@ class CanRig : public RigInterface {
   bool SendFrame(const CanFrame& frame);
   bool SendCommand(const KcCommand& command);
   void SetFault(const char* what);
+  // Keeps the bus log of an activated rig, drops that of one never
+  // activated.
+  Status FinishBusLog();
   // Lifecycle: sends `command` every 5 ms for up to `timeout` until `done`.
   template <typename Done>
   bool Exchange(KcCommand command, double timeout, Done done);

@@ -285,9 +285,8 @@ bool KcSampleAssembler::Add(const CanFrame& frame, KcFrame kind,
       return false;
     }
     if (have_pending_) ++incomplete_;
-    parts = RigMeasurement();
-    protocol_->DecodeSampleFrame(frame, kind, &parts, &counter, &status,
-                                 &out_of_range);
+    // A new sample: channels left from the abandoned one are overwritten
+    // by this sample's own frames before it can complete.
     have_pending_ = true;
     pending_counter_ = counter;
     pending_parts_ = 0;
