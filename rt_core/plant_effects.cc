@@ -23,7 +23,7 @@ std::vector<Key> KeysOf(std::string_view effect, PlantEffects* e) {
             {"sigma", &e->hysteresis.sigma, kPositive}};
   }
   if (effect == "progressive_stiffness") {
-    return {{"c3", &e->progressive_stiffness.c3, kPositive}};
+    return {{"c3", &e->progressive_stiffness.c3, kAnyFinite}};
   }
   if (effect == "actuator_lag") {
     return {{"tau", &e->actuator_lag.tau, kPositive},

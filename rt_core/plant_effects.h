@@ -48,35 +48,39 @@ inline constexpr std::array<std::string_view, 6> kEffectNames = {
     "actuator_lag",    "rig_compliance", "sensor_offset"};
 
 // Which effects the plant has and their parameters (SI). Defaults as in the
-// table above; `enabled` false means the nominal model.
-struct PlantEffects {
+// table above; `enabled` false means the nominal model. Templated on the
+// scalar so that the diagnosis can fit the parameters with exact
+// sensitivities (ceres::Jet); the rig and `simulate` use PlantEffects.
+template <typename T>
+struct BasicPlantEffects {
   struct BushingDamping {
     bool enabled = false;
-    double d = 3e5;  // [N s/m], replaces the model's bushing damping
+    T d = T(3e5);  // [N s/m], replaces the model's bushing damping
   } bushing_damping;
   struct Hysteresis {
     bool enabled = false;
-    double force = 400;  // Dahl saturation force F [N]
-    double sigma = 4e7;  // Dahl rest stiffness [N/m]
+    T force = T(400);  // Dahl saturation force F [N]
+    T sigma = T(4e7);  // Dahl rest stiffness [N/m]
   } hysteresis;
   struct ProgressiveStiffness {
     bool enabled = false;
-    double c3 = 4e11;  // [N/m^3]
+    T c3 = T(4e11);  // [N/m^3]; negative: softening
   } progressive_stiffness;
   struct ActuatorLag {
     bool enabled = false;
-    double tau = 0.05;        // first-order time constant [s]
-    double dead_time = 0.01;  // [s]
+    T tau = T(0.05);        // first-order time constant [s]
+    T dead_time = T(0.01);  // [s]
   } actuator_lag;
   struct RigCompliance {
     bool enabled = false;
-    double k = 5e7;  // mount stiffness per axis [N/m]
+    T k = T(5e7);  // mount stiffness per axis [N/m]
   } rig_compliance;
   struct SensorOffset {
     bool enabled = false;
-    Vec6<double> offset =
-        (Vec6<double>() << 1e-4, -1e-4, 5e-5, 2e-4, -2e-4, 1e-4).finished();
-    double scale = 1.03;
+    Vec6<T> offset =
+        (Vec6<T>() << T(1e-4), T(-1e-4), T(5e-5), T(2e-4), T(-2e-4), T(1e-4))
+            .finished();
+    T scale = T(1.03);
   } sensor_offset;
 
   bool any() const {
@@ -84,7 +88,28 @@ struct PlantEffects {
            progressive_stiffness.enabled || actuator_lag.enabled ||
            rig_compliance.enabled || sensor_offset.enabled;
   }
+
+  template <typename U>
+  BasicPlantEffects<U> Cast() const {
+    BasicPlantEffects<U> out;
+    out.bushing_damping = {bushing_damping.enabled, U(bushing_damping.d)};
+    out.hysteresis = {hysteresis.enabled, U(hysteresis.force),
+                      U(hysteresis.sigma)};
+    out.progressive_stiffness = {progressive_stiffness.enabled,
+                                 U(progressive_stiffness.c3)};
+    out.actuator_lag = {actuator_lag.enabled, U(actuator_lag.tau),
+                        U(actuator_lag.dead_time)};
+    out.rig_compliance = {rig_compliance.enabled, U(rig_compliance.k)};
+    out.sensor_offset.enabled = sensor_offset.enabled;
+    for (int k = 0; k < 6; ++k) {
+      out.sensor_offset.offset(k) = U(sensor_offset.offset(k));
+    }
+    out.sensor_offset.scale = U(sensor_offset.scale);
+    return out;
+  }
 };
+
+using PlantEffects = BasicPlantEffects<double>;
 
 // Turns on one effect from "NAME" or "NAME:key=value,key=value" (keys as in
 // the table above: d; force, sigma; c3; tau, dead_time; k; x, y, z, toe,
