@@ -79,6 +79,11 @@ void AddExcitationOptions(CLI::App* cmd, ExcitationArgs* args) {
                   "Acting point height relative to the wheel centre [m]");
   optional_number("--fmax", &args->fmax, "Ramp amplitude [N]");
   optional_number("--duration", &args->duration, "Ramp time tf [s]");
+  optional_number("--hold", &args->hold,
+                  "Hold at +Fmax after the ramp [s] (default 0)");
+  optional_number("--return", &args->return_duration,
+                  "Return ramp +Fmax -> -Fmax after the hold [s] (default 0: "
+                  "none)");
 }
 
 RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
@@ -87,7 +92,9 @@ RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
   return {args.phi_deg ? *args.phi_deg * kDegree : experiment.phi,
           args.z_a.value_or(experiment.z_a),
           args.fmax.value_or(experiment.fmax),
-          args.duration.value_or(experiment.duration)};
+          args.duration.value_or(experiment.duration),
+          args.hold.value_or(0.0),
+          args.return_duration.value_or(0.0)};
 }
 
 }  // namespace kcrig

@@ -29,7 +29,7 @@ std::vector<std::string> SplitList(const std::string& text);
 // The ramp options --phi DEG, --z M, --fmax N, --duration S shared by the
 // commands that run one experiment; unset means the config's value.
 struct ExcitationArgs {
-  std::optional<double> phi_deg, z_a, fmax, duration;
+  std::optional<double> phi_deg, z_a, fmax, duration, hold, return_duration;
 };
 
 void AddExcitationOptions(CLI::App* cmd, ExcitationArgs* args);

@@ -70,6 +70,8 @@ int RunRun(const RunArgs& args) {
   options.z_a = ramp.z_a;
   options.fmax = ramp.fmax;
   options.tf = ramp.duration;
+  options.hold = ramp.hold;
+  options.return_duration = ramp.return_duration;
   options.log_dir = args.log_dir;
   status = ValidateRunRequest(rig_config, options);
   if (!status.ok()) return fail(status);
@@ -82,7 +84,8 @@ int RunRun(const RunArgs& args) {
   if (!status.ok()) return fail(status);
   options.stop_signal = &InstallStopSignalHandlers();
   ProgressLine progress(args.quiet);
-  const RunProfile profile(rig_config.profile, options.tf);
+  const RunProfile profile(rig_config.profile, options.tf, options.hold,
+                           options.return_duration);
   options.on_progress = [&](double t, RunPhase phase) {
     char text[128];
     std::snprintf(text, sizeof(text), "kcrig run: %-9s t = %5.2f / %.2f s",

@@ -63,10 +63,17 @@ Status ResolveExcitation(const SimulateArgs& args,
   if (!std::isfinite(excitation->duration) || excitation->duration <= 0) {
     return Status::Error("--duration: must be > 0 s");
   }
+  if (!(excitation->hold >= 0) || excitation->hold > 3600) {
+    return Status::Error("--hold: must be within [0, 3600] s");
+  }
+  if (!(excitation->return_duration >= 0) ||
+      excitation->return_duration > 3600) {
+    return Status::Error("--return: must be within [0, 3600] s");
+  }
   if (!std::isfinite(*rate) || *rate <= 0) {
     return Status::Error("--rate: must be > 0 Hz");
   }
-  if (excitation->duration * *rate > 1e7) {
+  if (excitation->EndTime() * *rate > 1e7) {
     return Status::Error("--duration x --rate: more than 1e7 samples");
   }
   return Status::Ok();
@@ -75,7 +82,11 @@ Status ResolveExcitation(const SimulateArgs& args,
 void PrintSummary(const SimulateArgs& args, const RunLog& log,
                   const RampExcitation<double>& excitation) {
   const LogSample& first = log.samples.front();
-  const LogSample& last = log.samples.back();
+  // The compliance is read over the up-ramp (a return ramp comes back).
+  const size_t top = std::min(log.samples.size() - 1,
+                              static_cast<size_t>(std::lround(
+                                  excitation.duration * log.metadata.rate)));
+  const LogSample& last = log.samples[top];
   std::printf(
       "kcrig simulate: phi %.2f deg, z_a %.3f m, Fmax %.3f kN, tf %.2f s, "
       "%zu samples at %.0f Hz%s\n",
@@ -85,7 +96,7 @@ void PrintSummary(const SimulateArgs& args, const RunLog& log,
   const char* names[6] = {"x", "y", "z", "toe", "camber", "caster"};
   const double magnitude_span =
       excitation.fmax * (excitation.Profile(last.t) - excitation.Profile(0.0));
-  std::printf("  %-8s %12s %12s %14s\n", "channel", "at start", "at end",
+  std::printf("  %-8s %12s %12s %14s\n", "channel", "at start", "at +Fmax",
               "compliance");
   for (int k = 0; k < 6; ++k) {
     const bool angle = k >= 3;
@@ -111,13 +122,16 @@ int RunSimulate(const SimulateArgs& args) {
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);
+  SimulatedRunOptions run_options;
+  // The configured geometry: --set changes the simulated plant, not the
+  // configuration the log is recorded with.
+  run_options.geometry = GeometryFingerprint(config.model);
   for (const std::string& set : args.sets) {
     status = ApplySet(set, &config.model);
     if (!status.ok()) return fail(status);
   }
   status = ValidateModel(config.model, "--set");
   if (!status.ok()) return fail(status);
-  SimulatedRunOptions run_options;
   for (const std::string& effect : args.effects) {
     status = ParseEffect(effect, &run_options.effects);
     if (!status.ok()) return fail(status);

@@ -25,7 +25,7 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
         std::to_string(experiment.step) + " s (integrator.step)");
   }
   const long num_samples =
-      std::lround(std::floor(ramp.duration * options.rate + 1e-9)) + 1;
+      std::lround(std::floor(ramp.EndTime() * options.rate + 1e-9)) + 1;
   RigPlant rig(plant, options.effects, experiment.step);
   const Status settled = rig.Settle(ramp.LoadAt(0.0).force, ramp.z_a);
   if (!settled.ok()) return settled;
@@ -36,9 +36,12 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
   m.z_a = ramp.z_a;
   m.fmax = ramp.fmax;
   m.duration = ramp.duration;
+  m.hold = ramp.hold;
+  m.return_duration = ramp.return_duration;
   m.sigma_position = experiment.sigma_position;
   m.sigma_angle = experiment.sigma_angle;
   m.transport = options.transport;
+  m.geometry = options.geometry;
   m.noise_added = options.noise;
   m.seed = options.seed;
   m.synthetic = true;
@@ -79,6 +82,7 @@ Status RunEmbeddedRig(const KcrigConfig& config, const PlantConfig& plant,
   options.noise = plant.noise;
   options.seed = plant.seed + static_cast<std::uint64_t>(run);
   options.transport = "embedded emulated rig (--rig sim)";
+  options.geometry = GeometryFingerprint(config.model);
   RunLog log;
   const Status status =
       SimulateRun(plant.model, ramp, config.experiment, options, &log);

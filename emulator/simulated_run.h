@@ -20,6 +20,8 @@ struct SimulatedRunOptions {
   std::uint64_t seed = 1;  // of the noise
   std::string transport = "simulation";  // recorded in the sidecar
   PlantEffects effects;                  // unmodelled effects of the plant
+  // GeometryFingerprint of the configured model, recorded in the sidecar.
+  std::string geometry;
 };
 
 // Simulates `plant` with options.effects (rt_core/rig_plant.h) under `ramp`

@@ -39,7 +39,8 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
   experiment->observed.clear();
   // The measured force when the rig has a load cell, else the commanded
   // ramp of the sidecar (its time origin is the log's first sample).
-  const RampExcitation<double> commanded{m.phi, m.z_a, m.fmax, m.duration};
+  const RampExcitation<double> commanded{m.phi,      m.z_a,  m.fmax,
+                                         m.duration, m.hold, m.return_duration};
   for (const LogSample& s : log.samples) {
     experiment->forces.push_back(
         log.has_measured_force ? s.force : commanded.LoadAt(s.t - t0).force);

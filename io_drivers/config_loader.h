@@ -150,6 +150,12 @@ Status ValidateModel(const SuspensionParameters<double>& model,
 // present, else the source tree's.
 std::string DefaultConfigDirectory();
 
+// A short hex digest of the model's geometry, masses, spring and damping:
+// every parameter but the bushing stiffnesses, which experiments estimate.
+// Logs carry it so that logs recorded with different geometry configs are
+// not mixed.
+std::string GeometryFingerprint(const SuspensionParameters<double>& model);
+
 }  // namespace kcrig
 
 #endif  // KCRIG_IO_DRIVERS_CONFIG_LOADER_H_

@@ -171,11 +171,19 @@ Status ValidateRunRequest(const RigConfig& rig_config,
   if (!(options.tf > 0) || options.tf > 3600) {
     return Status::Error("ramp time: must be within (0, 3600] s");
   }
+  if (!(options.hold >= 0) || options.hold > 3600) {
+    return Status::Error("hold: must be within [0, 3600] s");
+  }
+  if (!(options.return_duration >= 0) || options.return_duration > 3600) {
+    return Status::Error("return ramp time: must be within [0, 3600] s");
+  }
   // The limiter would lag a faster profile, and a run could then end with
   // a force still applied.
-  const double fastest =
-      std::max({options.fmax / p.lead_in, 2 * options.fmax / options.tf,
-                options.fmax / p.ramp_down});
+  const double fastest = std::max(
+      {options.fmax / p.lead_in, 2 * options.fmax / options.tf,
+       options.return_duration > 0 ? 2 * options.fmax / options.return_duration
+                                   : 0.0,
+       options.fmax / p.ramp_down});
   if (fastest > limits.force_rate_max) {
     std::snprintf(text, sizeof(text),
                   "the run would change the force at %.0f N/s, beyond "
@@ -209,13 +217,16 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   loop_options.z_a = options.z_a;
   loop_options.fmax = options.fmax;
   loop_options.tf = options.tf;
+  loop_options.hold = options.hold;
+  loop_options.return_duration = options.return_duration;
   loop_options.profile = rig_config.profile;
   loop_options.safety = rig_config.safety;
   loop_options.max_duration = options.max_duration;
 
   SpscRing<CycleRecord> ring(kRingCapacity);
   ControlLoop loop(config.model, loop_options, rig, &ring, options.stop_signal);
-  const RunProfile profile(rig_config.profile, options.tf);
+  const RunProfile profile(rig_config.profile, options.tf, options.hold,
+                           options.return_duration);
 
   RunLog log;
   log.has_measured_force = true;
@@ -345,6 +356,9 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   m.z_a = options.z_a;
   m.fmax = options.fmax;
   m.duration = options.tf;
+  m.hold = options.hold;
+  m.geometry = GeometryFingerprint(config.model);
+  m.return_duration = options.return_duration;
   m.sigma_position = config.experiment.sigma_position;
   m.sigma_angle = config.experiment.sigma_angle;
   m.transport = rig != nullptr ? rig->Describe() : "none";
@@ -353,6 +367,7 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   hil["profile_s"] = {
       {"tare", p.tare},           {"lead_in", p.lead_in},
       {"settle", p.settle},       {"ramp", options.tf},
+      {"hold", options.hold},     {"return", options.return_duration},
       {"ramp_down", p.ramp_down}, {"ramp_start", profile.ramp_start()}};
   hil["completed"] = result->completed;
   hil["safety"] = {

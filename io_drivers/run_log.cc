@@ -99,11 +99,14 @@ std::string FormatSidecar(const RunLog& log) {
                        {"phi_rad", m.phi},
                        {"z_a_m", m.z_a},
                        {"fmax_n", m.fmax},
-                       {"tf_s", m.duration}};
+                       {"tf_s", m.duration},
+                       {"hold_s", m.hold},
+                       {"return_s", m.return_duration}};
   doc["measurement_sigma"] = {{"position_m", m.sigma_position},
                               {"angle_rad", m.sigma_angle}};
   doc["noise"] = {{"added", m.noise_added}, {"seed", m.seed}};
   doc["transport"] = m.transport;
+  if (!m.geometry.empty()) doc["geometry"] = m.geometry;
   if (!m.hil_json.empty())
     doc["hil"] = nlohmann::ordered_json::parse(m.hil_json);
   if (m.synthetic) {
@@ -200,8 +203,21 @@ Status ReadSidecar(const std::string& path, size_t rows, double first_t,
                          " Hz does not match the CSV's time column "
                          "(mismatched sidecar)");
   }
+  // Optional: logs written before these existed have neither.
+  for (const auto& [key, target] :
+       {std::pair{"hold_s", &m->hold}, {"return_s", &m->return_duration}}) {
+    if (!ex.contains(key)) continue;
+    const Status status = number(ex, "excitation.", key, target);
+    if (!status.ok()) return status;
+    if (*target < 0) {
+      return Status::Error(path + ": excitation." + key + ": negative");
+    }
+  }
   if (doc.contains("transport") && doc["transport"].is_string()) {
     m->transport = doc["transport"].get<std::string>();
+  }
+  if (doc.contains("geometry") && doc["geometry"].is_string()) {
+    m->geometry = doc["geometry"].get<std::string>();
   }
   return Status::Ok();
 }

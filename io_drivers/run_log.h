@@ -39,9 +39,14 @@ struct RunMetadata {
   double rate = 0;  // [Hz]
   // Excitation: direction [rad], acting height [m], amplitude [N], tf [s].
   double phi = 0, z_a = 0, fmax = 0, duration = 0;
+  // After the ramp: hold at +Fmax, return ramp to -Fmax [s] (0: none).
+  double hold = 0, return_duration = 0;
   double sigma_position = 0;  // [m]
   double sigma_angle = 0;     // [rad]
   std::string transport;      // "simulation", "modbus-tcp://...", "can:vcan0"
+  // GeometryFingerprint of the configured model the log was recorded with
+  // ("" in logs from before it was recorded).
+  std::string geometry;
   bool noise_added = false;
   std::uint64_t seed = 0;
   // Synthetic data only: the true parameter values and the plant's effects.

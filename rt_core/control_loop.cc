@@ -16,7 +16,8 @@ ControlLoop::ControlLoop(const SuspensionParameters<double>& model,
       rig_(rig),
       ring_(ring),
       stop_signal_(stop_signal),
-      profile_(options.profile, options.tf),
+      profile_(options.profile, options.tf, options.hold,
+               options.return_duration),
       safety_(options.safety, options.period) {
   direction_ << std::cos(options.phi), std::sin(options.phi), 0.0;
   const double duration =

@@ -12,6 +12,10 @@ const char* RunPhaseName(RunPhase phase) {
       return "settle";
     case RunPhase::kRamp:
       return "ramp";
+    case RunPhase::kHold:
+      return "hold";
+    case RunPhase::kReturn:
+      return "return";
     case RunPhase::kRampDown:
       return "ramp_down";
     case RunPhase::kDone:
@@ -20,10 +24,13 @@ const char* RunPhaseName(RunPhase phase) {
   return "unknown";
 }
 
-RunProfile::RunProfile(const RunProfileTimes& times, double tf) {
-  const double durations[kNumPhases] = {times.tare, times.lead_in, times.settle,
-                                        tf, times.ramp_down};
-  const double levels[kNumPhases] = {0.0, -1.0, -1.0, 1.0, 0.0};
+RunProfile::RunProfile(const RunProfileTimes& times, double tf, double hold,
+                       double return_duration) {
+  const double durations[kNumPhases] = {
+      times.tare, times.lead_in,   times.settle,   tf,
+      hold,       return_duration, times.ramp_down};
+  const double levels[kNumPhases] = {
+      0.0, -1.0, -1.0, 1.0, 1.0, return_duration > 0 ? -1.0 : 1.0, 0.0};
   double end = 0;
   for (int k = 0; k < kNumPhases; ++k) {
     end += durations[k];

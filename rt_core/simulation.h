@@ -69,13 +69,13 @@ Status SolveStaticEquilibrium(const SuspensionModel<T>& model,
                        std::to_string(max_iterations) + " iterations");
 }
 
-// Integrates over [0, excitation.duration] starting from the static
+// Integrates over [0, excitation.EndTime()] starting from the static
 // equilibrium under the load at t = 0 (the rig has settled at -Fmax before
 // the logged ramp starts). Writes one sample at t = 0 and one every
 // steps_per_sample steps after.
 //
 // `Excitation` is RampExcitation<T> or anything else with
-// `double duration` and `RigLoad<T> LoadAt(double t) const`.
+// `double EndTime() const` and `RigLoad<T> LoadAt(double t) const`.
 template <typename T, typename Excitation>
 Status SimulateTrajectory(const SuspensionModel<T>& model,
                           const Excitation& excitation,
@@ -85,12 +85,12 @@ Status SimulateTrajectory(const SuspensionModel<T>& model,
     return Status::Error(
         "simulation: step must be > 0 s and steps_per_sample >= 1");
   }
-  if (!(excitation.duration > 0)) {
-    return Status::Error("simulation: ramp duration must be > 0 s");
+  if (!(excitation.EndTime() > 0)) {
+    return Status::Error("simulation: excitation duration must be > 0 s");
   }
   const double sample_period = options.step * options.steps_per_sample;
   const long num_intervals =
-      std::lround(std::floor(excitation.duration / sample_period + 1e-9));
+      std::lround(std::floor(excitation.EndTime() / sample_period + 1e-9));
 
   ModelState<T> state;
   const Status equilibrium =

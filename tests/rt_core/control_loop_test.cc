@@ -229,6 +229,26 @@ TEST(RunProfileTest, PhasesAndLevels) {
   EXPECT_EQ(profile.Level(6.8), 0.0);
 }
 
+TEST(RunProfileTest, HoldAndReturnRampRunBetweenRampAndRampDown) {
+  RunProfileTimes times;  // 0.2, 1.0, 0.5, ramp 4, hold 0.5, return 2, 1.0
+  const RunProfile profile(times, 4.0, 0.5, 2.0);
+  EXPECT_DOUBLE_EQ(profile.duration(), 9.2);
+  EXPECT_EQ(profile.Phase(5.9), RunPhase::kHold);
+  EXPECT_EQ(profile.Level(5.9), 1.0);
+  EXPECT_EQ(profile.Phase(7.2), RunPhase::kReturn);
+  EXPECT_NEAR(profile.Level(7.2), 0.0, 1e-12);
+  EXPECT_EQ(profile.Phase(8.7), RunPhase::kRampDown);
+  EXPECT_NEAR(profile.Level(8.7), -0.5, 1e-12);
+  EXPECT_EQ(profile.Phase(9.3), RunPhase::kDone);
+  // The same segments as the offline excitation, shifted by the ramp start.
+  const RampExcitation<double> ramp{0.0, 0.0, 1.0, 4.0, 0.5, 2.0};
+  EXPECT_DOUBLE_EQ(ramp.EndTime(), 6.5);
+  for (double t = 0; t <= 6.5; t += 0.05) {
+    EXPECT_NEAR(ramp.Profile(t), profile.Level(t + profile.ramp_start()), 1e-12)
+        << t;
+  }
+}
+
 TEST(CycleTimerTest, AnOverrunSkipsToTheNextDeadlineAhead) {
   // Exact counts would depend on preemption on a busy machine: check the
   // invariants instead (at least the passed deadlines are skipped, the

@@ -25,6 +25,7 @@ namespace {
 // initial direction and height: zero force, rate, jerk and snap at t = 0.
 struct SmoothLoadCycle {
   double phi, z_a, fmax, duration;
+  double EndTime() const { return duration; }
   RigLoad<double> LoadAt(double t) const {
     const double c = 0.5 * (1.0 - std::cos(2.0 * M_PI * t / duration));
     RigLoad<double> load;
