@@ -7,6 +7,7 @@
 #include "apps/campaign_command.h"
 #include "apps/can_log_command.h"
 #include "apps/design_command.h"
+#include "apps/diagnose_command.h"
 #include "apps/emulate_command.h"
 #include "apps/estimate_command.h"
 #include "apps/run_command.h"
@@ -23,6 +24,7 @@ int main(int argc, char** argv) {
   kcrig::AddSimulateCommand(&app, &run);
   kcrig::AddEstimateCommand(&app, &run);
   kcrig::AddScreenCommand(&app, &run);
+  kcrig::AddDiagnoseCommand(&app, &run);
   kcrig::AddDesignCommand(&app, &run);
   kcrig::AddCampaignCommand(&app, &run);
   kcrig::AddEmulateCommand(&app, &run);

@@ -38,10 +38,11 @@ std::vector<EffectParameter> ParametersOf(
             {effect, "dead_time", "s", 0, 0.01, 0, 0.1, 0.002}};
   }
   if (effect == "rig_compliance") {
-    // Fitted as the compliance 1/k, linear in the sensed position; its
-    // lower bound is "no mount give" for any practical purpose (4 nm at
-    // 4 kN) and keeps k finite.
-    return {{effect, "compliance", "m/N", 0, 2e-8, 1e-12, 1e-6, 1e-10}};
+    // Fitted as the compliance 1/k, linear in the sensed position. Its
+    // range crosses zero (no mount give) so that a rig without the effect
+    // is an interior point, not a bound the fit would crawl to; a negative
+    // compliance is unphysical and says "no effect" within the noise.
+    return {{effect, "compliance", "m/N", 0, 2e-8, -1e-6, 1e-6, 1e-10}};
   }
   if (effect == "sensor_offset") {
     return {{effect, "x", "m", 0, 1e-4, -0.01, 0.01, 0},
@@ -298,10 +299,7 @@ Status FitEffectModel(const EffectModel& model,
     problem.AddResidualBlock(
         new EffectResidual(&model, &e, integrator_step, lower, upper), nullptr,
         theta.data());
-    for (int i = 0; i < n; ++i) {
-      problem.SetParameterLowerBound(theta.data(), i, lower[i]);
-      problem.SetParameterUpperBound(theta.data(), i, upper[i]);
-    }
+
     for (size_t j = 0; j < e.measured.size(); ++j) {
       observed += (e.observed.empty() || e.observed[j]) ? 6 : 0;
     }

@@ -90,8 +90,8 @@ struct EffectFitOptions {
   // candidates: a relative change of 1e-9 is far below any difference that
   // matters (one unit of chi-square in 10^4 residuals is 1e-4).
   int max_iterations = 60;
-  double function_tolerance = 1e-9;
-  double parameter_tolerance = 1e-10;
+  double function_tolerance = 1e-7;
+  double parameter_tolerance = 1e-8;
   // Options of the uncertainty analysis (rank and identifiability
   // thresholds) as for the nominal estimate.
   EstimatorOptions uncertainty;

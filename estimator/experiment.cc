@@ -32,6 +32,8 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
   experiment->sample_period = period;
   experiment->steps_per_sample = static_cast<int>(steps);
   experiment->z_a = m.z_a;
+  experiment->measured_force = log.has_measured_force;
+  experiment->geometry = m.geometry;
   experiment->sigma << Vec3<double>::Constant(m.sigma_position),
       Vec3<double>::Constant(m.sigma_angle);
   experiment->forces.clear();

@@ -26,6 +26,11 @@ struct Experiment {
   double z_a = 0;            // acting height [m]
   Vec6<double> sigma = Vec6<double>::Ones();
   int steps_per_sample = 1;  // integrator steps per sample
+  // Whether the forces are the load cell's (else the sidecar's commanded
+  // excitation), and the log's GeometryFingerprint ("" when unrecorded):
+  // logs that differ in either cannot be compared under one model.
+  bool measured_force = true;
+  std::string geometry;
 };
 
 // Checks that the samples are evenly spaced at the sidecar's rate and that

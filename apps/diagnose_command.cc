@@ -1,0 +1,135 @@
+#include "apps/diagnose_command.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "apps/cli_util.h"
+#include "estimator/diagnosis.h"
+#include "estimator/diagnosis_io.h"
+#include "io_drivers/config_loader.h"
+#include "io_drivers/run_log.h"
+
+namespace kcrig {
+namespace {
+
+struct DiagnoseArgs {
+  std::string config_dir;
+  std::vector<std::string> logs;
+  std::vector<std::string> holdout;
+  std::string candidates;
+  bool no_pairs = false;
+  int threads = 2;
+  std::string out;
+};
+
+// Logs diagnosed together must be comparable under one model: the same
+// force channels (load cell or commanded) and the configured geometry.
+Status CheckComparable(const std::vector<Experiment>& logs,
+                       const std::string& config_geometry,
+                       const std::string& config_dir) {
+  const Experiment& first = logs.front();
+  for (const Experiment& e : logs) {
+    if (e.measured_force != first.measured_force) {
+      const Experiment& with = e.measured_force ? e : first;
+      const Experiment& without = e.measured_force ? first : e;
+      return Status::Error(
+          without.source + " has no load-cell force columns (Fx,Fy,Fz) but " +
+          with.source +
+          " has: logs with different channel sets cannot be diagnosed "
+          "together");
+    }
+    if (!e.geometry.empty() && e.geometry != config_geometry) {
+      return Status::Error(
+          e.source + ": recorded with geometry " + e.geometry + ", but " +
+          config_dir + "/model.yaml is geometry " + config_geometry +
+          ": a log from a different geometry config cannot be diagnosed "
+          "with this model (use its --config)");
+    }
+  }
+  return Status::Ok();
+}
+
+int RunDiagnose(const DiagnoseArgs& args) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "kcrig diagnose: %s\n", status.message().c_str());
+    return 1;
+  };
+  KcrigConfig config;
+  Status status = LoadConfig(args.config_dir, &config);
+  if (!status.ok()) return fail(status);
+  DiagnosisOptions options;
+  if (!args.candidates.empty()) {
+    options.candidates = SplitList(args.candidates);
+    for (const std::string& name : options.candidates) {
+      if (std::find(kEffectNames.begin(), kEffectNames.end(), name) ==
+          kEffectNames.end()) {
+        return fail(Status::Error("--candidates: unknown effect '" + name +
+                                  "' (one of bushing_damping, hysteresis, "
+                                  "progressive_stiffness, actuator_lag, "
+                                  "rig_compliance, sensor_offset)"));
+      }
+    }
+  }
+  options.consider_pairs = !args.no_pairs;
+  if (args.threads < 1) return fail(Status::Error("--threads: must be >= 1"));
+  options.num_threads = args.threads;
+
+  std::vector<Experiment> training, holdout;
+  status = LoadExperiments(args.logs, config, &training);
+  if (!status.ok()) return fail(status);
+  status = LoadExperiments(args.holdout, config, &holdout);
+  if (!status.ok()) return fail(status);
+  std::vector<Experiment> all = training;
+  all.insert(all.end(), holdout.begin(), holdout.end());
+  status =
+      CheckComparable(all, GeometryFingerprint(config.model), config.directory);
+  if (!status.ok()) return fail(status);
+
+  DiagnosisResult result;
+  status = Diagnose(config.model, training, holdout, options,
+                    config.experiment.step, &result);
+  if (!status.ok()) return fail(status);
+  if (!args.out.empty()) {
+    status = WriteFilesAtomically(
+        {{args.out, DiagnosisToJson(result, args.logs, args.holdout, "")}});
+    if (!status.ok()) return fail(status);
+  }
+  std::fputs(DiagnosisSummary(result).c_str(), stdout);
+  std::printf("  %.1f s", result.seconds);
+  if (!args.out.empty()) std::printf(", wrote %s", args.out.c_str());
+  std::printf("\n");
+  return 0;
+}
+
+}  // namespace
+
+void AddDiagnoseCommand(CLI::App* app, std::function<int()>* run) {
+  auto args = std::make_shared<DiagnoseArgs>();
+  CLI::App* cmd = app->add_subcommand(
+      "diagnose",
+      "Sim-to-real gap: is there one, where, which unmodelled effect, how "
+      "far it shrinks");
+  cmd->add_option("--config", args->config_dir,
+                  "Config directory (default: installed or source config/)");
+  cmd->add_option("--log", args->logs,
+                  "Training log, run.csv or can.log (repeatable)")
+      ->required();
+  cmd->add_option("--holdout", args->holdout,
+                  "Held-out log the candidates are scored on, never fitted "
+                  "(repeatable; default: cross-validation over the --log "
+                  "files)");
+  cmd->add_option("--candidates", args->candidates,
+                  "Comma-separated candidate effects (default: all six)");
+  cmd->add_flag("--no-pairs", args->no_pairs,
+                "Do not try pairs of effects when no single one explains "
+                "the gap");
+  cmd->add_option("--threads", args->threads,
+                  "Candidates fitted side by side (default 2)");
+  cmd->add_option("--out", args->out, "diag.json to write");
+  cmd->callback([args, run] { *run = [args] { return RunDiagnose(*args); }; });
+}
+
+}  // namespace kcrig

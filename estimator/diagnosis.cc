@@ -1,0 +1,658 @@
+#include "estimator/diagnosis.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <functional>
+#include <limits>
+#include <numeric>
+#include <thread>
+
+#include "unsupported/Eigen/FFT"
+
+namespace kcrig {
+namespace {
+
+bool Observed(const Experiment& e, size_t j) {
+  return e.observed.empty() || e.observed[j];
+}
+
+// Runs fn(0 .. count-1) on up to `threads` threads.
+void ParallelFor(int count, int threads, const std::function<void(int)>& fn) {
+  std::atomic<int> next{0};
+  auto work = [&] {
+    for (int i = next++; i < count; i = next++) fn(i);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < std::min(threads, count); ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+}
+
+// Weighted residuals (sensed - measured) / sigma per sample (zero where
+// not observed) of a model at `values`.
+Status WeightedResiduals(const EffectModel& model,
+                         const std::vector<double>& values, const Experiment& e,
+                         double step, std::vector<Vec6<double>>* weighted) {
+  std::vector<Vec6<double>> sensed;
+  const Status status = SimulateEffectModel(model, values, e, step, &sensed);
+  if (!status.ok()) return status;
+  weighted->resize(sensed.size());
+  for (size_t j = 0; j < sensed.size(); ++j) {
+    (*weighted)[j] =
+        Observed(e, j)
+            ? Vec6<double>((sensed[j] - e.measured[j]).cwiseQuotient(e.sigma))
+            : Vec6<double>::Zero();
+  }
+  return Status::Ok();
+}
+
+int ObservedCount(const Experiment& e) {
+  int n = 0;
+  for (size_t j = 0; j < e.measured.size(); ++j) n += Observed(e, j);
+  return n;
+}
+
+// Accumulates the mean squared weighted residual and the per-channel RMS
+// [m, rad] over several logs.
+struct ScoreSum {
+  double sum = 0;
+  Vec6<double> channel_sum = Vec6<double>::Zero();  // sum of r^2 [SI^2]
+  long samples = 0;
+  void Add(const Experiment& e, const std::vector<Vec6<double>>& w) {
+    for (size_t j = 0; j < w.size(); ++j) {
+      if (!Observed(e, j)) continue;
+      sum += w[j].squaredNorm();
+      channel_sum += w[j].cwiseProduct(e.sigma).cwiseAbs2();
+      ++samples;
+    }
+  }
+  double Score() const { return samples > 0 ? sum / (6.0 * samples) : 0; }
+  Vec6<double> Rms() const {
+    return samples > 0 ? Vec6<double>((channel_sum / samples).cwiseSqrt())
+                       : Vec6<double>::Zero();
+  }
+};
+
+// Ljung-Box Q of one channel's residual over the observed samples.
+double LjungBox(const std::vector<double>& x, int lags) {
+  const size_t n = x.size();
+  const double mean = std::accumulate(x.begin(), x.end(), 0.0) / n;
+  double variance = 0;
+  for (double v : x) variance += (v - mean) * (v - mean);
+  if (!(variance > 0)) return 0;
+  double q = 0;
+  for (int k = 1; k <= lags; ++k) {
+    double c = 0;
+    for (size_t j = k; j < n; ++j) c += (x[j] - mean) * (x[j - k] - mean);
+    const double rho = c / variance;
+    q += rho * rho / static_cast<double>(n - k);
+  }
+  return static_cast<double>(n) * (n + 2.0) * q;
+}
+
+// Pearson correlation of a[j] with b[j - lag] over the overlap.
+double LaggedCorrelation(const std::vector<double>& a,
+                         const std::vector<double>& b, int lag) {
+  const int n = static_cast<int>(a.size());
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+  int count = 0;
+  for (int j = std::max(0, lag); j < std::min(n, n + lag); ++j) {
+    const double x = a[j], y = b[j - lag];
+    sa += x;
+    sb += y;
+    saa += x * x;
+    sbb += y * y;
+    sab += x * y;
+    ++count;
+  }
+  if (count < 3) return 0;
+  const double cov = sab - sa * sb / count;
+  const double va = saa - sa * sa / count, vb = sbb - sb * sb / count;
+  return va > 0 && vb > 0 ? cov / std::sqrt(va * vb) : 0;
+}
+
+void Localize(const std::vector<Experiment>& logs,
+              const std::vector<std::vector<Vec6<double>>>& residuals,
+              const DiagnosisOptions& options, DiagnosisResult* result) {
+  // Slices by channel, force magnitude and loading direction.
+  const char* magnitude_names[] = {"near_zero", "low", "mid", "high"};
+  const char* direction_names[] = {"loading", "unloading", "hold"};
+  std::vector<GapSlice> magnitude(4), direction(3), channels(6);
+  for (int i = 0; i < 4; ++i) magnitude[i].name = magnitude_names[i];
+  for (int i = 0; i < 3; ++i) direction[i].name = direction_names[i];
+  for (int k = 0; k < 6; ++k) channels[k].name = kChannelNames[k];
+  double total_excess = 0;
+  GapSlice all;
+  auto add = [](GapSlice* s, const Vec6<double>& w, const Vec6<double>& r) {
+    s->samples += 1;
+    s->channel_score += w.cwiseAbs2();
+    s->mean += r;
+    s->rms += r.cwiseAbs2();
+  };
+  const std::vector<double> band_edges = {0, 0.5, 2, 10, 50};
+  std::vector<double> band_energy;
+  double total_energy = 0;
+  std::vector<std::vector<double>> force_corr(6), rate_corr(6);
+  std::vector<double> lag_weight;
+  int max_lag_samples = 0;
+
+  for (size_t l = 0; l < logs.size(); ++l) {
+    const Experiment& e = logs[l];
+    const std::vector<Vec6<double>>& w = residuals[l];
+    const size_t n = w.size();
+    // Force along the excitation's main direction, its magnitude and rate.
+    Eigen::Vector2d direction_xy = Eigen::Vector2d::Zero();
+    double peak = 0;
+    for (const Vec3<double>& f : e.forces) {
+      if (f.head<2>().norm() > peak) {
+        peak = f.head<2>().norm();
+        direction_xy = f.head<2>() / peak;
+      }
+    }
+    std::vector<double> along(n), magnitude_of(n), rate(n);
+    for (size_t j = 0; j < n; ++j) {
+      along[j] = e.forces[j].head<2>().dot(direction_xy);
+      magnitude_of[j] = e.forces[j].norm();
+    }
+    const size_t half = std::max<size_t>(
+        1, static_cast<size_t>(std::lround(0.01 / e.sample_period)));
+    for (size_t j = 0; j < n; ++j) {
+      const size_t a = j >= half ? j - half : 0, b = std::min(n - 1, j + half);
+      rate[j] = b > a ? (magnitude_of[b] - magnitude_of[a]) /
+                            ((b - a) * e.sample_period)
+                      : 0;
+    }
+    const double fmax = std::max(
+        1.0, *std::max_element(magnitude_of.begin(), magnitude_of.end()));
+    double fastest = 0;
+    for (double r : rate) fastest = std::max(fastest, std::abs(r));
+    for (size_t j = 0; j < n; ++j) {
+      if (!Observed(e, j)) continue;
+      const Vec6<double> r = w[j].cwiseProduct(e.sigma);
+      const double level = magnitude_of[j] / fmax;
+      const int m = level < 0.1 ? 0 : level < 0.4 ? 1 : level < 0.7 ? 2 : 3;
+      const int d = std::abs(rate[j]) < 0.05 * fastest ? 2
+                    : rate[j] > 0                      ? 0
+                                                       : 1;
+      add(&magnitude[m], w[j], r);
+      add(&direction[d], w[j], r);
+      add(&all, w[j], r);
+      for (int k = 0; k < 6; ++k) {
+        channels[k].samples += 1;
+        channels[k].channel_score(k) += w[j](k) * w[j](k);
+        channels[k].mean(k) += r(k);
+        channels[k].rms(k) += r(k) * r(k);
+      }
+      total_excess += w[j].squaredNorm() - 6;
+    }
+
+    // Residual spectrum per channel.
+    const double nyquist = 0.5 / e.sample_period;
+    if (band_energy.empty()) {
+      band_energy.assign(band_edges.size(), 0.0);
+      result->bands.clear();
+      for (size_t b = 0; b < band_edges.size(); ++b) {
+        const double high =
+            b + 1 < band_edges.size() ? band_edges[b + 1] : nyquist;
+        if (band_edges[b] >= nyquist) break;
+        result->bands.push_back(
+            {band_edges[b], std::min(high, nyquist), 0,
+             (std::min(high, nyquist) - band_edges[b]) / nyquist});
+      }
+    }
+    Eigen::FFT<double> fft;
+    std::vector<double> series(n);
+    std::vector<std::complex<double>> spectrum;
+    for (int k = 0; k < 6; ++k) {
+      double mean = 0;
+      for (size_t j = 0; j < n; ++j) mean += w[j](k) / n;
+      for (size_t j = 0; j < n; ++j) series[j] = w[j](k) - mean;
+      fft.fwd(spectrum, series);
+      for (size_t i = 1; i <= n / 2; ++i) {
+        const double f = i / (n * e.sample_period);
+        const double energy = std::norm(spectrum[i]);
+        total_energy += energy;
+        for (size_t b = result->bands.size(); b-- > 0;) {
+          if (f >= result->bands[b].low_hz) {
+            band_energy[b] += energy;
+            break;
+          }
+        }
+      }
+    }
+
+    // Cross-correlation with the force and its rate.
+    const int lags =
+        static_cast<int>(std::lround(options.max_lag / e.sample_period));
+    if (max_lag_samples == 0) {
+      max_lag_samples = lags;
+      for (int k = 0; k < 6; ++k) {
+        force_corr[k].assign(2 * lags + 1, 0.0);
+        rate_corr[k].assign(2 * lags + 1, 0.0);
+      }
+    }
+    const int used = std::min(lags, max_lag_samples);
+    std::vector<double> channel(n);
+    for (int k = 0; k < 6; ++k) {
+      for (size_t j = 0; j < n; ++j) channel[j] = w[j](k);
+      for (int lag = -used; lag <= used; ++lag) {
+        force_corr[k][lag + max_lag_samples] +=
+            LaggedCorrelation(channel, along, lag) * n;
+        rate_corr[k][lag + max_lag_samples] +=
+            LaggedCorrelation(channel, rate, lag) * n;
+      }
+    }
+    lag_weight.push_back(static_cast<double>(n));
+  }
+
+  auto finish = [&](GapSlice* s) {
+    if (s->samples == 0) return;
+    s->excess_share =
+        total_excess != 0
+            ? (s->channel_score.sum() - 6.0 * s->samples) / total_excess
+            : 0;
+    s->channel_score /= s->samples;
+    s->mean /= s->samples;
+    s->rms = (s->rms / s->samples).cwiseSqrt();
+    s->score = s->channel_score.mean();
+  };
+  for (GapSlice& s : magnitude) finish(&s);
+  for (GapSlice& s : direction) finish(&s);
+  for (int k = 0; k < 6; ++k) {
+    GapSlice& s = channels[k];
+    s.excess_share =
+        total_excess != 0 ? (s.channel_score(k) - s.samples) / total_excess : 0;
+    s.score = s.samples > 0 ? s.channel_score(k) / s.samples : 0;
+    s.mean(k) /= std::max(1, s.samples);
+    s.rms(k) = std::sqrt(s.rms(k) / std::max(1, s.samples));
+    s.channel_score = Vec6<double>::Zero();
+    s.channel_score(k) = s.score;
+  }
+  result->channels = channels;
+  result->magnitude = magnitude;
+  result->direction = direction;
+  for (size_t b = 0; b < result->bands.size(); ++b) {
+    result->bands[b].energy_share =
+        total_energy > 0 ? band_energy[b] / total_energy : 0;
+  }
+  const double weight =
+      std::accumulate(lag_weight.begin(), lag_weight.end(), 0.0);
+  const double period = logs.front().sample_period;
+  result->lags.clear();
+  for (int k = 0; k < 6; ++k) {
+    LagCorrelation c;
+    c.channel = kChannelNames[k];
+    for (int i = 0; i < 2 * max_lag_samples + 1; ++i) {
+      const double fc = force_corr[k][i] / weight;
+      const double rc = rate_corr[k][i] / weight;
+      if (std::abs(fc) > std::abs(c.force_correlation)) {
+        c.force_correlation = fc;
+        c.force_lag = (i - max_lag_samples) * period;
+      }
+      if (std::abs(rc) > std::abs(c.rate_correlation)) {
+        c.rate_correlation = rc;
+        c.rate_lag = (i - max_lag_samples) * period;
+      }
+    }
+    result->lags.push_back(c);
+  }
+}
+
+// The information criteria of a fit with chi-square `chi2`, k parameters
+// and m residuals.
+void InformationCriteria(double chi2, int k, int m, CandidateScore* s) {
+  s->train_chi2 = chi2;
+  s->num_parameters = k;
+  s->bic = chi2 + k * std::log(static_cast<double>(m));
+  s->aicc =
+      chi2 + 2.0 * k + (m > k + 1 ? 2.0 * k * (k + 1) / (m - k - 1) : 0.0);
+}
+
+// log Gamma-regularized upper incomplete gamma Q(a, x): series below a + 1,
+// continued fraction (modified Lentz) above.
+double UpperIncompleteGamma(double a, double x) {
+  if (x <= 0) return 1.0;
+  const double log_prefix = a * std::log(x) - x - std::lgamma(a);
+  if (x < a + 1) {
+    double term = 1.0 / a, sum = term;
+    for (int n = 1; n < 100000; ++n) {
+      term *= x / (a + n);
+      sum += term;
+      if (std::abs(term) < std::abs(sum) * 1e-15) break;
+    }
+    return std::max(0.0, 1.0 - sum * std::exp(log_prefix));
+  }
+  const double tiny = 1e-300;
+  double b = x + 1 - a, c = 1 / tiny, d = 1 / b, h = d;
+  for (int i = 1; i < 100000; ++i) {
+    const double an = -i * (i - a);
+    b += 2;
+    d = an * d + b;
+    if (std::abs(d) < tiny) d = tiny;
+    c = b + an / c;
+    if (std::abs(c) < tiny) c = tiny;
+    d = 1 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::abs(delta - 1) < 1e-15) break;
+  }
+  return std::exp(log_prefix) * h;
+}
+
+}  // namespace
+
+double ChiSquareUpperTail(double x, double dof) {
+  return UpperIncompleteGamma(0.5 * dof, 0.5 * x);
+}
+
+Status Diagnose(const SuspensionParameters<double>& nominal,
+                const std::vector<Experiment>& training,
+                const std::vector<Experiment>& holdout,
+                const DiagnosisOptions& options, double step,
+                DiagnosisResult* result) {
+  const auto start = std::chrono::steady_clock::now();
+  *result = DiagnosisResult();
+  if (training.empty()) return Status::Error("diagnose: no training log");
+  for (const std::vector<Experiment>* set : {&training, &holdout}) {
+    for (const Experiment& e : *set) {
+      const int n = ObservedCount(e);
+      if (n < options.min_samples) {
+        return Status::Error(
+            e.source + ": " + std::to_string(n) +
+            " observed samples; a diagnosis needs at least " +
+            std::to_string(options.min_samples) +
+            " per log for its residual statistics (record a longer ramp)");
+      }
+    }
+  }
+  const double lower = options.estimator.lower_scale;
+  const double upper = options.estimator.upper_scale;
+  EffectModel nominal_model;
+  Status status =
+      EffectModel::Create(nominal, {}, lower, upper, &nominal_model);
+  if (!status.ok()) return status;
+  std::vector<EffectModel> singles;
+  for (const std::string& name : options.candidates) {
+    EffectModel m;
+    status = EffectModel::Create(nominal, {name}, lower, upper, &m);
+    if (!status.ok()) return Status::Error("diagnose: " + status.message());
+    singles.push_back(std::move(m));
+  }
+  EffectFitOptions fit_options = options.fit;
+  fit_options.uncertainty = options.estimator;
+
+  // 1. The nominal fit and its gap tests.
+  CandidateScore& nominal_score = result->nominal;
+  nominal_score.model = "nominal";
+  status = FitEffectModel(nominal_model, training, {}, fit_options, step,
+                          &nominal_score.fit);
+  if (!status.ok()) return status;
+  std::vector<std::vector<Vec6<double>>> residuals(training.size());
+  int m = 0;
+  double chi2 = 0;
+  for (size_t l = 0; l < training.size(); ++l) {
+    status = WeightedResiduals(nominal_model, nominal_score.fit.values,
+                               training[l], step, &residuals[l]);
+    if (!status.ok()) return status;
+    for (size_t j = 0; j < residuals[l].size(); ++j) {
+      if (!Observed(training[l], j)) continue;
+      chi2 += residuals[l][j].squaredNorm();
+      m += 6;
+    }
+  }
+  const int n_nominal = nominal_model.num_parameters();
+  result->chi2 = chi2;
+  result->dof = m - n_nominal;
+  result->chi2_p = ChiSquareUpperTail(chi2, result->dof);
+  const int tests = static_cast<int>(training.size()) * 6;
+  double min_p = 1;
+  for (size_t l = 0; l < training.size(); ++l) {
+    for (int k = 0; k < 6; ++k) {
+      std::vector<double> x;
+      for (size_t j = 0; j < residuals[l].size(); ++j) {
+        if (Observed(training[l], j)) x.push_back(residuals[l][j](k));
+      }
+      min_p = std::min(min_p,
+                       ChiSquareUpperTail(LjungBox(x, options.ljung_box_lags),
+                                          options.ljung_box_lags));
+    }
+  }
+  result->ljung_box_p = std::min(1.0, min_p * tests);
+  result->gap = result->chi2_p < options.significance ||
+                result->ljung_box_p < options.significance;
+  InformationCriteria(chi2, n_nominal, m, &nominal_score);
+
+  // 2. Where the gap lies.
+  Localize(training, residuals, options, result);
+
+  // Per-log nominal fits: the stiffness drift between experiments.
+  std::vector<EffectFit> per_log(training.size() > 1 ? training.size() : 0);
+  std::vector<Status> per_log_status(per_log.size());
+  ParallelFor(
+      static_cast<int>(per_log.size()), options.num_threads, [&](int l) {
+        per_log_status[l] = FitEffectModel(nominal_model, {training[l]},
+                                           nominal_score.fit.values,
+                                           fit_options, step, &per_log[l]);
+      });
+  for (const Status& s : per_log_status) {
+    if (!s.ok()) return s;
+  }
+  for (int i = 0; i < kNumBushings && per_log.size() > 1; ++i) {
+    StiffnessDrift d;
+    d.parameter = nominal_model.parameters()[i].name;
+    for (const EffectFit& f : per_log) {
+      d.values.push_back(f.result.parameters[i].value);
+      d.standard_errors.push_back(f.result.parameters[i].standard_error);
+    }
+    for (size_t a = 0; a < per_log.size(); ++a) {
+      for (size_t b = a + 1; b < per_log.size(); ++b) {
+        const double se =
+            std::hypot(d.standard_errors[a], d.standard_errors[b]);
+        if (std::isfinite(se) && se > 0) {
+          d.max_z = std::max(d.max_z, std::abs(d.values[a] - d.values[b]) / se);
+        }
+      }
+    }
+    d.drifts = d.max_z > options.drift_z;
+    result->drift_detected = result->drift_detected || d.drifts;
+    result->drift.push_back(d);
+  }
+
+  result->scoring = !holdout.empty()      ? "holdout"
+                    : training.size() > 1 ? "cross_validation"
+                                          : "information_criterion";
+  auto finish_time = [&] {
+    result->seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+            .count();
+  };
+  if (!result->gap) {
+    result->verdict = "none";
+    result->reason =
+        "the nominal model's residual is consistent with the sensor noise "
+        "(chi-square and Ljung-Box tests)";
+    finish_time();
+    return Status::Ok();
+  }
+
+  // 3. Scores: held-out, cross-validated or training-only.
+  auto score_model = [&](const EffectModel& model, CandidateScore* s) {
+    s->model = model.Name();
+    double train_chi2 = 2 * s->fit.result.cost;
+    InformationCriteria(train_chi2, model.num_parameters(), m, s);
+    ScoreSum sum;
+    std::vector<Vec6<double>> w;
+    if (!holdout.empty()) {
+      for (const Experiment& e : holdout) {
+        const Status st = WeightedResiduals(model, s->fit.values, e, step, &w);
+        if (!st.ok()) return st;
+        sum.Add(e, w);
+      }
+    } else if (training.size() > 1) {
+      for (size_t l = 0; l < training.size(); ++l) {
+        std::vector<Experiment> rest;
+        for (size_t o = 0; o < training.size(); ++o) {
+          if (o != l) rest.push_back(training[o]);
+        }
+        EffectFit fold;
+        Status st = FitEffectModel(model, rest, s->fit.values, fit_options,
+                                   step, &fold);
+        if (!st.ok()) return st;
+        st = WeightedResiduals(model, fold.values, training[l], step, &w);
+        if (!st.ok()) return st;
+        sum.Add(training[l], w);
+      }
+    } else {
+      s->score = train_chi2 / std::max(1, m - model.num_parameters());
+      s->heldout_rms = Vec6<double>::Zero();
+      return Status::Ok();
+    }
+    s->score = sum.Score();
+    s->heldout_rms = sum.Rms();
+    return Status::Ok();
+  };
+  status = score_model(nominal_model, &nominal_score);
+  if (!status.ok()) return status;
+  const double nominal_gap = nominal_score.score - 1.0;
+  auto fit_and_score = [&](const std::vector<const EffectModel*>& models,
+                           std::vector<CandidateScore>* scores) {
+    scores->assign(models.size(), CandidateScore());
+    ParallelFor(
+        static_cast<int>(models.size()), options.num_threads, [&](int i) {
+          CandidateScore& s = (*scores)[i];
+          const EffectModel& model = *models[i];
+          s.model = model.Name();
+          std::vector<double> initial;
+          for (int p = 0; p < model.num_parameters(); ++p) {
+            initial.push_back(p < kNumBushings ? nominal_score.fit.values[p]
+                                               : model.parameters()[p].initial);
+          }
+          Status st = FitEffectModel(model, training, initial, fit_options,
+                                     step, &s.fit);
+          if (st.ok()) st = score_model(model, &s);
+          s.ok = st.ok();
+          s.error = st.message();
+          s.gap_closed = s.ok && nominal_gap > 0
+                             ? (nominal_score.score - s.score) / nominal_gap
+                             : 0;
+        });
+  };
+  std::vector<const EffectModel*> single_models;
+  for (const EffectModel& m1 : singles) single_models.push_back(&m1);
+  fit_and_score(single_models, &result->ranking);
+  auto rank = [](std::vector<CandidateScore>* list) {
+    std::stable_sort(list->begin(), list->end(),
+                     [](const CandidateScore& a, const CandidateScore& b) {
+                       if (a.ok != b.ok) return a.ok;
+                       if (a.score != b.score) return a.score < b.score;
+                       return a.bic < b.bic;
+                     });
+  };
+  rank(&result->ranking);
+
+  // 4. The verdict.
+  auto decide = [&](const std::vector<CandidateScore>& list,
+                    const CandidateScore* rival) {
+    // Whether list[0] is clearly the best of `list` (and better than
+    // `rival` when given) and closes enough of the gap.
+    if (list.empty() || !list[0].ok) return false;
+    const CandidateScore& best = list[0];
+    if (best.gap_closed < options.min_gap_closed) return false;
+    for (const CandidateScore* other :
+         {list.size() > 1 ? &list[1] : nullptr, rival}) {
+      if (other == nullptr || !other->ok) continue;
+      if (other->gap_closed > best.gap_closed - options.min_gap_margin ||
+          other->bic - best.bic < options.min_bic_difference) {
+        return false;
+      }
+    }
+    return true;
+  };
+  std::vector<CandidateScore> pairs;
+  const CandidateScore* chosen = nullptr;
+  if (decide(result->ranking, nullptr)) {
+    chosen = &result->ranking[0];
+  } else if (options.consider_pairs && result->ranking.size() > 1 &&
+             result->ranking[0].gap_closed < options.min_gap_closed) {
+    // No single effect suffices: pairs of the best few.
+    std::vector<EffectModel> pair_models;
+    const int pool = std::min<int>(options.pair_pool, result->ranking.size());
+    for (int a = 0; a < pool; ++a) {
+      for (int b = a + 1; b < pool; ++b) {
+        EffectModel pm;
+        const std::vector<std::string> both = {result->ranking[a].model,
+                                               result->ranking[b].model};
+        if (EffectModel::Create(nominal, both, lower, upper, &pm).ok() &&
+            pm.num_parameters() <= kMaxEffectModelParameters) {
+          pair_models.push_back(std::move(pm));
+        }
+      }
+    }
+    std::vector<const EffectModel*> pointers;
+    for (const EffectModel& pm : pair_models) pointers.push_back(&pm);
+    fit_and_score(pointers, &pairs);
+    rank(&pairs);
+    if (decide(pairs, &result->ranking[0])) chosen = &pairs[0];
+    result->ranking.insert(result->ranking.end(), pairs.begin(), pairs.end());
+    rank(&result->ranking);
+    if (chosen != nullptr) {
+      for (const CandidateScore& s : result->ranking) {
+        if (s.model == pairs[0].model) chosen = &s;
+      }
+    }
+  }
+
+  char text[300];
+  if (chosen != nullptr) {
+    result->verdict = chosen->model;
+    // High confidence: the model leaves nothing but noise on the data it
+    // was scored on.
+    const long n_scored = holdout.empty() ? m : [&] {
+      long n = 0;
+      for (const Experiment& e : holdout) n += 6L * ObservedCount(e);
+      return n;
+    }();
+    const double p_after = ChiSquareUpperTail(chosen->score * n_scored,
+                                              static_cast<double>(n_scored));
+    result->confidence = p_after >= options.significance ? "high" : "low";
+    std::snprintf(text, sizeof(text),
+                  "%s closes %.0f %% of the gap (score %.3g -> %.3g, noise "
+                  "floor 1)%s",
+                  chosen->model.c_str(), 100 * chosen->gap_closed,
+                  nominal_score.score, chosen->score,
+                  result->confidence == "high"
+                      ? "; what is left is noise"
+                      : "; some structure is left beyond the noise");
+    result->reason = text;
+  } else {
+    result->verdict = "unexplained";
+    const CandidateScore& best = result->ranking.front();
+    const CandidateScore* second =
+        result->ranking.size() > 1 ? &result->ranking[1] : nullptr;
+    if (best.gap_closed >= options.min_gap_closed && second != nullptr &&
+        second->gap_closed >= options.min_gap_closed) {
+      result->ambiguous_a = best.model;
+      result->ambiguous_b = second->model;
+      std::snprintf(text, sizeof(text),
+                    "%s and %s both explain the data (%.0f %% and %.0f %% of "
+                    "the gap closed): an experiment that tells them apart is "
+                    "needed",
+                    best.model.c_str(), second->model.c_str(),
+                    100 * best.gap_closed, 100 * second->gap_closed);
+    } else {
+      std::snprintf(text, sizeof(text),
+                    "no candidate closes %.0f %% of the gap (best: %s, "
+                    "%.0f %%); see the localisation",
+                    100 * options.min_gap_closed, best.model.c_str(),
+                    100 * best.gap_closed);
+    }
+    result->reason = text;
+  }
+  finish_time();
+  return Status::Ok();
+}
+
+}  // namespace kcrig
