@@ -517,28 +517,50 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   status = score_model(nominal_model, &nominal_score);
   if (!status.ok()) return status;
   const double nominal_gap = nominal_score.score - 1.0;
+  // Each candidate is fitted from two starts: the nominal fit's
+  // stiffnesses (which the effect has biased) with a small effect, and the
+  // configured stiffnesses with a large one; the better fit is scored.
   auto fit_and_score = [&](const std::vector<const EffectModel*>& models,
                            std::vector<CandidateScore>* scores) {
-    scores->assign(models.size(), CandidateScore());
-    ParallelFor(
-        static_cast<int>(models.size()), options.num_threads, [&](int i) {
-          CandidateScore& s = (*scores)[i];
-          const EffectModel& model = *models[i];
-          s.model = model.Name();
-          std::vector<double> initial;
-          for (int p = 0; p < model.num_parameters(); ++p) {
-            initial.push_back(p < kNumBushings ? nominal_score.fit.values[p]
-                                               : model.parameters()[p].initial);
-          }
-          Status st = FitEffectModel(model, training, initial, fit_options,
-                                     step, &s.fit);
-          if (st.ok()) st = score_model(model, &s);
-          s.ok = st.ok();
-          s.error = st.message();
-          s.gap_closed = s.ok && nominal_gap > 0
-                             ? (nominal_score.score - s.score) / nominal_gap
-                             : 0;
-        });
+    const int count = static_cast<int>(models.size());
+    std::vector<EffectFit> fits(2 * count);
+    std::vector<Status> fit_status(2 * count);
+    ParallelFor(2 * count, options.num_threads, [&](int job) {
+      const EffectModel& model = *models[job / 2];
+      const bool second = job % 2 == 1;
+      std::vector<double> initial;
+      for (int p = 0; p < model.num_parameters(); ++p) {
+        const EffectParameter& ep = model.parameters()[p];
+        initial.push_back(second             ? ep.second_initial
+                          : p < kNumBushings ? nominal_score.fit.values[p]
+                                             : ep.initial);
+      }
+      fit_status[job] = FitEffectModel(model, training, initial, fit_options,
+                                       step, &fits[job]);
+    });
+    scores->assign(count, CandidateScore());
+    ParallelFor(count, options.num_threads, [&](int i) {
+      CandidateScore& s = (*scores)[i];
+      const EffectModel& model = *models[i];
+      s.model = model.Name();
+      int pick = -1;
+      for (int job : {2 * i, 2 * i + 1}) {
+        if (fit_status[job].ok() &&
+            (pick < 0 || fits[job].result.cost < fits[pick].result.cost)) {
+          pick = job;
+        }
+      }
+      Status st = pick < 0 ? fit_status[2 * i] : Status::Ok();
+      if (st.ok()) {
+        s.fit = fits[pick];
+        st = score_model(model, &s);
+      }
+      s.ok = st.ok();
+      s.error = st.message();
+      s.gap_closed = s.ok && nominal_gap > 0
+                         ? (nominal_score.score - s.score) / nominal_gap
+                         : 0;
+    });
   };
   std::vector<const EffectModel*> single_models;
   for (const EffectModel& m1 : singles) single_models.push_back(&m1);

@@ -24,34 +24,34 @@ std::vector<EffectParameter> ParametersOf(
     for (const AxialElement<double>& b : nominal.bushings) {
       model_damping += b.damping / kNumBushings;
     }
-    return {{effect, "d", "N s/m", 0, 3e5, 0, 1e7, model_damping}};
+    return {{effect, "d", "N s/m", 0, 3e5, 0, 1e7, model_damping, 1e6}};
   }
   if (effect == "hysteresis") {
-    return {{effect, "force", "N", 0, 400, 1, 5000, 50},
-            {effect, "sigma", "N/m", 0, 4e7, 1e6, 1e9, 4e7}};
+    return {{effect, "force", "N", 0, 400, 1, 5000, 50, 300},
+            {effect, "sigma", "N/m", 0, 4e7, 1e6, 1e9, 4e7, 4e7}};
   }
   if (effect == "progressive_stiffness") {
-    return {{effect, "c3", "N/m^3", 0, 4e11, -2e13, 2e13, 0}};
+    return {{effect, "c3", "N/m^3", 0, 4e11, -2e13, 2e13, 0, 0}};
   }
   if (effect == "actuator_lag") {
-    return {{effect, "tau", "s", 0, 0.05, 2e-4, 0.5, 0.005},
-            {effect, "dead_time", "s", 0, 0.01, 0, 0.1, 0.002}};
+    return {{effect, "tau", "s", 0, 0.05, 2e-4, 0.5, 0.005, 0.03},
+            {effect, "dead_time", "s", 0, 0.01, 0, 0.1, 0.002, 0.005}};
   }
   if (effect == "rig_compliance") {
     // Fitted as the compliance 1/k, linear in the sensed position. Its
     // range crosses zero (no mount give) so that a rig without the effect
     // is an interior point, not a bound the fit would crawl to; a negative
     // compliance is unphysical and says "no effect" within the noise.
-    return {{effect, "compliance", "m/N", 0, 2e-8, -1e-6, 1e-6, 1e-10}};
+    return {{effect, "compliance", "m/N", 0, 2e-8, -1e-6, 1e-6, 1e-10, 1e-10}};
   }
   if (effect == "sensor_offset") {
-    return {{effect, "x", "m", 0, 1e-4, -0.01, 0.01, 0},
-            {effect, "y", "m", 0, 1e-4, -0.01, 0.01, 0},
-            {effect, "z", "m", 0, 1e-4, -0.01, 0.01, 0},
-            {effect, "toe", "rad", 0, 2e-4, -0.05, 0.05, 0},
-            {effect, "camber", "rad", 0, 2e-4, -0.05, 0.05, 0},
-            {effect, "caster", "rad", 0, 2e-4, -0.05, 0.05, 0},
-            {effect, "scale", "-", 1, 0.01, 0.5, 1.5, 1}};
+    return {{effect, "x", "m", 0, 1e-4, -0.01, 0.01, 0, 0},
+            {effect, "y", "m", 0, 1e-4, -0.01, 0.01, 0, 0},
+            {effect, "z", "m", 0, 1e-4, -0.01, 0.01, 0, 0},
+            {effect, "toe", "rad", 0, 2e-4, -0.05, 0.05, 0, 0},
+            {effect, "camber", "rad", 0, 2e-4, -0.05, 0.05, 0, 0},
+            {effect, "caster", "rad", 0, 2e-4, -0.05, 0.05, 0, 0},
+            {effect, "scale", "-", 1, 0.01, 0.5, 1.5, 1, 1}};
   }
   return {};
 }
@@ -209,7 +209,8 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
   for (int i = 0; i < kNumBushings; ++i) {
     const double c = nominal.bushings[i].stiffness;
     m.parameters_.push_back({"", "c_" + std::string(kBushingChassisNames[i]),
-                             "N/m", 0, c, lower_scale * c, upper_scale * c, c});
+                             "N/m", 0, c, lower_scale * c, upper_scale * c, c,
+                             c});
   }
   for (size_t e = 0; e < effects.size(); ++e) {
     if (std::find(effects.begin(), effects.begin() + e, effects[e]) !=

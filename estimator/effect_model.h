@@ -31,6 +31,9 @@ struct EffectParameter {
   double scale = 1;             // > 0
   double lower = 0, upper = 0;  // physical bounds of the fit
   double initial = 0;           // physical start of the fit
+  // A second start, for effects whose fit from a small effect can end in a
+  // local minimum when the true effect is large.
+  double second_initial = 0;
 };
 
 // Most parameters of one candidate: five bushings plus two effects (the
