@@ -34,11 +34,11 @@ Status ParseAssignment(const std::string& option, const std::string& text,
   return Status::Ok();
 }
 
-std::vector<std::string> SplitList(const std::string& text) {
+std::vector<std::string> SplitList(const std::string& text, char separator) {
   std::vector<std::string> items;
   size_t start = 0;
   while (start <= text.size()) {
-    const size_t comma = text.find(',', start);
+    const size_t comma = text.find(separator, start);
     const std::string item = text.substr(start, comma - start);
     if (!item.empty()) items.push_back(item);
     if (comma == std::string::npos) break;

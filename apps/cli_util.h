@@ -24,7 +24,8 @@ Status ParseAssignment(const std::string& option, const std::string& text,
 Status ParseChannels(const std::string& text, std::vector<int>* channels);
 
 // "a,b,c" -> {"a", "b", "c"}; empty items are dropped.
-std::vector<std::string> SplitList(const std::string& text);
+std::vector<std::string> SplitList(const std::string& text,
+                                   char separator = ',');
 
 // The ramp options --phi DEG, --z M, --fmax N, --duration S shared by the
 // commands that run one experiment; unset means the config's value.

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "apps/cli_util.h"
+#include "designer/discrimination.h"
 #include "estimator/diagnosis.h"
 #include "estimator/diagnosis_io.h"
 #include "io_drivers/config_loader.h"
@@ -52,6 +53,30 @@ Status CheckComparable(const std::vector<Experiment>& logs,
   return Status::Ok();
 }
 
+// The two candidates the data could not tell apart, as models at their
+// fitted values, and the experiment that discriminates them.
+Status DesignForAmbiguity(const KcrigConfig& config,
+                          const DiagnosisOptions& options,
+                          const DiagnosisResult& result,
+                          DiscriminatingDesign* design) {
+  EffectModel models[2];
+  std::vector<double> values[2];
+  const std::string names[2] = {result.ambiguous_a, result.ambiguous_b};
+  for (int i = 0; i < 2; ++i) {
+    std::vector<std::string> effects = SplitList(names[i], '+');
+    Status status = EffectModel::Create(
+        config.model, effects, options.estimator.lower_scale,
+        options.estimator.upper_scale, &models[i]);
+    if (!status.ok()) return status;
+    for (const CandidateScore& s : result.ranking) {
+      if (s.model == names[i]) values[i] = s.fit.values;
+    }
+  }
+  return DesignDiscriminatingExperiment(models[0], values[0], models[1],
+                                        values[1], config.experiment,
+                                        DiscriminationOptions(), design);
+}
+
 int RunDiagnose(const DiagnoseArgs& args) {
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig diagnose: %s\n", status.message().c_str());
@@ -92,12 +117,29 @@ int RunDiagnose(const DiagnoseArgs& args) {
   status = Diagnose(config.model, training, holdout, options,
                     config.experiment.step, &result);
   if (!status.ok()) return fail(status);
+  std::string design_json;
+  DiscriminatingDesign design;
+  if (!result.ambiguous_a.empty()) {
+    status = DesignForAmbiguity(config, options, result, &design);
+    if (!status.ok()) return fail(status);
+    design_json = DiscriminatingDesignToJson(design);
+  }
   if (!args.out.empty()) {
     status = WriteFilesAtomically(
-        {{args.out, DiagnosisToJson(result, args.logs, args.holdout, "")}});
+        {{args.out,
+          DiagnosisToJson(result, args.logs, args.holdout, design_json)}});
     if (!status.ok()) return fail(status);
   }
   std::fputs(DiagnosisSummary(result).c_str(), stdout);
+  if (!design_json.empty()) {
+    std::printf(
+        "  to tell %s from %s, run: --phi %.1f --z %.3f --duration %.2f "
+        "--hold %.2f --return %.2f (predictions differ by %.3g noise "
+        "variances)\n",
+        design.model_a.c_str(), design.model_b.c_str(),
+        design.phi * 180 / 3.14159265358979323846, design.z_a, design.tf,
+        design.hold, design.return_duration, design.divergence);
+  }
   std::printf("  %.1f s", result.seconds);
   if (!args.out.empty()) std::printf(", wrote %s", args.out.c_str());
   std::printf("\n");

@@ -517,41 +517,43 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   status = score_model(nominal_model, &nominal_score);
   if (!status.ok()) return status;
   const double nominal_gap = nominal_score.score - 1.0;
-  // Each candidate is fitted from two starts: the nominal fit's
-  // stiffnesses (which the effect has biased) with a small effect, and the
-  // configured stiffnesses with a large one; the better fit is scored.
+  // Fits each model from each of its starts (all fits side by side) and
+  // scores the best fit of each.
+  using Start = std::vector<double>;
   auto fit_and_score = [&](const std::vector<const EffectModel*>& models,
+                           const std::vector<std::vector<Start>>& starts,
                            std::vector<CandidateScore>* scores) {
     const int count = static_cast<int>(models.size());
-    std::vector<EffectFit> fits(2 * count);
-    std::vector<Status> fit_status(2 * count);
-    ParallelFor(2 * count, options.num_threads, [&](int job) {
-      const EffectModel& model = *models[job / 2];
-      const bool second = job % 2 == 1;
-      std::vector<double> initial;
-      for (int p = 0; p < model.num_parameters(); ++p) {
-        const EffectParameter& ep = model.parameters()[p];
-        initial.push_back(second             ? ep.second_initial
-                          : p < kNumBushings ? nominal_score.fit.values[p]
-                                             : ep.initial);
-      }
-      fit_status[job] = FitEffectModel(model, training, initial, fit_options,
-                                       step, &fits[job]);
-    });
+    std::vector<std::pair<int, const Start*>> jobs;
+    for (int i = 0; i < count; ++i) {
+      for (const Start& start : starts[i]) jobs.push_back({i, &start});
+    }
+    std::vector<EffectFit> fits(jobs.size());
+    std::vector<Status> fit_status(jobs.size());
+    ParallelFor(
+        static_cast<int>(jobs.size()), options.num_threads, [&](int job) {
+          fit_status[job] =
+              FitEffectModel(*models[jobs[job].first], training,
+                             *jobs[job].second, fit_options, step, &fits[job]);
+        });
     scores->assign(count, CandidateScore());
     ParallelFor(count, options.num_threads, [&](int i) {
       CandidateScore& s = (*scores)[i];
       const EffectModel& model = *models[i];
       s.model = model.Name();
       int pick = -1;
-      for (int job : {2 * i, 2 * i + 1}) {
-        if (fit_status[job].ok() &&
-            (pick < 0 || fits[job].result.cost < fits[pick].result.cost)) {
-          pick = job;
+      Status st = Status::Error(model.Name() + ": no fit");
+      for (size_t job = 0; job < jobs.size(); ++job) {
+        if (jobs[job].first != i) continue;
+        if (!fit_status[job].ok()) {
+          if (pick < 0) st = fit_status[job];
+          continue;
+        }
+        if (pick < 0 || fits[job].result.cost < fits[pick].result.cost) {
+          pick = static_cast<int>(job);
         }
       }
-      Status st = pick < 0 ? fit_status[2 * i] : Status::Ok();
-      if (st.ok()) {
+      if (pick >= 0) {
         s.fit = fits[pick];
         st = score_model(model, &s);
       }
@@ -563,8 +565,22 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
     });
   };
   std::vector<const EffectModel*> single_models;
-  for (const EffectModel& m1 : singles) single_models.push_back(&m1);
-  fit_and_score(single_models, &result->ranking);
+  // A single effect is fitted from two starts: the nominal fit's
+  // stiffnesses (which the effect has biased) with a small effect, and the
+  // configured stiffnesses with a large one.
+  std::vector<std::vector<Start>> single_starts;
+  for (const EffectModel& m1 : singles) {
+    single_models.push_back(&m1);
+    Start biased, configured;
+    for (int p = 0; p < m1.num_parameters(); ++p) {
+      const EffectParameter& ep = m1.parameters()[p];
+      biased.push_back(p < kNumBushings ? nominal_score.fit.values[p]
+                                        : ep.initial);
+      configured.push_back(ep.second_initial);
+    }
+    single_starts.push_back({biased, configured});
+  }
+  fit_and_score(single_models, single_starts, &result->ranking);
   auto rank = [](std::vector<CandidateScore>* list) {
     std::stable_sort(list->begin(), list->end(),
                      [](const CandidateScore& a, const CandidateScore& b) {
@@ -613,9 +629,35 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
         }
       }
     }
+    // A pair starts from its two single fits: the stiffnesses of the
+    // better one, each effect's parameters from its own fit.
     std::vector<const EffectModel*> pointers;
-    for (const EffectModel& pm : pair_models) pointers.push_back(&pm);
-    fit_and_score(pointers, &pairs);
+    std::vector<std::vector<Start>> pair_starts;
+    for (const EffectModel& pm : pair_models) {
+      pointers.push_back(&pm);
+      Start start;
+      for (int p = 0; p < pm.num_parameters(); ++p) {
+        const EffectParameter& ep = pm.parameters()[p];
+        const std::string& owner =
+            p < kNumBushings ? pm.effects()[0] : ep.effect;
+        for (const CandidateScore& single : result->ranking) {
+          if (single.model != owner || !single.ok) continue;
+          for (size_t q = 0; q < single.fit.result.parameters.size(); ++q) {
+            const std::string& name = single.fit.result.parameters[q].name;
+            if (name ==
+                (p < kNumBushings ? ep.name : ep.effect + "." + ep.name)) {
+              start.push_back(single.fit.values[q]);
+            }
+          }
+        }
+        if (static_cast<int>(start.size()) != p + 1) {
+          start.push_back(p < kNumBushings ? nominal_score.fit.values[p]
+                                           : ep.initial);
+        }
+      }
+      pair_starts.push_back({start});
+    }
+    fit_and_score(pointers, pair_starts, &pairs);
     rank(&pairs);
     if (decide(pairs, &result->ranking[0])) chosen = &pairs[0];
     result->ranking.insert(result->ranking.end(), pairs.begin(), pairs.end());

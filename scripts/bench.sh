@@ -7,9 +7,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 cmake --preset release >/dev/null
-cmake --build --preset release --target model_bench estimator_bench designer_bench rt_bench
+cmake --build --preset release --target model_bench estimator_bench designer_bench \
+  diagnosis_bench rt_bench
 mkdir -p build/bench
-for bench in model_bench estimator_bench designer_bench; do
+for bench in model_bench estimator_bench designer_bench diagnosis_bench; do
   build/bin/$bench --benchmark_repetitions=5 \
     --benchmark_report_aggregates_only=true \
     --benchmark_out=build/bench/$bench.json --benchmark_out_format=json "$@"

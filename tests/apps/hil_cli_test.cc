@@ -120,6 +120,40 @@ TEST_F(HilCliTest, FullRampLogsEveryCycleAndTheEstimateFindsTheTruePlant) {
   }
 }
 
+// Issue #7 through the real HIL path: three runs (ramp, hold and return
+// ramp; two for training, one held out) against an emulator whose clamped
+// body has compliant mounts, then `kcrig diagnose` on the run logs.
+TEST_F(HilCliTest, DiagnoseAttributesTheEmulatorsEffectFromRunLogs) {
+  const int port = StartEmulator({"--effect", "rig_compliance:k=2e7"});
+  const std::vector<std::vector<std::string>> designs = {
+      {"--phi", "80", "--z", "-0.4", "--duration", "1.5", "--hold", "0.2",
+       "--return", "1"},
+      {"--phi", "20", "--z", "-0.1", "--duration", "1", "--hold", "0.2",
+       "--return", "1.5"},
+      {"--phi", "50", "--z", "-0.25", "--duration", "2", "--hold", "0.3",
+       "--return", "1"}};
+  for (size_t i = 0; i < designs.size(); ++i) {
+    auto run = StartRun(port, Path("run" + std::to_string(i)), designs[i]);
+    ASSERT_EQ(run->Wait(), 0) << run->Output();
+  }
+  const CliResult diagnose = RunKcrig(
+      "diagnose --config " + std::string(KCRIG_TEST_CONFIG_DIR) + " --log " +
+      Path("run0/run.csv") + " --log " + Path("run1/run.csv") + " --holdout " +
+      Path("run2/run.csv") + " --out " + Path("diag.json"));
+  ASSERT_EQ(diagnose.exit_code, 0) << diagnose.output;
+  std::printf("%s", diagnose.output.c_str());
+  const nlohmann::json diag = ReadJson(Path("diag.json"));
+  EXPECT_EQ(diag["verdict"], "rig_compliance") << diagnose.output;
+  const nlohmann::json& q = diag["quantification"];
+  EXPECT_GE(q["gap_closed"].get<double>(), 0.8);
+  for (const auto& p : q["effect_parameters"]) {
+    // 1/k = 5e-8 m/N within its 95 % interval, widened by 10 % for the
+    // emulator's finer integration step.
+    EXPECT_LT(p["ci95"][0].get<double>(), 5.5e-8) << p;
+    EXPECT_GT(p["ci95"][1].get<double>(), 4.5e-8) << p;
+  }
+}
+
 TEST_F(HilCliTest, CampaignRunsItsExperimentsOnTheEmulatedRig) {
   const int port = StartEmulator();
   const CliResult r =

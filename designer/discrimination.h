@@ -1,0 +1,62 @@
+// Optimal design for model discrimination: when two candidate models of the
+// diagnosis explain the data about equally well, the experiment whose
+// predicted responses differ the most between them, relative to the sensor
+// noise, tells them apart. The criterion is the divergence
+//   T(v) = sum_j sum_k ((y_a,k(t_j; v) - y_b,k(t_j; v)) / sigma_k)^2
+// of the two fitted models over the design v = (phi, z_a) and the ramp's
+// shape (ramp time, hold, return ramp), maximized with NLopt (BOBYQA) over
+// (phi, z_a) for each shape. The models keep their fitted parameters (the
+// divergence is not re-minimized over the rival's parameters, which would
+// cost a fit per evaluation): a large T is necessary, not sufficient.
+#ifndef KCRIG_DESIGNER_DISCRIMINATION_H_
+#define KCRIG_DESIGNER_DISCRIMINATION_H_
+
+#include <string>
+#include <vector>
+
+#include "estimator/effect_model.h"
+#include "io_drivers/config_loader.h"
+#include "rt_core/status.h"
+
+namespace kcrig {
+
+struct DiscriminationOptions {
+  // Ramp shapes tried: ramp time tf, hold, return ramp [s]. Rate-dependent
+  // effects differ from rate-independent ones between a fast and a slow
+  // ramp and across a hold; the return ramp shows hysteresis loops.
+  struct Shape {
+    double tf, hold, return_duration;
+  };
+  std::vector<Shape> shapes = {
+      {4.0, 0.0, 0.0}, {1.0, 0.0, 0.0}, {1.0, 1.0, 1.0}, {4.0, 1.0, 4.0}};
+  // Criterion evaluations per shape (each simulates both models).
+  int evaluations_per_shape = 24;
+};
+
+struct DiscriminatingDesign {
+  std::string model_a, model_b;
+  double phi = 0, z_a = 0, fmax = 0;             // [rad], [m], [N]
+  double tf = 0, hold = 0, return_duration = 0;  // [s]
+  double divergence = 0;                         // T at the design
+  int evaluations = 0;
+  double seconds = 0;
+};
+
+// Designs the experiment that best tells `a` (at `values_a`) from `b` (at
+// `values_b`) within the experiment's design bounds, with its Fmax, sample
+// rate, integrator step and sensor sigmas.
+Status DesignDiscriminatingExperiment(const EffectModel& a,
+                                      const std::vector<double>& values_a,
+                                      const EffectModel& b,
+                                      const std::vector<double>& values_b,
+                                      const ExperimentConfig& experiment,
+                                      const DiscriminationOptions& options,
+                                      DiscriminatingDesign* design);
+
+// The design as a JSON object for diag.json (angles in deg, with the
+// `kcrig run` / `kcrig simulate` options that perform it).
+std::string DiscriminatingDesignToJson(const DiscriminatingDesign& design);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_DESIGNER_DISCRIMINATION_H_

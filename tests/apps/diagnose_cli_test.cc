@@ -1,0 +1,140 @@
+// `kcrig diagnose` as a user runs it: clean logs are `none`; a strong effect
+// is attributed and quantified; logs that cannot be diagnosed together are
+// one-line errors that leave no diag.json behind.
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "gtest/gtest.h"
+#include "nlohmann/json.hpp"
+#include "tests/support/cli_runner.h"
+#include "tests/support/edited_config.h"
+#include "tests/support/temp_dir_test.h"
+
+namespace kcrig {
+namespace {
+
+namespace fs = std::filesystem;
+
+class DiagnoseCliTest : public TempDirTest {
+ protected:
+  // A log by `kcrig simulate` with sensor noise: a ramp, a short hold and a
+  // return ramp.
+  std::string Simulate(const std::string& name, const std::string& design,
+                       int seed, const std::string& extra = "") {
+    const std::string csv = Path(name);
+    const CliResult r =
+        RunKcrig("simulate --noise --seed " + std::to_string(seed) + " " +
+                 design + " " + extra + " --out " + csv);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return csv;
+  }
+  std::string LogA(const std::string& extra = "") {
+    return Simulate("a.csv",
+                    "--phi 80 --z -0.4 --duration 1.5 --hold 0.2 --return 1",
+                    11, extra);
+  }
+  std::string LogB(const std::string& extra = "") {
+    return Simulate("b.csv",
+                    "--phi 20 --z -0.1 --duration 1 --hold 0.2 --return 1.5",
+                    12, extra);
+  }
+  std::string Holdout(const std::string& extra = "") {
+    return Simulate("h.csv",
+                    "--phi 50 --z -0.25 --duration 2 --hold 0.3 --return 1", 13,
+                    extra);
+  }
+  CliResult Diagnose(const std::string& arguments) {
+    return RunKcrig("diagnose " + arguments + " --out " + Path("diag.json"));
+  }
+  void ExpectCleanFailure(const CliResult& result,
+                          const std::string& expected) {
+    EXPECT_EQ(result.exit_code, 1) << result.output;
+    EXPECT_EQ(CountLines(result.output), 1) << result.output;
+    EXPECT_NE(result.output.find(expected), std::string::npos) << result.output;
+    EXPECT_FALSE(fs::exists(Path("diag.json")));
+  }
+  nlohmann::json DiagJson() {
+    std::ifstream in(Path("diag.json"));
+    return nlohmann::json::parse(in);
+  }
+};
+
+// Rewrites a CSV without the named columns.
+void DropColumns(const std::string& from, const std::string& to,
+                 const std::vector<std::string>& names) {
+  std::ifstream in(from);
+  std::ofstream out(to);
+  std::string line;
+  std::vector<bool> keep;
+  while (std::getline(in, line)) {
+    std::stringstream cells(line);
+    std::string cell, joined;
+    for (size_t c = 0; std::getline(cells, cell, ','); ++c) {
+      if (keep.size() <= c) {
+        keep.push_back(std::find(names.begin(), names.end(), cell) ==
+                       names.end());
+      }
+      if (keep[c]) joined += (joined.empty() ? "" : ",") + cell;
+    }
+    out << joined << "\n";
+  }
+}
+
+TEST_F(DiagnoseCliTest, CleanLogsAreNone) {
+  const CliResult r = Diagnose("--log " + LogA() + " --log " + LogB());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("verdict: none"), std::string::npos) << r.output;
+  const nlohmann::json diag = DiagJson();
+  EXPECT_EQ(diag["verdict"], "none");
+  EXPECT_FALSE(diag["gap"]["present"].get<bool>());
+  EXPECT_GT(diag["gap"]["chi2_p"].get<double>(), 1e-3);
+  EXPECT_EQ(diag["localisation"]["channels"].size(), 6u);
+  EXPECT_EQ(diag["localisation"]["stiffness_drift"].size(), 5u);
+  EXPECT_FALSE(diag["localisation"]["drift_detected"].get<bool>());
+  EXPECT_TRUE(diag["candidates"].empty());
+}
+
+TEST_F(DiagnoseCliTest, LogsWithDifferentForceChannelsAreRefused) {
+  const std::string a = LogA(), b = LogB();
+  DropColumns(b, Path("b_noforce.csv"), {"Fx", "Fy", "Fz"});
+  fs::copy_file(Path("b.json"), Path("b_noforce.json"));
+  ExpectCleanFailure(Diagnose("--log " + a + " --log " + Path("b_noforce.csv")),
+                     "different channel sets");
+}
+
+TEST_F(DiagnoseCliTest, ALogMissingAChannelIsRefused) {
+  const std::string a = LogA(), b = LogB();
+  DropColumns(b, Path("b_nocaster.csv"), {"caster"});
+  fs::copy_file(Path("b.json"), Path("b_nocaster.json"));
+  ExpectCleanFailure(
+      Diagnose("--log " + a + " --log " + Path("b_nocaster.csv")),
+      "b_nocaster.csv");
+}
+
+TEST_F(DiagnoseCliTest, AVeryShortLogIsRefused) {
+  const std::string short_log = Simulate("short.csv", "--duration 0.2", 14);
+  ExpectCleanFailure(Diagnose("--log " + short_log),
+                     "short.csv: 201 observed samples");
+}
+
+TEST_F(DiagnoseCliTest, AHoldoutFromAnotherGeometryIsRefused) {
+  const std::string other = EditConfig(Path("other_config"), "model.yaml",
+                                       "chassis: [-0.051, 0.361, 0.117]",
+                                       "chassis: [-0.049, 0.361, 0.117]");
+  const std::string holdout = Holdout("--config " + other);
+  ExpectCleanFailure(Diagnose("--log " + LogA() + " --log " + LogB() +
+                              " --holdout " + holdout),
+                     "h.csv: recorded with geometry");
+}
+
+TEST_F(DiagnoseCliTest, UnknownCandidateIsRefused) {
+  ExpectCleanFailure(
+      Diagnose("--log " + LogA() + " --candidates hysteresis,backlash"),
+      "unknown effect 'backlash'");
+}
+
+}  // namespace
+}  // namespace kcrig
