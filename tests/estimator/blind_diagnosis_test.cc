@@ -103,18 +103,18 @@ BlindCase Draw(int index, std::uint64_t seed,
                   LogUniform(5e4, 3e6, m));
   } else if (c.truth == "hysteresis") {
     std::snprintf(text, sizeof(text), "hysteresis:force=%.6g,sigma=%.6g",
-                  LogUniform(10, 400, m), LogUniform(1e7, 1e8, u(rng)));
+                  LogUniform(20, 1000, m), LogUniform(1e7, 1e8, u(rng)));
   } else if (c.truth == "progressive_stiffness") {
     std::snprintf(text, sizeof(text), "progressive_stiffness:c3=%.6g",
-                  LogUniform(2e10, 2e12, m));
+                  LogUniform(1e11, 1e13, m));
   } else if (c.truth == "actuator_lag") {
     std::snprintf(text, sizeof(text), "actuator_lag:tau=%.6g,dead_time=%.6g",
                   LogUniform(1e-3, 0.05, m), 0.01 * m * u(rng));
   } else if (c.truth == "rig_compliance") {
     std::snprintf(text, sizeof(text), "rig_compliance:k=%.6g",
-                  LogUniform(3e8, 5e6, m));
+                  LogUniform(1e8, 2e6, m));
   } else if (c.truth == "sensor_offset") {
-    const double f = LogUniform(0.05, 2, m);
+    const double f = LogUniform(0.2, 10, m);
     std::snprintf(text, sizeof(text),
                   "sensor_offset:x=%.6g,y=%.6g,z=%.6g,toe=%.6g,camber=%.6g,"
                   "caster=%.6g,scale=%.6g",
@@ -123,7 +123,7 @@ BlindCase Draw(int index, std::uint64_t seed,
                   f * 2e-4 * (2 * u(rng) - 1), f * 2e-4 * (2 * u(rng) - 1),
                   1 + 0.01 * f * (2 * u(rng) - 1));
   } else if (c.truth == "hard_point") {
-    // A chassis or carrier point off by 0.5 .. 5 mm along one axis.
+    // A chassis or carrier point off by 1 .. 10 mm along one axis.
     static const char* kPoints[] = {"O1", "O2", "V1", "V2", "P",
                                     "N1", "N2", "U1", "U2", "Q"};
     const std::string name =
@@ -133,7 +133,7 @@ BlindCase Draw(int index, std::uint64_t seed,
     for (const NamedParameter<double>& p : ListParameters(&copy)) {
       if (p.name == name) value = *p.value;
     }
-    const double error = (rng() % 2 ? 1 : -1) * LogUniform(5e-4, 5e-3, m);
+    const double error = (rng() % 2 ? 1 : -1) * LogUniform(1e-3, 1e-2, m);
     c.sets.push_back({name, value + error});
   }
   if (c.truth != "none" && c.truth != "hard_point") {
