@@ -592,30 +592,45 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   rank(&result->ranking);
 
   // 4. The verdict.
-  auto decide = [&](const std::vector<CandidateScore>& list,
-                    const CandidateScore* rival) {
-    // Whether list[0] is clearly the best of `list` (and better than
-    // `rival` when given) and closes enough of the gap.
+  const long n_scored = holdout.empty() ? m : [&] {
+    long n = 0;
+    for (const Experiment& e : holdout) n += 6L * ObservedCount(e);
+    return n;
+  }();
+  // `best` is clearly better than `other`: it closes min_gap_margin more
+  // of the gap, or leaves a third of the other's remaining gap (not less
+  // than five standard deviations of a score at the noise floor), and the
+  // BIC prefers it strongly.
+  const double score_noise = 5 * std::sqrt(2.0 / n_scored);
+  auto clearly_better = [&](const CandidateScore& best,
+                            const CandidateScore& other) {
+    if (!other.ok) return true;
+    const bool closes_more =
+        best.gap_closed - other.gap_closed >= options.min_gap_margin ||
+        other.score - 1 >= 3 * std::max(best.score - 1, score_noise);
+    return closes_more && other.bic - best.bic >= options.min_bic_difference;
+  };
+  // Whether list[0] closes enough of the gap and is clearly the best.
+  auto decide = [&](const std::vector<CandidateScore>& list) {
     if (list.empty() || !list[0].ok) return false;
-    const CandidateScore& best = list[0];
-    if (best.gap_closed < options.min_gap_closed) return false;
-    for (const CandidateScore* other :
-         {list.size() > 1 ? &list[1] : nullptr, rival}) {
-      if (other == nullptr || !other->ok) continue;
-      if (other->gap_closed > best.gap_closed - options.min_gap_margin ||
-          other->bic - best.bic < options.min_bic_difference) {
-        return false;
-      }
-    }
-    return true;
+    if (list[0].gap_closed < options.min_gap_closed) return false;
+    return list.size() < 2 || clearly_better(list[0], list[1]);
+  };
+  // Whether a model leaves nothing but noise on the data it was scored on.
+  auto at_noise = [&](const CandidateScore& s) {
+    return ChiSquareUpperTail(s.score * n_scored,
+                              static_cast<double>(n_scored)) >=
+           options.significance;
   };
   std::vector<CandidateScore> pairs;
   const CandidateScore* chosen = nullptr;
-  if (decide(result->ranking, nullptr)) {
-    chosen = &result->ranking[0];
-  } else if (options.consider_pairs && result->ranking.size() > 1 &&
-             result->ranking[0].gap_closed < options.min_gap_closed) {
-    // No single effect suffices: pairs of the best few.
+  if (decide(result->ranking)) chosen = &result->ranking[0];
+  if (options.consider_pairs && result->ranking.size() > 1 &&
+      (chosen == nullptr
+           ? result->ranking[0].gap_closed < options.min_gap_closed
+           : !at_noise(*chosen))) {
+    // No single effect suffices, or the best leaves structure: pairs of
+    // the best few.
     std::vector<EffectModel> pair_models;
     const int pool = std::min<int>(options.pair_pool, result->ranking.size());
     for (int a = 0; a < pool; ++a) {
@@ -659,13 +674,17 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
     }
     fit_and_score(pointers, pair_starts, &pairs);
     rank(&pairs);
-    if (decide(pairs, &result->ranking[0])) chosen = &pairs[0];
+    // A pair must beat the best single effect clearly too.
+    const bool pair_wins =
+        decide(pairs) && clearly_better(pairs[0], result->ranking[0]);
+    const std::string chosen_name = pair_wins           ? pairs[0].model
+                                    : chosen != nullptr ? chosen->model
+                                                        : "";
     result->ranking.insert(result->ranking.end(), pairs.begin(), pairs.end());
     rank(&result->ranking);
-    if (chosen != nullptr) {
-      for (const CandidateScore& s : result->ranking) {
-        if (s.model == pairs[0].model) chosen = &s;
-      }
+    chosen = nullptr;
+    for (const CandidateScore& s : result->ranking) {
+      if (s.model == chosen_name) chosen = &s;
     }
   }
 
@@ -674,14 +693,7 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
     result->verdict = chosen->model;
     // High confidence: the model leaves nothing but noise on the data it
     // was scored on.
-    const long n_scored = holdout.empty() ? m : [&] {
-      long n = 0;
-      for (const Experiment& e : holdout) n += 6L * ObservedCount(e);
-      return n;
-    }();
-    const double p_after = ChiSquareUpperTail(chosen->score * n_scored,
-                                              static_cast<double>(n_scored));
-    result->confidence = p_after >= options.significance ? "high" : "low";
+    result->confidence = at_noise(*chosen) ? "high" : "low";
     std::snprintf(text, sizeof(text),
                   "%s closes %.0f %% of the gap (score %.3g -> %.3g, noise "
                   "floor 1)%s",

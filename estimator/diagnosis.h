@@ -41,13 +41,17 @@ struct DiagnosisOptions {
   // The best candidate is the verdict only when it closes at least this
   // fraction of the held-out gap...
   double min_gap_closed = 0.8;
-  // ...and the runner-up leaves at least this much more of the gap open
-  // (a fraction of the nominal gap) and explains the training data worse
-  // by at least min_bic_difference (BIC, strong evidence).
+  // ...and is clearly better than the runner-up: it closes at least
+  // min_gap_margin more of the gap, or the runner-up leaves three times its
+  // remaining gap open (at least five standard deviations of a score at the
+  // noise floor); and the BIC prefers it by at least min_bic_difference
+  // (strong evidence). A pair of effects must be clearly better than the
+  // best single one in the same sense.
   double min_gap_margin = 0.2;
   double min_bic_difference = 10;
   // Pairs of effects are tried, from the best `pair_pool` single ones, when
-  // no single effect is the verdict.
+  // no single effect closes min_gap_closed, or when the best one leaves
+  // structure beyond the noise.
   bool consider_pairs = true;
   int pair_pool = 3;
   // A stiffness estimated from single logs drifts when two logs disagree by
