@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "apps/cli_util.h"
+#include "apps/progress.h"
 #include "designer/discrimination.h"
 #include "estimator/diagnosis.h"
 #include "estimator/diagnosis_io.h"
@@ -23,6 +24,7 @@ struct DiagnoseArgs {
   std::string candidates;
   bool no_pairs = false;
   int threads = 2;
+  bool quiet = false;
   std::string out;
 };
 
@@ -114,8 +116,15 @@ int RunDiagnose(const DiagnoseArgs& args) {
   if (!status.ok()) return fail(status);
 
   DiagnosisResult result;
-  status = Diagnose(config.model, training, holdout, options,
-                    config.experiment.step, &result);
+  {
+    ProgressLine line(args.quiet);
+    options.on_progress = [&line](const std::string& text) {
+      line.Show("kcrig diagnose: " + text);
+    };
+    status = Diagnose(config.model, training, holdout, options,
+                      config.experiment.step, &result);
+    line.Clear();
+  }
   if (!status.ok()) return fail(status);
   std::string design_json;
   DiscriminatingDesign design;
@@ -170,6 +179,7 @@ void AddDiagnoseCommand(CLI::App* app, std::function<int()>* run) {
                 "the gap");
   cmd->add_option("--threads", args->threads,
                   "Candidates fitted side by side (default 2)");
+  cmd->add_flag("--quiet", args->quiet, "No progress line on a terminal");
   cmd->add_option("--out", args->out, "diag.json to write");
   cmd->callback([args, run] { *run = [args] { return RunDiagnose(*args); }; });
 }

@@ -1,10 +1,10 @@
 // A full diagnosis (issue #7's target: <= 10 s on this machine): two 4 s
-// ramp logs with sensor noise from the software rig's plant with
-// hysteresis, no hold-out (so the candidates are also scored by blocked
-// cross-validation, one refit per log), the nominal fit, the six candidates
-// from two starts each, localisation and drift. Run with the candidates on
-// one thread and on two to show what the parallel fits buy.
-// Run: build/bin/diagnosis_bench --benchmark_format=json
+// logs (a 2 s ramp and a 2 s return ramp) with sensor noise from the
+// software rig's plant with hysteresis, no hold-out (so the candidates are also
+// scored by blocked cross-validation, one refit per log), the nominal fit, the
+// six candidates (a second start when none reaches the noise), localisation and
+// drift. Run with the candidates on one thread and on two to show what the
+// parallel fits buy. Run: build/bin/diagnosis_bench --benchmark_format=json
 #include <numbers>
 #include <vector>
 

@@ -14,26 +14,6 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
-// The synthetic experiment of a design: the commanded forces at the log
-// rate, the sigmas of the sensors.
-Experiment DesignedExperiment(const RampExcitation<double>& ramp,
-                              const ExperimentConfig& config) {
-  Experiment e;
-  e.source = "design";
-  e.sample_period = 1.0 / config.rate;
-  e.steps_per_sample =
-      static_cast<int>(std::lround(e.sample_period / config.step));
-  e.z_a = ramp.z_a;
-  e.sigma << Vec3<double>::Constant(config.sigma_position),
-      Vec3<double>::Constant(config.sigma_angle);
-  const long n = std::lround(std::floor(ramp.EndTime() * config.rate)) + 1;
-  for (long j = 0; j < n; ++j) {
-    e.forces.push_back(ramp.LoadAt(j * e.sample_period).force);
-  }
-  e.measured.assign(e.forces.size(), Vec6<double>::Zero());
-  return e;
-}
-
 }  // namespace
 
 Status DesignDiscriminatingExperiment(const EffectModel& a,
@@ -55,7 +35,7 @@ Status DesignDiscriminatingExperiment(const EffectModel& a,
       const RampExcitation<double> ramp{
           phi,      z_a,        experiment.fmax,
           shape.tf, shape.hold, shape.return_duration};
-      const Experiment e = DesignedExperiment(ramp, experiment);
+      const Experiment e = PlannedExperiment(ramp, experiment);
       std::vector<Vec6<double>> ya, yb;
       Status status = SimulateEffectModel(a, values_a, e, experiment.step, &ya);
       if (status.ok()) {

@@ -101,23 +101,9 @@ Status InformationEvaluator::Create(
 }
 
 Experiment InformationEvaluator::MakeExperiment(const Design& design) const {
-  const RampExcitation<double> ramp{design.phi, design.z_a, experiment_.fmax,
-                                    experiment_.duration};
-  Experiment e;
-  e.source = "design";
-  e.sample_period = 1.0 / experiment_.rate;
-  e.steps_per_sample =
-      static_cast<int>(std::lround(e.sample_period / experiment_.step));
-  e.z_a = design.z_a;
-  e.sigma << Vec3<double>::Constant(experiment_.sigma_position),
-      Vec3<double>::Constant(experiment_.sigma_angle);
-  const long intervals =
-      std::lround(std::floor(experiment_.duration * experiment_.rate + 1e-9));
-  for (long j = 0; j <= intervals; ++j) {
-    e.forces.push_back(ramp.LoadAt(j * e.sample_period).force);
-    e.measured.push_back(Vec6<double>::Zero());
-  }
-  return e;
+  return PlannedExperiment(
+      {design.phi, design.z_a, experiment_.fmax, experiment_.duration},
+      experiment_);
 }
 
 Status InformationEvaluator::Information(const Design& design, bool split,

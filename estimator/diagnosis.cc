@@ -7,6 +7,7 @@
 #include <complex>
 #include <functional>
 #include <limits>
+#include <mutex>
 #include <numeric>
 #include <thread>
 
@@ -203,16 +204,20 @@ void Localize(const std::vector<Experiment>& logs,
              (std::min(high, nyquist) - band_edges[b]) / nyquist});
       }
     }
+    // Zero-padded to a power of two: a log's length may be prime, which
+    // costs a mixed-radix FFT O(n^2); the band shares do not change.
     Eigen::FFT<double> fft;
-    std::vector<double> series(n);
+    size_t padded = 1;
+    while (padded < n) padded *= 2;
+    std::vector<double> series(padded, 0.0);
     std::vector<std::complex<double>> spectrum;
     for (int k = 0; k < 6; ++k) {
       double mean = 0;
       for (size_t j = 0; j < n; ++j) mean += w[j](k) / n;
       for (size_t j = 0; j < n; ++j) series[j] = w[j](k) - mean;
       fft.fwd(spectrum, series);
-      for (size_t i = 1; i <= n / 2; ++i) {
-        const double f = i / (n * e.sample_period);
+      for (size_t i = 1; i <= padded / 2; ++i) {
+        const double f = i / (padded * e.sample_period);
         const double energy = std::norm(spectrum[i]);
         total_energy += energy;
         for (size_t b = result->bands.size(); b-- > 0;) {
@@ -383,6 +388,13 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   }
   EffectFitOptions fit_options = options.fit;
   fit_options.uncertainty = options.estimator;
+  std::mutex progress_mutex;
+  auto progress = [&](const std::string& text) {
+    if (!options.on_progress) return;
+    std::lock_guard<std::mutex> lock(progress_mutex);
+    options.on_progress(text);
+  };
+  progress("nominal fit");
 
   // 1. The nominal fit and its gap tests.
   CandidateScore& nominal_score = result->nominal;
@@ -426,10 +438,79 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   InformationCriteria(chi2, n_nominal, m, &nominal_score);
 
   // 2. Where the gap lies.
+  progress("localisation and per-log fits");
   Localize(training, residuals, options, result);
 
+  // Scores models (their `fit` set) on data they were not fitted to: the
+  // hold-out logs, or each training log predicted by the fit to the others
+  // (the fold fits of all models side by side, warm-started from the full
+  // fit), or, with one log only, the training chi-square per degree of
+  // freedom. With two training logs the nominal model's folds are the
+  // per-log fits already made.
+  std::vector<EffectFit> per_log;
+  EffectFitOptions fold_options = fit_options;
+  fold_options.max_iterations = options.fold_max_iterations;
+  auto score_models = [&](const std::vector<const EffectModel*>& models,
+                          const std::vector<CandidateScore*>& scores) {
+    const int count = static_cast<int>(models.size());
+    const int folds = holdout.empty() && training.size() > 1
+                          ? static_cast<int>(training.size())
+                          : 0;
+    std::vector<ScoreSum> sums(count);
+    std::vector<Status> status_of(count);
+    std::vector<std::vector<Vec6<double>>> fold_residuals(count * folds);
+    std::vector<Status> fold_status(count * folds);
+    ParallelFor(count * folds, options.num_threads, [&](int job) {
+      const int i = job / folds, l = job % folds;
+      const EffectModel& model = *models[i];
+      EffectFit fold;
+      const EffectFit* fit = &fold;
+      if (&model == &nominal_model && per_log.size() == 2) {
+        fit = &per_log[1 - l];
+      } else {
+        std::vector<Experiment> rest;
+        for (int o = 0; o < folds; ++o) {
+          if (o != l) rest.push_back(training[o]);
+        }
+        fold_status[job] = FitEffectModel(model, rest, scores[i]->fit.values,
+                                          fold_options, step, &fold);
+        if (!fold_status[job].ok()) return;
+      }
+      fold_status[job] = WeightedResiduals(model, fit->values, training[l],
+                                           step, &fold_residuals[job]);
+    });
+    for (int i = 0; i < count; ++i) {
+      CandidateScore* s = scores[i];
+      const EffectModel& model = *models[i];
+      s->model = model.Name();
+      InformationCriteria(2 * s->fit.result.cost, model.num_parameters(), m, s);
+      Status st = Status::Ok();
+      if (!holdout.empty()) {
+        std::vector<Vec6<double>> w;
+        for (const Experiment& e : holdout) {
+          st = WeightedResiduals(model, s->fit.values, e, step, &w);
+          if (!st.ok()) break;
+          sums[i].Add(e, w);
+        }
+      } else if (folds > 0) {
+        for (int l = 0; l < folds && st.ok(); ++l) {
+          st = fold_status[i * folds + l];
+          if (st.ok()) sums[i].Add(training[l], fold_residuals[i * folds + l]);
+        }
+      }
+      s->ok = st.ok();
+      s->error = st.message();
+      if (!s->ok) continue;
+      if (!holdout.empty() || folds > 0) {
+        s->score = sums[i].Score();
+        s->heldout_rms = sums[i].Rms();
+      } else {
+        s->score = s->train_chi2 / std::max(1, m - model.num_parameters());
+      }
+    }
+  };
   // Per-log nominal fits: the stiffness drift between experiments.
-  std::vector<EffectFit> per_log(training.size() > 1 ? training.size() : 0);
+  per_log.resize(training.size() > 1 ? training.size() : 0);
   std::vector<Status> per_log_status(per_log.size());
   ParallelFor(
       static_cast<int>(per_log.size()), options.num_threads, [&](int l) {
@@ -478,91 +559,96 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
     return Status::Ok();
   }
 
-  // 3. Scores: held-out, cross-validated or training-only.
-  auto score_model = [&](const EffectModel& model, CandidateScore* s) {
-    s->model = model.Name();
-    double train_chi2 = 2 * s->fit.result.cost;
-    InformationCriteria(train_chi2, model.num_parameters(), m, s);
-    ScoreSum sum;
-    std::vector<Vec6<double>> w;
-    if (!holdout.empty()) {
-      for (const Experiment& e : holdout) {
-        const Status st = WeightedResiduals(model, s->fit.values, e, step, &w);
-        if (!st.ok()) return st;
-        sum.Add(e, w);
-      }
-    } else if (training.size() > 1) {
-      for (size_t l = 0; l < training.size(); ++l) {
-        std::vector<Experiment> rest;
-        for (size_t o = 0; o < training.size(); ++o) {
-          if (o != l) rest.push_back(training[o]);
-        }
-        EffectFit fold;
-        Status st = FitEffectModel(model, rest, s->fit.values, fit_options,
-                                   step, &fold);
-        if (!st.ok()) return st;
-        st = WeightedResiduals(model, fold.values, training[l], step, &w);
-        if (!st.ok()) return st;
-        sum.Add(training[l], w);
-      }
-    } else {
-      s->score = train_chi2 / std::max(1, m - model.num_parameters());
-      s->heldout_rms = Vec6<double>::Zero();
-      return Status::Ok();
-    }
-    s->score = sum.Score();
-    s->heldout_rms = sum.Rms();
-    return Status::Ok();
-  };
-  status = score_model(nominal_model, &nominal_score);
-  if (!status.ok()) return status;
+  // 3. Candidates: fitted, then scored like the nominal model.
+  score_models({&nominal_model}, {&nominal_score});
+  if (!nominal_score.ok) return Status::Error(nominal_score.error);
   const double nominal_gap = nominal_score.score - 1.0;
-  // Fits each model from each of its starts (all fits side by side) and
-  // scores the best fit of each.
+  // Fits each model from its starts, one after the other: while no model
+  // has brought the training residual down to the noise, a further start
+  // is tried for the `retry_pool` models that fit the training logs best
+  // so far (the fits of all models side by side). Then scores the best fit
+  // of each.
   using Start = std::vector<double>;
   auto fit_and_score = [&](const std::vector<const EffectModel*>& models,
                            const std::vector<std::vector<Start>>& starts,
                            std::vector<CandidateScore>* scores) {
     const int count = static_cast<int>(models.size());
-    std::vector<std::pair<int, const Start*>> jobs;
-    for (int i = 0; i < count; ++i) {
-      for (const Start& start : starts[i]) jobs.push_back({i, &start});
-    }
-    std::vector<EffectFit> fits(jobs.size());
-    std::vector<Status> fit_status(jobs.size());
-    ParallelFor(
-        static_cast<int>(jobs.size()), options.num_threads, [&](int job) {
-          fit_status[job] =
-              FitEffectModel(*models[jobs[job].first], training,
-                             *jobs[job].second, fit_options, step, &fits[job]);
-        });
     scores->assign(count, CandidateScore());
-    ParallelFor(count, options.num_threads, [&](int i) {
-      CandidateScore& s = (*scores)[i];
-      const EffectModel& model = *models[i];
-      s.model = model.Name();
-      int pick = -1;
-      Status st = Status::Error(model.Name() + ": no fit");
-      for (size_t job = 0; job < jobs.size(); ++job) {
-        if (jobs[job].first != i) continue;
-        if (!fit_status[job].ok()) {
-          if (pick < 0) st = fit_status[job];
+    std::vector<bool> fitted(count, false);
+    std::vector<Status> fit_status(count, Status::Ok());
+    size_t round_count = 0;
+    for (const std::vector<Start>& s : starts) {
+      round_count = std::max(round_count, s.size());
+    }
+    std::atomic<int> done{0};
+    auto fits_to_noise = [&](int i) {
+      const EffectFit& best = (*scores)[i].fit;
+      const int dof = best.result.num_residuals - models[i]->num_parameters();
+      return fitted[i] && ChiSquareUpperTail(2 * best.result.cost, dof) >=
+                              options.significance;
+    };
+    for (size_t round = 0; round < round_count; ++round) {
+      std::vector<int> todo;
+      bool any_at_noise = false;
+      for (int i = 0; i < count; ++i) any_at_noise |= fits_to_noise(i);
+      if (any_at_noise) break;
+      for (int i = 0; i < count; ++i) {
+        if (round < starts[i].size()) todo.push_back(i);
+      }
+      if (round > 0) {
+        // Unfitted models first, then by training cost.
+        std::stable_sort(todo.begin(), todo.end(), [&](int a, int b) {
+          if (fitted[a] != fitted[b]) return !fitted[a];
+          return (*scores)[a].fit.result.cost < (*scores)[b].fit.result.cost;
+        });
+        if (static_cast<int>(todo.size()) > options.retry_pool) {
+          todo.resize(options.retry_pool);
+        }
+      }
+      std::vector<EffectFit> fits(todo.size());
+      std::vector<Status> status_of(todo.size());
+      ParallelFor(static_cast<int>(todo.size()), options.num_threads,
+                  [&](int k) {
+                    const int i = todo[k];
+                    status_of[k] =
+                        FitEffectModel(*models[i], training, starts[i][round],
+                                       fit_options, step, &fits[k]);
+                    progress("candidate fits " + std::to_string(++done) + " (" +
+                             models[i]->Name() + ")");
+                  });
+      for (size_t k = 0; k < todo.size(); ++k) {
+        const int i = todo[k];
+        if (!status_of[k].ok()) {
+          if (!fitted[i]) fit_status[i] = status_of[k];
           continue;
         }
-        if (pick < 0 || fits[job].result.cost < fits[pick].result.cost) {
-          pick = static_cast<int>(job);
+        if (!fitted[i] || fits[k].result.cost < (*scores)[i].fit.result.cost) {
+          (*scores)[i].fit = fits[k];
         }
+        fitted[i] = true;
       }
-      if (pick >= 0) {
-        s.fit = fits[pick];
-        st = score_model(model, &s);
+    }
+    progress("scoring " + std::to_string(count) + " candidates (" +
+             result->scoring + ")");
+    std::vector<const EffectModel*> ok_models;
+    std::vector<CandidateScore*> ok_scores;
+    for (int i = 0; i < count; ++i) {
+      CandidateScore& s = (*scores)[i];
+      s.model = models[i]->Name();
+      if (!fitted[i]) {
+        s.ok = false;
+        s.error = fit_status[i].message();
+        continue;
       }
-      s.ok = st.ok();
-      s.error = st.message();
-      s.gap_closed = s.ok && nominal_gap > 0
-                         ? (nominal_score.score - s.score) / nominal_gap
-                         : 0;
-    });
+      ok_models.push_back(models[i]);
+      ok_scores.push_back(&s);
+    }
+    score_models(ok_models, ok_scores);
+    for (CandidateScore* s : ok_scores) {
+      s->gap_closed = s->ok && nominal_gap > 0
+                          ? (nominal_score.score - s->score) / nominal_gap
+                          : 0;
+    }
   };
   std::vector<const EffectModel*> single_models;
   // A single effect is fitted from two starts: the nominal fit's

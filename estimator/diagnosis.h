@@ -14,6 +14,7 @@
 #ifndef KCRIG_ESTIMATOR_DIAGNOSIS_H_
 #define KCRIG_ESTIMATOR_DIAGNOSIS_H_
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -57,10 +58,20 @@ struct DiagnosisOptions {
   // A stiffness estimated from single logs drifts when two logs disagree by
   // more than this many combined standard errors.
   double drift_z = 4;
+  // When no candidate's first fit brings the training residual down to
+  // the noise, the second start (effect_model.h: second_initial) is tried
+  // for the best `retry_pool` of them.
+  int retry_pool = 2;
+  // A cross-validation fold is refitted from the full fit (close to its
+  // optimum) with at most this many iterations.
+  int fold_max_iterations = 10;
   // Candidates are fitted on this many threads.
   int num_threads = 2;
   // Every log needs at least this many observed samples.
   int min_samples = 500;
+  // Called with a short line at each stage and after each candidate fit
+  // (one call at a time, from any thread). Optional.
+  std::function<void(const std::string&)> on_progress;
 };
 
 // Residual energy of the nominal fit in one slice of the data.

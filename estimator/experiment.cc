@@ -102,6 +102,25 @@ Status LoadExperiment(const std::string& path, const KcrigConfig& config,
   return MakeExperiment(path, log, config.experiment.step, experiment);
 }
 
+Experiment PlannedExperiment(const RampExcitation<double>& ramp,
+                             const ExperimentConfig& config) {
+  Experiment e;
+  e.source = "design";
+  e.sample_period = 1.0 / config.rate;
+  e.steps_per_sample =
+      static_cast<int>(std::lround(e.sample_period / config.step));
+  e.z_a = ramp.z_a;
+  e.sigma << Vec3<double>::Constant(config.sigma_position),
+      Vec3<double>::Constant(config.sigma_angle);
+  const long intervals =
+      std::lround(std::floor(ramp.EndTime() * config.rate + 1e-9));
+  for (long j = 0; j <= intervals; ++j) {
+    e.forces.push_back(ramp.LoadAt(j * e.sample_period).force);
+  }
+  e.measured.assign(e.forces.size(), Vec6<double>::Zero());
+  return e;
+}
+
 Status LoadExperiments(const std::vector<std::string>& paths,
                        const KcrigConfig& config,
                        std::vector<Experiment>* experiments) {

@@ -9,6 +9,7 @@
 
 #include "io_drivers/config_loader.h"
 #include "io_drivers/run_log.h"
+#include "rt_core/excitation.h"
 #include "rt_core/rotation.h"
 #include "rt_core/status.h"
 
@@ -45,6 +46,12 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
 // the config's integrator step.
 Status LoadExperiment(const std::string& path, const KcrigConfig& config,
                       Experiment* experiment);
+
+// An experiment not yet run: the excitation's forces sampled at the
+// config's log rate over the whole excitation, the config's integrator step
+// and sensor sigmas, no measurements (zeros). What designs are evaluated on.
+Experiment PlannedExperiment(const RampExcitation<double>& ramp,
+                             const ExperimentConfig& config);
 
 // LoadExperiment for each path, in order.
 Status LoadExperiments(const std::vector<std::string>& paths,

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <numbers>
 
-#include "emulator/simulated_run.h"
 #include "gtest/gtest.h"
+#include "tests/support/synthetic.h"
 #include "tests/support/test_config.h"
 
 namespace kcrig {
@@ -35,21 +35,9 @@ class DiagnosisTest : public ::testing::Test {
   // 0.5 s up, 0.1 s hold, 0.5 s back: 1101 samples.
   Experiment Log(const char* effect, double phi_deg, double z_a,
                  std::uint64_t seed) {
-    SimulatedRunOptions options;
-    options.noise = true;
-    options.seed = seed;
-    if (effect != nullptr) {
-      EXPECT_TRUE(ParseEffect(effect, &options.effects).ok());
-    }
-    RunLog log;
-    const RampExcitation<double> ramp{
-        phi_deg * kDegree, z_a, 4000, 0.5, 0.1, 0.5};
-    EXPECT_TRUE(
-        SimulateRun(config_.model, ramp, config_.experiment, options, &log)
-            .ok());
-    Experiment e;
-    EXPECT_TRUE(MakeExperiment("log", log, config_.experiment.step, &e).ok());
-    return e;
+    return PlantExperiment(config_, config_.model,
+                           effect == nullptr ? "" : effect,
+                           {phi_deg * kDegree, z_a, 4000, 0.5, 0.1, 0.5}, seed);
   }
   KcrigConfig config_;
 };

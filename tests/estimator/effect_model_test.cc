@@ -6,33 +6,14 @@
 #include <cmath>
 #include <numbers>
 
-#include "emulator/simulated_run.h"
 #include "gtest/gtest.h"
+#include "tests/support/synthetic.h"
 #include "tests/support/test_config.h"
 
 namespace kcrig {
 namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
-
-Experiment Simulated(const KcrigConfig& config, const PlantConfig& plant,
-                     const char* effect, RampExcitation<double> ramp,
-                     std::uint64_t seed) {
-  SimulatedRunOptions options;
-  options.noise = true;
-  options.seed = seed;
-  if (effect != nullptr) {
-    EXPECT_TRUE(ParseEffect(effect, &options.effects).ok());
-  }
-  RunLog log;
-  Status status =
-      SimulateRun(plant.model, ramp, config.experiment, options, &log);
-  EXPECT_TRUE(status.ok()) << status.message();
-  Experiment experiment;
-  status = MakeExperiment("sim", log, config.experiment.step, &experiment);
-  EXPECT_TRUE(status.ok()) << status.message();
-  return experiment;
-}
 
 class EffectModelTest : public ::testing::Test {
  protected:
@@ -42,10 +23,11 @@ class EffectModelTest : public ::testing::Test {
         LoadPlantConfig(config_.directory, config_.model, &plant_).ok());
   }
   std::vector<Experiment> TwoExperiments(const char* effect) {
-    return {Simulated(config_, plant_, effect,
-                      {85 * kDegree, -0.45, 4000, 2.0, 0.3, 1.0}, 3),
-            Simulated(config_, plant_, effect,
-                      {20 * kDegree, -0.1, 4000, 1.0, 0.3, 2.0}, 4)};
+    const std::string text = effect == nullptr ? "" : effect;
+    return {PlantExperiment(config_, plant_.model, text,
+                            {85 * kDegree, -0.45, 4000, 2.0, 0.3, 1.0}, 3),
+            PlantExperiment(config_, plant_.model, text,
+                            {20 * kDegree, -0.1, 4000, 1.0, 0.3, 2.0}, 4)};
   }
   KcrigConfig config_;
   PlantConfig plant_;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "emulator/simulated_run.h"
 #include "estimator/experiment.h"
 #include "gtest/gtest.h"
 #include "io_drivers/config_loader.h"
@@ -60,6 +61,29 @@ inline Experiment SyntheticExperiment(const KcrigConfig& config,
   const Status status =
       MakeExperiment("synthetic", SyntheticLog(config, truth, spec),
                      config.experiment.step, &experiment);
+  EXPECT_TRUE(status.ok()) << status.message();
+  return experiment;
+}
+
+// An experiment of the software rig's plant (`kcrig simulate`'s
+// SimulateRun: `plant` with the unmodelled effect `effect`, "" for none)
+// under `ramp`, with sensor noise from `seed`. Needs kcrig_emulator.
+inline Experiment PlantExperiment(const KcrigConfig& config,
+                                  const SuspensionParameters<double>& plant,
+                                  const std::string& effect,
+                                  const RampExcitation<double>& ramp,
+                                  std::uint64_t seed) {
+  SimulatedRunOptions options;
+  options.noise = true;
+  options.seed = seed;
+  if (!effect.empty()) {
+    EXPECT_TRUE(ParseEffect(effect, &options.effects).ok()) << effect;
+  }
+  RunLog log;
+  Status status = SimulateRun(plant, ramp, config.experiment, options, &log);
+  EXPECT_TRUE(status.ok()) << status.message();
+  Experiment experiment;
+  status = MakeExperiment("plant", log, config.experiment.step, &experiment);
   EXPECT_TRUE(status.ok()) << status.message();
   return experiment;
 }
