@@ -5,6 +5,9 @@
 // six candidates (a second start when none reaches the noise), localisation and
 // drift. Run with the candidates on one thread and on two to show what the
 // parallel fits buy. Run: build/bin/diagnosis_bench --benchmark_format=json
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <numbers>
 #include <vector>
 
@@ -50,6 +53,15 @@ void BM_FullDiagnosis(benchmark::State& state) {
   static const Setup setup;
   DiagnosisOptions options;
   options.num_threads = static_cast<int>(state.range(0));
+  const auto t0 = std::chrono::steady_clock::now();
+  options.on_progress = [t0](const std::string& text) {
+    if (std::getenv("KCRIG_BENCH_TRACE") == nullptr) return;
+    std::fprintf(
+        stderr, "%6.2f %s\n",
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
+            .count(),
+        text.c_str());
+  };
   DiagnosisResult result;
   for (auto _ : state) {
     if (!Diagnose(setup.config.model, setup.logs, {}, options,
@@ -60,6 +72,8 @@ void BM_FullDiagnosis(benchmark::State& state) {
     }
   }
   state.counters["correct"] = result.verdict == "hysteresis";
+  state.counters["high_confidence"] = result.confidence == "high";
+  state.SetLabel(result.verdict + ": " + result.reason);
   state.counters["candidates"] = static_cast<double>(result.ranking.size());
 }
 BENCHMARK(BM_FullDiagnosis)

@@ -443,13 +443,11 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
 
   // Scores models (their `fit` set) on data they were not fitted to: the
   // hold-out logs, or each training log predicted by the fit to the others
-  // (the fold fits of all models side by side, warm-started from the full
-  // fit), or, with one log only, the training chi-square per degree of
-  // freedom. With two training logs the nominal model's folds are the
-  // per-log fits already made.
+  // (one Gauss-Newton step from the full fit on the other logs: the
+  // one-step approximation of the fold's refit; all folds of all models
+  // side by side), or, with one log only, the training chi-square per
+  // degree of freedom.
   std::vector<EffectFit> per_log;
-  EffectFitOptions fold_options = fit_options;
-  fold_options.max_iterations = options.fold_max_iterations;
   auto score_models = [&](const std::vector<const EffectModel*>& models,
                           const std::vector<CandidateScore*>& scores) {
     const int count = static_cast<int>(models.size());
@@ -463,21 +461,16 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
     ParallelFor(count * folds, options.num_threads, [&](int job) {
       const int i = job / folds, l = job % folds;
       const EffectModel& model = *models[i];
-      EffectFit fold;
-      const EffectFit* fit = &fold;
-      if (&model == &nominal_model && per_log.size() == 2) {
-        fit = &per_log[1 - l];
-      } else {
-        std::vector<Experiment> rest;
-        for (int o = 0; o < folds; ++o) {
-          if (o != l) rest.push_back(training[o]);
-        }
-        fold_status[job] = FitEffectModel(model, rest, scores[i]->fit.values,
-                                          fold_options, step, &fold);
-        if (!fold_status[job].ok()) return;
+      std::vector<Experiment> rest;
+      for (int o = 0; o < folds; ++o) {
+        if (o != l) rest.push_back(training[o]);
       }
-      fold_status[job] = WeightedResiduals(model, fit->values, training[l],
-                                           step, &fold_residuals[job]);
+      std::vector<double> fold;
+      fold_status[job] =
+          RefitOneStep(model, scores[i]->fit.values, rest, step, &fold);
+      if (!fold_status[job].ok()) return;
+      fold_status[job] = WeightedResiduals(model, fold, training[l], step,
+                                           &fold_residuals[job]);
     });
     for (int i = 0; i < count; ++i) {
       CandidateScore* s = scores[i];
@@ -703,10 +696,16 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
     return list.size() < 2 || clearly_better(list[0], list[1]);
   };
   // Whether a model leaves nothing but noise on the data it was scored on.
+  // On hold-out logs that is their chi-square; a cross-validation fold
+  // fitted to fewer logs extrapolates with a larger parameter uncertainty,
+  // so there (and with one log) the full fit's training chi-square is
+  // tested instead.
   auto at_noise = [&](const CandidateScore& s) {
-    return ChiSquareUpperTail(s.score * n_scored,
-                              static_cast<double>(n_scored)) >=
-           options.significance;
+    const double p =
+        holdout.empty() ? ChiSquareUpperTail(s.train_chi2, m - s.num_parameters)
+                        : ChiSquareUpperTail(s.score * n_scored,
+                                             static_cast<double>(n_scored));
+    return p >= options.significance;
   };
   std::vector<CandidateScore> pairs;
   const CandidateScore* chosen = nullptr;

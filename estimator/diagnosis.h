@@ -9,7 +9,8 @@
 // held-out data: 1 is the noise floor, S - 1 the gap. A candidate closes
 // (S_nominal - S) / (S_nominal - 1) of it. Without hold-out logs the score
 // is a blocked cross-validation over whole training logs (each log
-// predicted by the fit to the others); with a single log and no hold-out
+// predicted by the fit to the others, approximated by one Gauss-Newton step
+// from the fit to all); with a single log and no hold-out
 // only the information criteria are left, and the result says so.
 #ifndef KCRIG_ESTIMATOR_DIAGNOSIS_H_
 #define KCRIG_ESTIMATOR_DIAGNOSIS_H_
@@ -62,9 +63,6 @@ struct DiagnosisOptions {
   // the noise, the second start (effect_model.h: second_initial) is tried
   // for the best `retry_pool` of them.
   int retry_pool = 2;
-  // A cross-validation fold is refitted from the full fit (close to its
-  // optimum) with at most this many iterations.
-  int fold_max_iterations = 10;
   // Candidates are fitted on this many threads.
   int num_threads = 2;
   // Every log needs at least this many observed samples.

@@ -273,6 +273,45 @@ Status SimulateEffectModel(const EffectModel& model,
   return Status::Ok();
 }
 
+Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
+                    const std::vector<Experiment>& experiments,
+                    double integrator_step, std::vector<double>* refit) {
+  const int n = model.num_parameters();
+  if (static_cast<int>(values.size()) != n) {
+    return Status::Error("one value per parameter of " + model.Name() +
+                         " is needed");
+  }
+  std::vector<double> theta(n), lower(n), upper(n);
+  for (int i = 0; i < n; ++i) {
+    theta[i] = model.ToTheta(i, values[i]);
+    lower[i] = model.ToTheta(i, model.parameters()[i].lower);
+    upper[i] = model.ToTheta(i, model.parameters()[i].upper);
+  }
+  long rows = 0;
+  for (const Experiment& e : experiments) rows += 6L * e.measured.size();
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>
+      jacobian(rows, n);
+  Eigen::VectorXd residuals(rows);
+  long row = 0;
+  const double* parameters[] = {theta.data()};
+  for (const Experiment& e : experiments) {
+    EffectResidual residual(&model, &e, integrator_step, lower, upper);
+    double* jacobians[] = {jacobian.data() + row * n};
+    if (!residual.Evaluate(parameters, residuals.data() + row, jacobians)) {
+      return Status::Error(e.source + ": the " + model.Name() +
+                           " model cannot be evaluated at the fit");
+    }
+    row += residual.num_residuals();
+  }
+  const Eigen::VectorXd step = jacobian.colPivHouseholderQr().solve(-residuals);
+  refit->resize(n);
+  for (int i = 0; i < n; ++i) {
+    const double next = std::isfinite(step(i)) ? theta[i] + step(i) : theta[i];
+    (*refit)[i] = model.ToPhysical(i, std::clamp(next, lower[i], upper[i]));
+  }
+  return Status::Ok();
+}
+
 Status FitEffectModel(const EffectModel& model,
                       const std::vector<Experiment>& experiments,
                       const std::vector<double>& initial,

@@ -119,6 +119,15 @@ Status FitEffectModel(const EffectModel& model,
                       const EffectFitOptions& options, double integrator_step,
                       EffectFit* fit);
 
+// One Gauss-Newton step from `values` (a fit to more data) on
+// `experiments`, within the parameter bounds: the standard one-step
+// approximation of a refit to a subset of the data, at the cost of one
+// trajectory with sensitivities per experiment instead of a whole fit
+// (cross-validation folds).
+Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
+                    const std::vector<Experiment>& experiments,
+                    double integrator_step, std::vector<double>* refit);
+
 }  // namespace kcrig
 
 #endif  // KCRIG_ESTIMATOR_EFFECT_MODEL_H_
