@@ -129,9 +129,15 @@ int RunDiagnose(const DiagnoseArgs& args) {
   std::string design_json;
   DiscriminatingDesign design;
   if (!result.ambiguous_a.empty()) {
+    // The diagnosis stands without it: a failed design is a warning.
     status = DesignForAmbiguity(config, options, result, &design);
-    if (!status.ok()) return fail(status);
-    design_json = DiscriminatingDesignToJson(design);
+    if (status.ok()) {
+      design_json = DiscriminatingDesignToJson(design);
+    } else {
+      std::fprintf(stderr,
+                   "kcrig diagnose: warning: no discriminating design: %s\n",
+                   status.message().c_str());
+    }
   }
   if (!args.out.empty()) {
     status = WriteFilesAtomically(

@@ -175,9 +175,9 @@ void Localize(const std::vector<Experiment>& logs,
       const Vec6<double> r = w[j].cwiseProduct(e.sigma);
       const double level = magnitude_of[j] / fmax;
       const int m = level < 0.1 ? 0 : level < 0.4 ? 1 : level < 0.7 ? 2 : 3;
-      const int d = std::abs(rate[j]) < 0.05 * fastest ? 2
-                    : rate[j] > 0                      ? 0
-                                                       : 1;
+      const int d = std::abs(rate[j]) <= 0.05 * fastest ? 2
+                    : rate[j] > 0                       ? 0
+                                                        : 1;
       add(&magnitude[m], w[j], r);
       add(&direction[d], w[j], r);
       add(&all, w[j], r);
@@ -350,6 +350,8 @@ double UpperIncompleteGamma(double a, double x) {
 }  // namespace
 
 double ChiSquareUpperTail(double x, double dof) {
+  if (!(dof > 0)) return 1.0;  // no degrees of freedom: no evidence
+  if (!(x < std::numeric_limits<double>::infinity())) return 0.0;  // inf, NaN
   return UpperIncompleteGamma(0.5 * dof, 0.5 * x);
 }
 
@@ -361,6 +363,24 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   const auto start = std::chrono::steady_clock::now();
   *result = DiagnosisResult();
   if (training.empty()) return Status::Error("diagnose: no training log");
+  if (options.candidates.empty()) {
+    return Status::Error("diagnose: no candidate effect");
+  }
+  for (size_t i = 0; i < options.candidates.size(); ++i) {
+    for (size_t k = 0; k < i; ++k) {
+      if (options.candidates[k] == options.candidates[i]) {
+        return Status::Error("diagnose: candidate '" + options.candidates[i] +
+                             "' given twice");
+      }
+    }
+  }
+  if (options.ljung_box_lags < 1 ||
+      options.min_samples < options.ljung_box_lags + 20 ||
+      options.retry_pool < 0 || options.num_threads < 1) {
+    return Status::Error(
+        "diagnose: options need ljung_box_lags >= 1, min_samples >= "
+        "ljung_box_lags + 20, retry_pool >= 0 and num_threads >= 1");
+  }
   for (const std::vector<Experiment>* set : {&training, &holdout}) {
     for (const Experiment& e : *set) {
       const int n = ObservedCount(e);
@@ -494,7 +514,9 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
       s->ok = st.ok();
       s->error = st.message();
       if (!s->ok) continue;
+      s->scored = true;
       if (!holdout.empty() || folds > 0) {
+        s->heldout = true;
         s->score = sums[i].Score();
         s->heldout_rms = sums[i].Rms();
       } else {
@@ -511,10 +533,13 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
                                            nominal_score.fit.values,
                                            fit_options, step, &per_log[l]);
       });
-  for (const Status& s : per_log_status) {
-    if (!s.ok()) return s;
-  }
-  for (int i = 0; i < kNumBushings && per_log.size() > 1; ++i) {
+  // A log whose own fit fails leaves the drift table empty (it is
+  // evidence, not a precondition of the diagnosis).
+  const bool drift_available =
+      std::all_of(per_log_status.begin(), per_log_status.end(),
+                  [](const Status& s) { return s.ok(); });
+  for (int i = 0; i < kNumBushings && per_log.size() > 1 && drift_available;
+       ++i) {
     StiffnessDrift d;
     d.parameter = nominal_model.parameters()[i].name;
     for (const EffectFit& f : per_log) {
@@ -556,6 +581,27 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   score_models({&nominal_model}, {&nominal_score});
   if (!nominal_score.ok) return Status::Error(nominal_score.error);
   const double nominal_gap = nominal_score.score - 1.0;
+  const long n_scored = holdout.empty() ? m : [&] {
+    long n = 0;
+    for (const Experiment& e : holdout) n += 6L * ObservedCount(e);
+    return n;
+  }();
+  // Five standard deviations of a score at the noise floor.
+  const double score_noise = 5 * std::sqrt(2.0 / n_scored);
+  if (result->scoring != "information_criterion" && nominal_gap < score_noise) {
+    // The training tests found structure that the data the candidates
+    // would be scored on do not show: nothing to attribute there.
+    char text[200];
+    std::snprintf(text, sizeof(text),
+                  "the training logs' gap is not reproduced by the %s "
+                  "(nominal score %.4g, noise floor 1): nothing to attribute",
+                  holdout.empty() ? "cross-validation" : "hold-out logs",
+                  nominal_score.score);
+    result->verdict = "unexplained";
+    result->reason = text;
+    finish_time();
+    return Status::Ok();
+  }
   // Fits each model from its starts, one after the other: while no model
   // has brought the training residual down to the noise, a further start
   // is tried for the `retry_pool` models that fit the training logs best
@@ -671,16 +717,10 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   rank(&result->ranking);
 
   // 4. The verdict.
-  const long n_scored = holdout.empty() ? m : [&] {
-    long n = 0;
-    for (const Experiment& e : holdout) n += 6L * ObservedCount(e);
-    return n;
-  }();
   // `best` is clearly better than `other`: it closes min_gap_margin more
   // of the gap, or leaves a third of the other's remaining gap (not less
   // than five standard deviations of a score at the noise floor), and the
   // BIC prefers it strongly.
-  const double score_noise = 5 * std::sqrt(2.0 / n_scored);
   auto clearly_better = [&](const CandidateScore& best,
                             const CandidateScore& other) {
     if (!other.ok) return true;

@@ -120,9 +120,13 @@ struct CandidateScore {
   double bic = 0, aicc = 0;
   // Held-out (or cross-validated) score, its per-channel RMS [m, rad] and
   // the fraction of the nominal gap closed.
+  // `scored`: score and gap_closed were computed (not when the verdict is
+  // `none`); `heldout`: heldout_rms too (not with one log and no hold-out).
   double score = 0;
   Vec6<double> heldout_rms = Vec6<double>::Zero();
   double gap_closed = 0;
+  bool scored = false;
+  bool heldout = false;
   bool ok = true;  // false: the fit failed (error says why)
   std::string error;
 };

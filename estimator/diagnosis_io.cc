@@ -58,9 +58,10 @@ Json CandidateJson(const CandidateScore& s) {
   out["train_chi2"] = Number(s.train_chi2);
   out["bic"] = Number(s.bic);
   out["aicc"] = Number(s.aicc);
-  out["score"] = Number(s.score);
-  out["heldout_rms"] = PerChannel(s.heldout_rms);
-  out["gap_closed"] = Number(s.gap_closed);
+  // Not computed is null, never a zero that reads as "below the noise".
+  out["score"] = s.scored ? Number(s.score) : Json(nullptr);
+  out["heldout_rms"] = s.heldout ? PerChannel(s.heldout_rms) : Json(nullptr);
+  out["gap_closed"] = s.scored ? Number(s.gap_closed) : Json(nullptr);
   out["iterations"] = s.fit.result.iterations;
   out["converged"] = s.fit.result.converged;
   out["seconds"] = s.fit.result.seconds;
@@ -174,15 +175,18 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
                         {"value", p.value},
                         {"ci95", {Number(p.ci95_low), Number(p.ci95_high)}}});
     }
-    doc["quantification"] = {{"model", chosen->model},
-                             {"scored_on", r.scoring},
-                             {"rms_before", PerChannel(r.nominal.heldout_rms)},
-                             {"rms_after", PerChannel(chosen->heldout_rms)},
-                             {"score_before", Number(r.nominal.score)},
-                             {"score_after", Number(chosen->score)},
-                             {"gap_closed", Number(chosen->gap_closed)},
-                             {"effect_parameters", effect},
-                             {"stiffness", stiffness}};
+    doc["quantification"] = {
+        {"model", chosen->model},
+        {"scored_on", r.scoring},
+        {"rms_before",
+         r.nominal.heldout ? PerChannel(r.nominal.heldout_rms) : Json(nullptr)},
+        {"rms_after",
+         chosen->heldout ? PerChannel(chosen->heldout_rms) : Json(nullptr)},
+        {"score_before", Number(r.nominal.score)},
+        {"score_after", Number(chosen->score)},
+        {"gap_closed", Number(chosen->gap_closed)},
+        {"effect_parameters", effect},
+        {"stiffness", stiffness}};
   }
   if (!r.ambiguous_a.empty()) {
     doc["ambiguous"] = {r.ambiguous_a, r.ambiguous_b};
@@ -209,18 +213,26 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
   add();
   for (int k = 0; k < static_cast<int>(r.channels.size()); ++k) {
     const GapSlice& s = r.channels[k];
-    std::snprintf(
-        line, sizeof(line), "  %-8s %8.4f %-3s %8.2f %7.0f%% %8.4f %s\n",
-        s.name.c_str(), Display(k, s.rms(k)), DisplayUnitOf(k), s.score,
-        100 * s.excess_share, Display(k, s.mean(k)), DisplayUnitOf(k));
+    // Without a gap the excess is noise and its shares mean nothing.
+    char share[16] = "       -";
+    if (r.gap)
+      std::snprintf(share, sizeof(share), "%7.0f%%", 100 * s.excess_share);
+    std::snprintf(line, sizeof(line), "  %-8s %8.4f %-3s %8.2f %s %8.4f %s\n",
+                  s.name.c_str(), Display(k, s.rms(k)), DisplayUnitOf(k),
+                  s.score, share, Display(k, s.mean(k)), DisplayUnitOf(k));
     add();
   }
-  out += "  load regime (score, share of excess):";
+  out += r.gap ? "  load regime (score, share of excess):"
+               : "  load regime (score):";
   for (const std::vector<GapSlice>* group : {&r.magnitude, &r.direction}) {
     for (const GapSlice& s : *group) {
       if (s.samples == 0) continue;
-      std::snprintf(line, sizeof(line), " %s %.2f/%.0f%%", s.name.c_str(),
-                    s.score, 100 * s.excess_share);
+      if (r.gap) {
+        std::snprintf(line, sizeof(line), " %s %.2f/%.0f%%", s.name.c_str(),
+                      s.score, 100 * s.excess_share);
+      } else {
+        std::snprintf(line, sizeof(line), " %s %.2f", s.name.c_str(), s.score);
+      }
       add();
     }
   }
@@ -275,8 +287,9 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
   add();
   for (const CandidateScore& s : r.ranking) {
     if (s.model != r.verdict) continue;
-    out += "  held-out rms before -> after:";
-    for (int k = 0; k < 6; ++k) {
+    out += s.heldout ? "  held-out rms before -> after:"
+                     : "  (one log, no hold-out: no held-out rms)";
+    for (int k = 0; k < 6 && s.heldout; ++k) {
       std::snprintf(line, sizeof(line), " %s %.4f->%.4f %s", kChannelNames[k],
                     Display(k, r.nominal.heldout_rms(k)),
                     Display(k, s.heldout_rms(k)), DisplayUnitOf(k));
@@ -286,19 +299,21 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
     for (size_t i = 0; i < s.fit.result.parameters.size(); ++i) {
       const ParameterEstimate& p = s.fit.result.parameters[i];
       const double scale = DisplayScale(p);
-      std::snprintf(
-          line, sizeof(line), " %s %.4g +- %.2g %s%s", p.name.c_str(),
-          p.value * scale,
-          std::isfinite(p.standard_error) ? 1.96 * p.standard_error * scale
-                                          : NAN,
-          DisplayUnit(p).c_str(),
-          i < kNumBushings
-              ? (" (was " +
-                 std::to_string(static_cast<int>(std::lround(
-                     r.nominal.fit.result.parameters[i].value * scale))) +
-                 ")")
-                    .c_str()
-              : "");
+      // What the engineer compares: the stiffness before the effect was
+      // modelled; a mount compliance also as a stiffness.
+      char extra[64] = "";
+      if (i < kNumBushings) {
+        std::snprintf(extra, sizeof(extra), " (was %.0f)",
+                      r.nominal.fit.result.parameters[i].value * scale);
+      } else if (p.unit == "m/N" && p.value > 0) {
+        std::snprintf(extra, sizeof(extra), " (k %.0f N/mm)", 1e-3 / p.value);
+      }
+      std::snprintf(line, sizeof(line), " %s %.4g +- %.2g %s%s", p.name.c_str(),
+                    p.value * scale,
+                    std::isfinite(p.standard_error)
+                        ? 1.96 * p.standard_error * scale
+                        : NAN,
+                    DisplayUnit(p).c_str(), extra);
       add();
     }
     out += "\n";

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "Eigen/QR"
 #include "ceres/ceres.h"
 #include "ceres/jet.h"
 #include "rt_core/excitation.h"
@@ -22,7 +23,7 @@ std::vector<EffectParameter> ParametersOf(
     // Starts at the model's own bushing damping: no change.
     double model_damping = 0;
     for (const AxialElement<double>& b : nominal.bushings) {
-      model_damping += b.damping / kNumBushings;
+      model_damping += b.damping / static_cast<double>(kNumBushings);
     }
     return {{effect, "d", "N s/m", 0, 3e5, 0, 1e7, model_damping, 1e6}};
   }
@@ -283,9 +284,10 @@ Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
   }
   std::vector<double> theta(n), lower(n), upper(n);
   for (int i = 0; i < n; ++i) {
-    theta[i] = model.ToTheta(i, values[i]);
     lower[i] = model.ToTheta(i, model.parameters()[i].lower);
     upper[i] = model.ToTheta(i, model.parameters()[i].upper);
+    // A value on its bound may round just outside it.
+    theta[i] = std::clamp(model.ToTheta(i, values[i]), lower[i], upper[i]);
   }
   long rows = 0;
   for (const Experiment& e : experiments) rows += 6L * e.measured.size();
@@ -303,7 +305,12 @@ Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
     }
     row += residual.num_residuals();
   }
-  const Eigen::VectorXd step = jacobian.colPivHouseholderQr().solve(-residuals);
+  // The minimum-norm step: directions the data do not determine (a sensor
+  // scale against the stiffnesses) do not move.
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> decomposition;
+  decomposition.setThreshold(1e-8);
+  decomposition.compute(jacobian);
+  const Eigen::VectorXd step = decomposition.solve(-residuals);
   refit->resize(n);
   for (int i = 0; i < n; ++i) {
     const double next = std::isfinite(step(i)) ? theta[i] + step(i) : theta[i];

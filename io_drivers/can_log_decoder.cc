@@ -7,6 +7,22 @@
 #include "rt_core/excitation.h"
 
 namespace kcrig {
+namespace {
+
+// KC_Command's Phase (1 + RunPhase) as the run log names it, in the
+// numbering of the log's protocol version (version 1 had no hold and
+// return: 5 was ramp-down, 6 done).
+const char* PhaseName(int wire, int protocol) {
+  if (protocol == 1 && (wire == 5 || wire == 6)) {
+    return RunPhaseName(wire == 5 ? RunPhase::kRampDown : RunPhase::kDone);
+  }
+  if (wire >= 1 && wire <= static_cast<int>(RunPhase::kDone) + 1) {
+    return RunPhaseName(static_cast<RunPhase>(wire - 1));
+  }
+  return "unknown";
+}
+
+}  // namespace
 
 Status DecodeCanLog(const std::string& path,
                     const CanLogDecoderOptions& options, RunLog* log,
@@ -97,9 +113,7 @@ Status DecodeCanLog(const std::string& path,
         row.y = latest.y;
         row.commanded = command.force;
         row.fresh = fresh;
-        row.phase = command.phase >= 1 && command.phase <= 6
-                        ? RunPhaseName(static_cast<RunPhase>(command.phase - 1))
-                        : "unknown";
+        row.phase = PhaseName(command.phase, setup.protocol);
         row.safety = command.safety;
         row.rig_sample = latest.sample;
         row.rig_status = latest.status;

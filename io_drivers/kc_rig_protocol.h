@@ -22,7 +22,9 @@
 
 namespace kcrig {
 
-inline constexpr int kKcRigProtocolVersion = 1;
+// 2: KC_Command's Phase gained hold (5) and return (6); ramp-down is 7 and
+// done 8 (version 1: ramp-down 5, done 6).
+inline constexpr int kKcRigProtocolVersion = 2;
 inline constexpr int kSetupEveryCycles = 100;
 inline constexpr double kHeartbeatPeriod = 0.1;  // [s]
 

@@ -241,7 +241,10 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   const std::string partial_path = csv_path + ".partial";
   std::FILE* partial = nullptr;
   if (keep_log) {
-    log.samples.reserve(static_cast<size_t>(profile.duration() / period) + 16);
+    // Up to 10 minutes up front; a longer run grows the log in the logger
+    // thread.
+    log.samples.reserve(
+        static_cast<size_t>(std::min(profile.duration(), 600.0) / period) + 16);
     partial = std::fopen(partial_path.c_str(), "wb");
     if (partial == nullptr) {
       return Status::Error(partial_path + ": cannot write (" +

@@ -190,6 +190,9 @@ Status ReadSidecar(const std::string& path, size_t rows, double first_t,
   if (!(m->rate > 0) || !(m->sigma_position > 0) || !(m->sigma_angle > 0)) {
     return Status::Error(path + ": rate_hz and measurement sigmas must be > 0");
   }
+  if (!(m->duration > 0)) {
+    return Status::Error(path + ": excitation.tf_s must be > 0");
+  }
   if (doc.contains("samples") && doc["samples"].is_number_unsigned() &&
       doc["samples"].get<size_t>() != rows) {
     return Status::Error(path + ": says " +

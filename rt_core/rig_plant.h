@@ -145,7 +145,8 @@ void BasicRigPlant<T>::Step(const Vec3<T>& force) {
   if (effects_.actuator_lag.enabled) {
     const T delay = effects_.actuator_lag.dead_time / step_;
     const size_t whole =
-        std::min(static_cast<size_t>(ValueOf(delay)), delay_line_.size() - 2);
+        std::min(static_cast<size_t>(std::max(0.0, ValueOf(delay))),
+                 delay_line_.size() - 2);
     const T fraction = delay - static_cast<double>(whole);
     const Vec3<T> delayed =
         Past(whole) + (Past(whole + 1) - Past(whole)) * fraction;

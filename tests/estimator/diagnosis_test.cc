@@ -118,6 +118,18 @@ TEST_F(DiagnosisTest, InputErrors) {
   const Status unknown = Diagnose(config_.model, {Log(nullptr, 60, -0.2, 6)},
                                   {}, options, config_.experiment.step, &r);
   EXPECT_NE(unknown.message().find("backlash"), std::string::npos);
+  options.candidates = {};
+  EXPECT_NE(Diagnose(config_.model, {Log(nullptr, 60, -0.2, 6)}, {}, options,
+                     config_.experiment.step, &r)
+                .message()
+                .find("no candidate"),
+            std::string::npos);
+  options.candidates = {"hysteresis", "hysteresis"};
+  EXPECT_NE(Diagnose(config_.model, {Log(nullptr, 60, -0.2, 6)}, {}, options,
+                     config_.experiment.step, &r)
+                .message()
+                .find("given twice"),
+            std::string::npos);
   options = DiagnosisOptions();
   options.min_samples = 5000;
   const Status short_log = Diagnose(config_.model, {Log(nullptr, 60, -0.2, 6)},

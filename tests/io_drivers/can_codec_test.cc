@@ -1,11 +1,16 @@
 // The DBC parser, the signal codec, the candump log format and the rig
 // protocol bound to config/kc_rig.dbc.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <random>
 #include <string>
 
+#include "io_drivers/can_log_decoder.h"
 #include "io_drivers/can_rig.h"
 #include "io_drivers/candump_log.h"
 #include "io_drivers/dbc.h"
@@ -350,6 +355,50 @@ TEST_F(RigProtocolTest, CommandAndSetupRoundTrip) {
   EXPECT_NEAR(setup_back.period, 1e-3, 1e-12);
   EXPECT_EQ(setup_back.protocol, kKcRigProtocolVersion);
   EXPECT_FALSE(flagged);
+}
+
+// The offline reader names each cycle's phase in the numbering of the log's
+// protocol version: version 2 added hold and return before ramp-down.
+TEST_F(RigProtocolTest, DecodedPhasesFollowTheLogsProtocolVersion) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() /
+       ("kcrig_phases_" + std::to_string(::getpid()) + ".log"))
+          .string();
+  auto decode = [&](int version, const std::vector<int>& phases) {
+    std::ofstream out(path);
+    char line[kCandumpLineMax];
+    bool flagged = false;
+    std::int64_t t = 1000000;
+    auto write = [&](const CanFrame& frame) {
+      out.write(line, FormatCandumpLine({t += 1000, frame}, "vcan0", line));
+    };
+    write(protocol_.EncodeSetup({-0.45, 1e-3, version}, &flagged));
+    for (size_t k = 0; k < phases.size(); ++k) {
+      KcCommand command;
+      command.sequence = static_cast<std::uint16_t>(k);
+      command.enable = true;
+      command.phase = phases[k];
+      write(protocol_.EncodeCommand(command, &flagged));
+    }
+    out.close();
+    RunLog log;
+    CanLogDecoderOptions options;
+    options.dbc_file = kDbcPath;
+    options.sigma_position = 2e-5;
+    options.sigma_angle = 1.7e-4;
+    const Status status = DecodeCanLog(path, options, &log);
+    EXPECT_TRUE(status.ok()) << status.message();
+    std::vector<std::string> names;
+    for (const LogSample& s : log.samples) names.emplace_back(s.phase);
+    return names;
+  };
+  EXPECT_EQ(decode(2, {4, 5, 6, 7, 8}),
+            (std::vector<std::string>{"ramp", "hold", "return", "ramp_down",
+                                      "done"}));
+  EXPECT_EQ(decode(1, {4, 5, 6}),
+            (std::vector<std::string>{"ramp", "ramp_down", "done"}));
+  EXPECT_EQ(decode(2, {4, 9}), (std::vector<std::string>{"ramp", "unknown"}));
+  std::filesystem::remove(path);
 }
 
 TEST_F(RigProtocolTest, AssemblerCountsStaleOutOfSequenceAndIncomplete) {

@@ -94,7 +94,7 @@ def stand_in_rig(dbc, iface, cycles, out_path):
         now = time.monotonic()
         if now >= next_heartbeat:
             send(heartbeat, {"Status": 1 if enabled else 0, "FaultCode": 0,
-                             "Protocol": 1, "SampleCounter": counter})
+                             "Protocol": 2, "SampleCounter": counter})
             next_heartbeat = now + 0.1
         message = bus.recv(0.01)
         if message is None:
