@@ -191,9 +191,16 @@ void StripTruth(const std::string& csv) {
   std::ofstream(sidecar) << doc.dump(2) << "\n";
 }
 
-class BlindDiagnosisTest : public TempDirTest {};
+// The two tiers are two test names for ctest.
+#ifdef KCRIG_BLIND_FULL_TIER
+#define KCRIG_BLIND_SUITE BlindDiagnosisFullTierTest
+#else
+#define KCRIG_BLIND_SUITE BlindDiagnosisTest
+#endif
 
-TEST_F(BlindDiagnosisTest, VerdictsAgainstTheTruth) {
+class KCRIG_BLIND_SUITE : public TempDirTest {};
+
+TEST_F(KCRIG_BLIND_SUITE, VerdictsAgainstTheTruth) {
   const KcrigConfig config = SourceConfig();
   const int cases = KCRIG_BLIND_CASES;
   std::map<std::string, std::map<std::string, int>> confusion;
