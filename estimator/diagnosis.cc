@@ -475,7 +475,6 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
                           ? static_cast<int>(training.size())
                           : 0;
     std::vector<ScoreSum> sums(count);
-    std::vector<Status> status_of(count);
     std::vector<std::vector<Vec6<double>>> fold_residuals(count * folds);
     std::vector<Status> fold_status(count * folds);
     ParallelFor(count * folds, options.num_threads, [&](int job) {
