@@ -94,6 +94,24 @@ double LjungBox(const std::vector<double>& x, int lags) {
   return static_cast<double>(n) * (n + 2.0) * q;
 }
 
+// Whether residuals are white: the smallest Ljung-Box p-value over the
+// channels of all logs, Bonferroni-corrected for their number.
+double WhitenessP(const std::vector<Experiment>& logs,
+                  const std::vector<std::vector<Vec6<double>>>& residuals,
+                  int lags) {
+  double min_p = 1;
+  for (size_t l = 0; l < logs.size(); ++l) {
+    for (int k = 0; k < 6; ++k) {
+      std::vector<double> x;
+      for (size_t j = 0; j < residuals[l].size(); ++j) {
+        if (Observed(logs[l], j)) x.push_back(residuals[l][j](k));
+      }
+      min_p = std::min(min_p, ChiSquareUpperTail(LjungBox(x, lags), lags));
+    }
+  }
+  return std::min(1.0, min_p * 6 * static_cast<double>(logs.size()));
+}
+
 // Pearson correlation of a[j] with b[j - lag] over the overlap.
 double LaggedCorrelation(const std::vector<double>& a,
                          const std::vector<double>& b, int lag) {
@@ -439,20 +457,7 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   result->chi2 = chi2;
   result->dof = m - n_nominal;
   result->chi2_p = ChiSquareUpperTail(chi2, result->dof);
-  const int tests = static_cast<int>(training.size()) * 6;
-  double min_p = 1;
-  for (size_t l = 0; l < training.size(); ++l) {
-    for (int k = 0; k < 6; ++k) {
-      std::vector<double> x;
-      for (size_t j = 0; j < residuals[l].size(); ++j) {
-        if (Observed(training[l], j)) x.push_back(residuals[l][j](k));
-      }
-      min_p = std::min(min_p,
-                       ChiSquareUpperTail(LjungBox(x, options.ljung_box_lags),
-                                          options.ljung_box_lags));
-    }
-  }
-  result->ljung_box_p = std::min(1.0, min_p * tests);
+  result->ljung_box_p = WhitenessP(training, residuals, options.ljung_box_lags);
   result->gap = result->chi2_p < options.significance ||
                 result->ljung_box_p < options.significance;
   InformationCriteria(chi2, n_nominal, m, &nominal_score);
@@ -497,14 +502,19 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
       s->model = model.Name();
       InformationCriteria(2 * s->fit.result.cost, model.num_parameters(), m, s);
       Status st = Status::Ok();
-      if (!holdout.empty()) {
-        std::vector<Vec6<double>> w;
-        for (const Experiment& e : holdout) {
-          st = WeightedResiduals(model, s->fit.values, e, step, &w);
-          if (!st.ok()) break;
-          sums[i].Add(e, w);
-        }
-      } else if (folds > 0) {
+      // Whiteness is tested where the chi-square of `at_noise` is: on the
+      // hold-out logs, else on the full fit's training residual.
+      const std::vector<Experiment>& tested =
+          holdout.empty() ? training : holdout;
+      std::vector<std::vector<Vec6<double>>> w(tested.size());
+      for (size_t l = 0; l < tested.size() && st.ok(); ++l) {
+        st = WeightedResiduals(model, s->fit.values, tested[l], step, &w[l]);
+        if (st.ok() && !holdout.empty()) sums[i].Add(tested[l], w[l]);
+      }
+      if (st.ok()) {
+        s->ljung_box_p = WhitenessP(tested, w, options.ljung_box_lags);
+      }
+      if (holdout.empty()) {
         for (int l = 0; l < folds && st.ok(); ++l) {
           st = fold_status[i * folds + l];
           if (st.ok()) sums[i].Add(training[l], fold_residuals[i * folds + l]);
@@ -739,12 +749,15 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   // fitted to fewer logs extrapolates with a larger parameter uncertainty,
   // so there (and with one log) the full fit's training chi-square is
   // tested instead.
+  // Nothing but noise also means white: a model that mimics an effect it
+  // does not contain (a geometry error fitted as a sensor scale) can bring
+  // the chi-square down to the noise and still leave a correlated residual.
   auto at_noise = [&](const CandidateScore& s) {
     const double p =
         holdout.empty() ? ChiSquareUpperTail(s.train_chi2, m - s.num_parameters)
                         : ChiSquareUpperTail(s.score * n_scored,
                                              static_cast<double>(n_scored));
-    return p >= options.significance;
+    return p >= options.significance && s.ljung_box_p >= options.significance;
   };
   std::vector<CandidateScore> pairs;
   const CandidateScore* chosen = nullptr;

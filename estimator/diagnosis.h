@@ -125,6 +125,9 @@ struct CandidateScore {
   double score = 0;
   Vec6<double> heldout_rms = Vec6<double>::Zero();
   double gap_closed = 0;
+  // Whiteness of the residual on the scored data (the hold-out logs, else
+  // the training logs): the smallest Ljung-Box p-value, Bonferroni-corrected.
+  double ljung_box_p = 1;
   bool scored = false;
   bool heldout = false;
   bool ok = true;  // false: the fit failed (error says why)

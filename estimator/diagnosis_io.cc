@@ -62,6 +62,7 @@ Json CandidateJson(const CandidateScore& s) {
   out["score"] = s.scored ? Number(s.score) : Json(nullptr);
   out["heldout_rms"] = s.heldout ? PerChannel(s.heldout_rms) : Json(nullptr);
   out["gap_closed"] = s.scored ? Number(s.gap_closed) : Json(nullptr);
+  out["ljung_box_p"] = s.scored ? Number(s.ljung_box_p) : Json(nullptr);
   out["iterations"] = s.fit.result.iterations;
   out["converged"] = s.fit.result.converged;
   out["seconds"] = s.fit.result.seconds;

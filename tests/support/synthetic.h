@@ -47,7 +47,10 @@ inline RunLog SyntheticLog(const KcrigConfig& config,
   MeasurementNoise noise(config.experiment.sigma_position,
                          config.experiment.sigma_angle, spec.seed);
   for (const TrajectorySample<double>& s : samples) {
-    LogSample sample{s.t, s.force, s.y, Vec3<double>::Zero()};
+    LogSample sample;
+    sample.t = s.t;
+    sample.force = s.force;
+    sample.y = s.y;
     if (spec.noise) noise.Apply(&sample.y);
     log.samples.push_back(sample);
   }
