@@ -10,6 +10,7 @@
 #include "apps/diagnose_command.h"
 #include "apps/emulate_command.h"
 #include "apps/estimate_command.h"
+#include "apps/report_command.h"
 #include "apps/run_command.h"
 #include "apps/screen_command.h"
 #include "apps/simulate_command.h"
@@ -31,6 +32,7 @@ int main(int argc, char** argv) {
   kcrig::AddRunCommand(&app, &run);
   kcrig::AddTimingCheckCommand(&app, &run);
   kcrig::AddCanLogCommand(&app, &run);
+  kcrig::AddReportCommand(&app, &run);
   // CLI11 would call an unknown subcommand an "extra argument"; say it plainly.
   const auto is_subcommand = [&app](const std::string& name) {
     for (const CLI::App* sub : app.get_subcommands({})) {

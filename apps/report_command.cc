@@ -1,0 +1,70 @@
+#include "apps/report_command.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "apps/progress.h"
+#include "io_drivers/config_loader.h"
+#include "report/report.h"
+
+namespace kcrig {
+namespace {
+
+struct ReportArgs {
+  std::string config_dir;
+  std::string from;
+  std::string out;
+  bool quiet = false;
+};
+
+int RunReport(const ReportArgs& args) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "kcrig report: %s\n", status.message().c_str());
+    return 1;
+  };
+  KcrigConfig config;
+  Status status = LoadConfig(args.config_dir, &config);
+  if (!status.ok()) return fail(status);
+  const std::string out =
+      args.out.empty()
+          ? (std::filesystem::path(args.from) / "report.html").string()
+          : args.out;
+  ReportOptions options;
+  ReportSummary summary;
+  {
+    ProgressLine line(args.quiet);
+    options.on_progress = [&line](const std::string& text) {
+      line.Show("kcrig report: " + text);
+    };
+    status = WriteReport(config, args.from, out, options, &summary);
+    line.Clear();
+  }
+  if (!status.ok()) return fail(status);
+  std::printf("kcrig report: %d figures (%d experiments%s%s%s), wrote %s\n",
+              summary.figures, summary.experiments,
+              summary.campaign ? ", campaign" : "",
+              summary.diagnosis ? ", diagnosis" : "",
+              summary.timing ? ", timing" : "", out.c_str());
+  return 0;
+}
+
+}  // namespace
+
+void AddReportCommand(CLI::App* app, std::function<int()>* run) {
+  auto args = std::make_shared<ReportArgs>();
+  CLI::App* cmd = app->add_subcommand(
+      "report",
+      "Self-contained HTML report with plots of a campaign folder (and any "
+      "diag.json, timing.json in it)");
+  cmd->add_option("--config", args->config_dir,
+                  "Config directory (default: installed or source config/)");
+  cmd->add_option("--from", args->from, "Campaign output folder")->required();
+  cmd->add_option("--out", args->out,
+                  "report.html to write (default: FROM/report.html)");
+  cmd->add_flag("--quiet", args->quiet, "No progress line");
+  cmd->callback([args, run] { *run = [args] { return RunReport(*args); }; });
+}
+
+}  // namespace kcrig

@@ -1,0 +1,64 @@
+// The HTML report: one self-contained page (plotly.js and the data inlined,
+// no network needed to view it) with the figures a rig engineer looks at
+// after a campaign, a diagnosis or a timing check:
+//   - measured vs model time histories with the residual, per experiment;
+//   - log10 diag((J^T J)^-1) per parameter before and after the designed
+//     experiments (the paper's Figs. 4 and 6) and the estimates with their
+//     95 % intervals per campaign iteration;
+//   - the D and A criterion surfaces over (phi, z_a) with the optimizer's
+//     evaluated points and path (Fig. 5), and the kriging surrogate as its
+//     samples were refined (Fig. 2);
+//   - diagnosis: residual energy by channel x load regime, the candidate
+//     ranking, and held-out data against the nominal and attributed models;
+//   - timing: wake-up latency and compute-time histograms with the budget,
+//     overruns.
+// Units as engineers read them: mm, deg, kN, N/mm, us.
+#ifndef KCRIG_REPORT_REPORT_H_
+#define KCRIG_REPORT_REPORT_H_
+
+#include <functional>
+#include <string>
+
+#include "io_drivers/config_loader.h"
+#include "rt_core/status.h"
+
+namespace kcrig {
+
+struct ReportOptions {
+  // Grid of the criterion surfaces: points along phi and along z_a over the
+  // config's design bounds. 19 x 11 is the paper's 5 deg x 0.05 m spacing;
+  // each point costs one trajectory with sensitivities (both criteria come
+  // from the same information matrix).
+  int surface_phi_points = 19;
+  int surface_z_points = 11;
+  // At most this many samples per plotted time history (evenly decimated):
+  // a 4 s log at 1 kHz reads as well at 1000 points and keeps the page
+  // small.
+  int max_plot_samples = 1000;
+  // Threads for the surface evaluations.
+  int num_threads = 2;
+  // The plotly.js bundle inlined into the page (Debian: python3-plotly).
+  std::string plotly_js = KCRIG_PLOTLY_JS;
+  // Stage messages for a progress line (may be empty).
+  std::function<void(const std::string&)> on_progress;
+};
+
+// What the report found in the folder (for the caller's summary line).
+struct ReportSummary {
+  int figures = 0;
+  int experiments = 0;
+  bool campaign = false, diagnosis = false, timing = false;
+};
+
+// Reads a campaign output folder `from_dir` (campaign.json and its
+// iteration_*/ folders; a diag.json and timing.json there or in an
+// iteration folder are picked up too) and writes the report to
+// `html_path` atomically. Errors name the file and field; nothing is
+// written then. A folder with none of these files is an error.
+Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
+                   const std::string& html_path, const ReportOptions& options,
+                   ReportSummary* summary);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_REPORT_REPORT_H_

@@ -1,0 +1,350 @@
+// Builds the report's figures from the inlined data with plotly.js, then
+// records in #kcrig-status how many figures were created and how many
+// rendered (an SVG with drawn traces), and the errors seen.
+(function () {
+  'use strict';
+  var data = JSON.parse(document.getElementById('kcrig-data').textContent);
+  var content = document.getElementById('content');
+  var nav = document.getElementById('nav');
+  var pending = [];
+  var created = 0;
+  var config = {responsive: true, displaylogo: false};
+  var palette = ['#1f77b4', '#d62728', '#2ca02c', '#ff7f0e', '#9467bd',
+                 '#8c564b', '#e377c2', '#7f7f7f'];
+
+  function el(tag, attrs, text) {
+    var e = document.createElement(tag);
+    for (var k in attrs || {}) e.setAttribute(k, attrs[k]);
+    if (text !== undefined) e.textContent = text;
+    return e;
+  }
+  function section(id, title) {
+    var s = el('section', {id: id});
+    s.appendChild(el('h2', {}, title));
+    content.appendChild(s);
+    var a = el('a', {href: '#' + id}, title);
+    nav.appendChild(a);
+    return s;
+  }
+  function note(parent, text) { parent.appendChild(el('p', {class: 'note'}, text)); }
+  function figure(parent, traces, layout, height) {
+    var div = el('div', {class: 'figure'});
+    div.style.height = (height || 420) + 'px';
+    parent.appendChild(div);
+    created += 1;
+    layout.margin = layout.margin || {l: 70, r: 30, t: 50, b: 50};
+    layout.font = {family: 'DejaVu Sans, Arial, sans-serif', size: 12};
+    pending.push(Plotly.newPlot(div, traces, layout, config).then(function () {
+      return div;
+    }));
+    return div;
+  }
+  function fmt(v, digits) {
+    return (v === null || v === undefined) ? 'n/a' : Number(v).toPrecision(digits || 3);
+  }
+  // Axis names of subplot n (1-based) in plotly's convention.
+  function ax(n) { return n === 1 ? '' : String(n); }
+
+  var meta = document.getElementById('meta');
+  meta.textContent = 'from ' + data.from + ' \u2014 generated ' + data.generated;
+
+  // Measured vs model and residual, six channels, for one log.
+  function histories(parent, h, title, extra) {
+    var traces = [];
+    var layout = {title: {text: title, x: 0, xanchor: 'left', y: 0.99},
+                  showlegend: true, height: 1100,
+                  margin: {l: 70, r: 30, t: 90, b: 50},
+                  grid: {rows: 6, columns: 2, pattern: 'independent',
+                         roworder: 'top to bottom'},
+                  legend: {orientation: 'h', x: 1, xanchor: 'right', y: 1.05}};
+    h.channels.forEach(function (c, k) {
+      var left = 2 * k + 1, right = 2 * k + 2;
+      var first = k === 0;
+      traces.push({x: h.t, y: c.measured, name: 'measured', legendgroup: 'm',
+                   showlegend: first, line: {color: '#444', width: 1},
+                   xaxis: 'x' + ax(left), yaxis: 'y' + ax(left)});
+      traces.push({x: h.t, y: c.model, name: extra ? 'nominal model' : 'model',
+                   legendgroup: 'p', showlegend: first,
+                   line: {color: palette[0], width: 1.5},
+                   xaxis: 'x' + ax(left), yaxis: 'y' + ax(left)});
+      if (extra) {
+        traces.push({x: h.t, y: c.attributed, name: 'with ' + extra,
+                     legendgroup: 'a', showlegend: first,
+                     line: {color: palette[1], width: 1.5, dash: 'dash'},
+                     xaxis: 'x' + ax(left), yaxis: 'y' + ax(left)});
+      }
+      traces.push({x: h.t, y: c.residual,
+                   name: extra ? 'residual, nominal' : 'residual',
+                   legendgroup: 'r', showlegend: first,
+                   line: {color: palette[0], width: 1},
+                   xaxis: 'x' + ax(right), yaxis: 'y' + ax(right)});
+      if (extra) {
+        traces.push({x: h.t, y: c.attributed_residual,
+                     name: 'residual, with ' + extra, legendgroup: 'ar',
+                     showlegend: first, line: {color: palette[1], width: 1},
+                     xaxis: 'x' + ax(right), yaxis: 'y' + ax(right)});
+      }
+      // +-2 sigma of the sensor: what a residual of pure noise stays within.
+      var t0 = h.t[0], t1 = h.t[h.t.length - 1];
+      traces.push({x: [t0, t1, null, t0, t1],
+                   y: [2 * c.sigma, 2 * c.sigma, null, -2 * c.sigma, -2 * c.sigma],
+                   name: '\u00b12\u03c3 sensor noise', legendgroup: 's',
+                   showlegend: first, mode: 'lines',
+                   line: {color: '#2ca02c', width: 1, dash: 'dot'},
+                   xaxis: 'x' + ax(right), yaxis: 'y' + ax(right)});
+      layout['yaxis' + ax(left)] = {title: {text: c.name + ' [' + c.unit + ']'}};
+      layout['yaxis' + ax(right)] = {
+        title: {text: 'residual [' + c.unit + ']'}};
+      if (k === 5) {
+        layout['xaxis' + ax(left)] = {title: {text: 't [s]'}};
+        layout['xaxis' + ax(right)] = {title: {text: 't [s]'}};
+      }
+    });
+    figure(parent, traces, layout, 1100);
+    var rms = h.channels.map(function (c) {
+      var after = extra ? ' \u2192 ' + fmt(c.attributed_rms, 3) : '';
+      return c.name + ' ' + fmt(c.rms, 3) + after + ' ' + c.unit;
+    });
+    note(parent, 'residual RMS: ' + rms.join(', '));
+  }
+
+  if (data.experiments) {
+    var s = section('experiments', 'Experiments: measured vs model');
+    note(s, 'Each experiment against the ' + data.model_label +
+         '; residual = measured \u2212 model, with the sensor\u2019s \u00b12\u03c3.');
+    data.experiments.forEach(function (h) {
+      s.appendChild(el('h3', {}, h.name + ' \u2014 phi ' + fmt(h.phi_deg, 3) +
+                               ' deg, z_a ' + fmt(h.z_a, 3) + ' m'));
+      histories(s, h, h.name);
+    });
+  }
+
+  if (data.estimates) {
+    var e = data.estimates;
+    var s2 = section('sensitivity', 'Sensitivities and estimates');
+    note(s2, 'log10 diag((J\u1d40J)\u207b\u00b9) per parameter (the paper\u2019s ' +
+         'Figs. 4 and 6): lower is better determined. The first iteration is ' +
+         'the initial experiment, the later ones add the optimal designs (' +
+         (data.criterion || '') + ' criterion).');
+    var bars = e.iterations.map(function (label, i) {
+      return {type: 'bar', name: i === 0 ? label + ', before design' :
+                                          (i === e.iterations.length - 1 ?
+                                           label + ', after design' : label),
+              x: e.parameters, y: e.log10_diag_inv_jtj[i],
+              marker: {color: palette[i % palette.length]}};
+    });
+    figure(s2, bars, {title: {text: 'Sensitivity: log10 diag((J\u1d40J)\u207b\u00b9)'},
+                      barmode: 'group',
+                      yaxis: {title: {text: 'log10 diag((J\u1d40J)\u207b\u00b9)'}},
+                      legend: {orientation: 'h', y: -0.15}});
+    var traces = [];
+    var layout = {title: {text: 'Estimates with 95 % intervals per iteration [' +
+                                e.unit + ']'},
+                  showlegend: false,
+                  grid: {rows: 1, columns: e.parameters.length,
+                         pattern: 'independent'}};
+    e.parameters.forEach(function (name, p) {
+      var x = [], y = [], up = [], down = [];
+      e.iterations.forEach(function (label, i) {
+        x.push(i);
+        y.push(e.value[i][p]);
+        var lo = e.ci95_low[i][p], hi = e.ci95_high[i][p];
+        up.push(hi === null ? 0 : hi - e.value[i][p]);
+        down.push(lo === null ? 0 : e.value[i][p] - lo);
+      });
+      traces.push({x: x, y: y, mode: 'markers+lines', name: name,
+                   error_y: {type: 'data', symmetric: false, array: up,
+                             arrayminus: down},
+                   xaxis: 'x' + ax(p + 1), yaxis: 'y' + ax(p + 1),
+                   marker: {color: palette[p % palette.length]}});
+      layout['xaxis' + ax(p + 1)] = {title: {text: name + ', iteration'},
+                                     dtick: 1};
+      layout['yaxis' + ax(p + 1)] = {tickformat: '.5r'};
+    });
+    figure(s2, traces, layout, 380);
+  }
+
+  if (data.surfaces) {
+    var s3 = section('surfaces', 'Criterion surfaces over (phi, z_a)');
+    note(s3, 'D and A criteria of the next experiment at the first estimate, ' +
+         'with the first experiment as prior (the paper\u2019s Fig. 5); ' +
+         'smaller is better. Markers: the optimizer\u2019s evaluated designs; ' +
+         'line: its path; star: its optimum.');
+    data.surfaces.forEach(function (surface) {
+      var traces = [{type: 'contour', x: surface.phi_deg, y: surface.z_a,
+                     z: surface.values, colorscale: 'Viridis', ncontours: 25,
+                     colorbar: {title: {text: surface.criterion}},
+                     name: surface.criterion}];
+      surface.runs.forEach(function (run, i) {
+        traces.push({type: 'scatter', mode: 'markers', name: run.optimizer +
+                     ' evaluated',
+                     x: run.evaluated.map(function (r) { return r[0]; }),
+                     y: run.evaluated.map(function (r) { return r[1]; }),
+                     marker: {color: '#fff', size: 6,
+                              line: {color: palette[i + 1], width: 1.5}}});
+        traces.push({type: 'scatter', mode: 'lines+markers', name: run.optimizer +
+                     ' path',
+                     x: run.path.map(function (r) { return r[0]; }),
+                     y: run.path.map(function (r) { return r[1]; }),
+                     line: {color: palette[i + 1], width: 2}});
+        var last = run.path[run.path.length - 1];
+        if (last) {
+          traces.push({type: 'scatter', mode: 'markers', name: run.optimizer +
+                       ' optimum', x: [last[0]], y: [last[1]],
+                       marker: {symbol: 'star', size: 16, color: palette[i + 1],
+                                line: {color: '#000', width: 1}}});
+        }
+      });
+      figure(s3, traces, {title: {text: surface.criterion + ' criterion'},
+                           xaxis: {title: {text: 'phi [deg]'}},
+                           yaxis: {title: {text: 'z_a [m]'}},
+                           legend: {orientation: 'h', y: -0.2}}, 480);
+    });
+  }
+
+  if (data.kriging) {
+    var k = data.kriging;
+    var s4 = section('kriging', 'Kriging surrogate refinement');
+    note(s4, 'The ' + k.criterion + ' criterion\u2019s kriging surrogate (' +
+         k.iteration + ') refitted to the samples it had after each stage ' +
+         '(the paper\u2019s Fig. 2); dots: the samples.');
+    var traces = [], layout = {grid: {rows: 1, columns: k.panels.length,
+                                      pattern: 'independent'},
+                               showlegend: false,
+                               title: {text: 'Surrogate of the ' + k.criterion +
+                                             ' criterion as it was refined'}};
+    k.panels.forEach(function (panel, i) {
+      var n = i + 1;
+      traces.push({type: 'contour', x: panel.phi_deg, y: panel.z_a,
+                   z: panel.values, colorscale: 'Viridis', ncontours: 20,
+                   showscale: i === k.panels.length - 1,
+                   xaxis: 'x' + ax(n), yaxis: 'y' + ax(n)});
+      traces.push({type: 'scatter', mode: 'markers',
+                   x: panel.points.map(function (p) { return p[0]; }),
+                   y: panel.points.map(function (p) { return p[1]; }),
+                   marker: {color: '#fff', size: 6,
+                            line: {color: '#000', width: 1}},
+                   xaxis: 'x' + ax(n), yaxis: 'y' + ax(n)});
+      layout['xaxis' + ax(n)] = {title: {text: 'phi [deg] \u2014 ' + panel.label}};
+      layout['yaxis' + ax(n)] = {title: {text: n === 1 ? 'z_a [m]' : ''}};
+    });
+    figure(s4, traces, layout, 420);
+  }
+
+  if (data.diagnoses && data.diagnoses.length) {
+    var s5 = section('diagnosis', 'Sim-to-real gap diagnosis');
+    data.diagnoses.forEach(function (d) {
+      s5.appendChild(el('h3', {}, d.file));
+      s5.appendChild(el('div', {class: 'verdict'}, 'verdict: ' + d.verdict +
+                        (d.confidence ? ' (confidence ' + d.confidence + ')' : '') +
+                        ' \u2014 ' + d.reason));
+      var text = d.energy.map(function (row) {
+        return row.map(function (v) { return v === null ? '' : fmt(v, 3); });
+      });
+      figure(s5, [{type: 'heatmap', x: d.channels, y: d.regimes, z: d.energy,
+                   text: text, texttemplate: '%{text}', colorscale: 'YlOrRd',
+                   reversescale: true,
+                   zmin: 1, colorbar: {title: {text: 'score'}}}],
+             {title: {text: 'Residual energy by channel \u00d7 load regime ' +
+                            '(mean (r/\u03c3)\u00b2; 1 = noise)'},
+              yaxis: {autorange: 'reversed'}}, 420);
+      if (d.ranking.length) {
+        var models = d.ranking.map(function (c) { return c.model; });
+        var scores = d.ranking.map(function (c) { return c.score; });
+        var closed = d.ranking.map(function (c) {
+          return c.gap_closed === null ? '' :
+                 Math.round(100 * c.gap_closed) + ' % closed';
+        });
+        models.push('nominal');
+        scores.push(d.nominal_score);
+        closed.push('');
+        figure(s5, [{type: 'bar', orientation: 'h', y: models, x: scores,
+                     text: closed, textposition: 'auto',
+                     marker: {color: models.map(function (m) {
+                       return m === d.verdict ? palette[1] :
+                              (m === 'nominal' ? '#999' : palette[0]);
+                     })}}],
+               {title: {text: 'Candidates ranked by their ' + d.scoring +
+                              ' score (1 = noise floor)'},
+                xaxis: {type: 'log', title: {text: 'score'}},
+                yaxis: {autorange: 'reversed', automargin: true},
+                shapes: [{type: 'line', x0: 1, x1: 1, yref: 'paper', y0: 0,
+                          y1: 1, line: {color: '#2ca02c', dash: 'dot'}}]},
+               Math.max(300, 40 * models.length + 120));
+      }
+      if (d.overlay) {
+        histories(s5, d.overlay, 'On the ' + d.overlay_on + ' ' + d.overlay.log +
+                  ': nominal vs with ' + d.overlay.attributed_model,
+                  d.overlay.attributed_model);
+      } else {
+        note(s5, 'No before/after overlay: no candidate was fitted.');
+      }
+    });
+  }
+
+  if (data.timings && data.timings.length) {
+    var s6 = section('timing', 'Loop timing');
+    data.timings.forEach(function (t) {
+      var phases = ['wakeup', 'compute', 'cycle'].filter(function (p) {
+        return t.histograms[p];
+      });
+      var traces = [], shapes = [];
+      var layout = {grid: {rows: 1, columns: phases.length,
+                           pattern: 'independent'},
+                    showlegend: false,
+                    title: {text: t.source + ': period ' + fmt(t.period_us, 4) +
+                                  ' \u00b5s, ' + t.cycles + ' cycles, ' +
+                                  t.overruns + ' overruns, ' + t.skipped_cycles +
+                                  ' skipped; budget ' +
+                                  (t.within_budget === null ? 'not checked' :
+                                   (t.within_budget ? 'met' : 'VIOLATED'))}};
+      phases.forEach(function (p, i) {
+        var n = i + 1, h = t.histograms[p];
+        traces.push({type: 'bar', x: h.us, y: h.count, name: p,
+                     marker: {color: palette[i]},
+                     xaxis: 'x' + ax(n), yaxis: 'y' + ax(n)});
+        layout['xaxis' + ax(n)] = {type: 'log', title: {text: p + ' [\u00b5s] (p99 ' +
+                                                 fmt(h.p99_us, 3) + ', max ' +
+                                                 fmt(h.max_us, 3) + ')'}};
+        layout['yaxis' + ax(n)] = {type: 'log', title: {text: n === 1 ? 'cycles' : ''}};
+        if (t.budget_us[p] !== undefined) {
+          shapes.push({type: 'line', xref: 'x' + ax(n), yref: 'paper',
+                       x0: t.budget_us[p], x1: t.budget_us[p], y0: 0, y1: 1,
+                       line: {color: '#d62728', width: 2, dash: 'dash'}});
+          var low = Math.max(0.1, 0.8 * (h.us[0] || 1));
+          layout['xaxis' + ax(n)].range = [
+              Math.log10(low),
+              Math.log10(1.25 * Math.max(t.budget_us[p], h.max_us || 0))];
+        }
+      });
+      layout.shapes = shapes;
+      figure(s6, traces, layout, 380);
+      note(s6, 'Dashed red: the budget (wake-up p99, compute and cycle ' +
+           'p99.9 as fractions of the period, from rig.yaml).' +
+           (t.violations.length ? ' Violations: ' + t.violations.join('; ') : ''));
+    });
+  }
+
+  // A figure rendered when plotly drew its SVG and at least one trace.
+  var status = document.getElementById('kcrig-status');
+  Promise.all(pending).then(function (divs) {
+    var rendered = divs.filter(function (div) {
+      var svg = div.querySelector('svg.main-svg');
+      var drawn = div.querySelectorAll(
+          '.trace, .heatmaplayer image, .contourlayer path, .barlayer path');
+      return svg !== null && drawn.length > 0 &&
+             div.getBoundingClientRect().height > 0;
+    }).length;
+    status.setAttribute('data-state', 'done');
+    status.setAttribute('data-figures', String(created));
+    status.setAttribute('data-rendered', String(rendered));
+    status.setAttribute('data-expected', String(data.expected_figures));
+    status.setAttribute('data-errors', JSON.stringify(window.kcrigErrors));
+    status.textContent = 'kcrig-status figures=' + created + ' rendered=' +
+                         rendered + ' errors=' + window.kcrigErrors.length;
+  }, function (error) {
+    window.kcrigErrors.push(String(error));
+    status.setAttribute('data-state', 'failed');
+    status.setAttribute('data-errors', JSON.stringify(window.kcrigErrors));
+  });
+})();
