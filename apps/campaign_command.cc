@@ -18,6 +18,7 @@
 #include "io_drivers/config_loader.h"
 #include "io_drivers/rig_session.h"
 #include "io_drivers/run_log.h"
+#include "report/report.h"
 
 namespace kcrig {
 namespace {
@@ -34,6 +35,7 @@ struct CampaignArgs {
   double target_percent = 0;
   std::optional<std::uint64_t> seed;
   bool quiet = false;
+  bool no_report = false;
   std::string out = "out/campaign";
 };
 
@@ -194,8 +196,28 @@ int RunCampaignCommand(const CampaignArgs& args) {
     std::printf(
         "%s  wrote %s (and iteration_*/run.csv, est.json, design.json)\n",
         FinalTable(iterations).c_str(), summary.c_str());
+    std::fflush(stdout);
   }
   if (!status.ok()) return fail(status);
+  if (!args.no_report) {
+    const std::string html =
+        (std::filesystem::path(args.out) / "report.html").string();
+    ReportOptions report_options;
+    report_options.on_progress = [&](const std::string& text) {
+      progress.Show("report: " + text);
+    };
+    ReportSummary report;
+    status = WriteReport(config, args.out, html, report_options, &report);
+    progress.Clear();
+    if (!status.ok()) {
+      return fail(
+          Status::Error("the campaign is written, the report is "
+                        "not: " +
+                        status.message()));
+    }
+    std::printf("  report with %d figures: %s (open it in a browser)\n",
+                report.figures, html.c_str());
+  }
   return 0;
 }
 
@@ -232,6 +254,8 @@ void AddCampaignCommand(CLI::App* app, std::function<int()>* run) {
       "--seed", [args](const std::uint64_t& s) { args->seed = s; },
       "Sensor-noise seed of the embedded rig (default: plant.yaml)");
   cmd->add_flag("--quiet", args->quiet, "No progress line");
+  cmd->add_flag("--no-report", args->no_report,
+                "Do not write OUT/report.html at the end");
   cmd->add_option("--out", args->out, "Output folder")->capture_default_str();
   cmd->callback(
       [args, run] { *run = [args] { return RunCampaignCommand(*args); }; });

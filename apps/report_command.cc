@@ -16,6 +16,7 @@ struct ReportArgs {
   std::string config_dir;
   std::string from;
   std::string out;
+  std::string grid = "19x11";
   bool quiet = false;
 };
 
@@ -32,6 +33,16 @@ int RunReport(const ReportArgs& args) {
           ? (std::filesystem::path(args.from) / "report.html").string()
           : args.out;
   ReportOptions options;
+  char x = 0, rest = 0;
+  if (std::sscanf(args.grid.c_str(), "%d%c%d%c", &options.surface_phi_points,
+                  &x, &options.surface_z_points, &rest) != 3 ||
+      x != 'x' || options.surface_phi_points < 2 ||
+      options.surface_z_points < 2 || options.surface_phi_points > 200 ||
+      options.surface_z_points > 200) {
+    return fail(Status::Error("--grid " + args.grid +
+                              ": expected PHIxZ, 2..200 points each (e.g. "
+                              "19x11)"));
+  }
   ReportSummary summary;
   {
     ProgressLine line(args.quiet);
@@ -63,6 +74,9 @@ void AddReportCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--from", args->from, "Campaign output folder")->required();
   cmd->add_option("--out", args->out,
                   "report.html to write (default: FROM/report.html)");
+  cmd->add_option("--grid", args->grid,
+                  "Criterion surface grid, points along phi x z_a")
+      ->capture_default_str();
   cmd->add_flag("--quiet", args->quiet, "No progress line");
   cmd->callback([args, run] { *run = [args] { return RunReport(*args); }; });
 }

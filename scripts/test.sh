@@ -28,7 +28,7 @@ for preset in release asan; do
   if ((full)); then
     ctest --preset "$preset"
   elif [[ "$preset" == asan ]]; then
-    ctest --preset "$preset" -L ci -LE 'statistical|heavy|realtime|vcan'
+    ctest --preset "$preset" -L ci -LE 'statistical|heavy|realtime|vcan|browser'
   else
     ctest --preset "$preset" -L ci
   fi

@@ -84,7 +84,8 @@ TEST_F(DesignCampaignCliTest, KrigingWithALinearTrendAndNoExpectedImprovement) {
 
 TEST_F(DesignCampaignCliTest, CampaignWritesEveryIterationAndNarrowsIntervals) {
   const CliResult r = RunKcrig(
-      "campaign --iterations 1 --budget 20 --quiet --out " + Path("campaign"));
+      "campaign --iterations 1 --budget 20 --quiet --no-report --out " +
+      Path("campaign"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("campaign summary"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("next experiment"), std::string::npos) << r.output;

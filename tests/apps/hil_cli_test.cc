@@ -169,6 +169,9 @@ TEST_F(HilCliTest, CampaignRunsItsExperimentsOnTheEmulatedRig) {
               "modbus-tcp://127.0.0.1:" + std::to_string(port));
     EXPECT_TRUE(std::filesystem::exists(dir + "/timing.json")) << run;
   }
+  // The report shows the rig runs' loop timing beside the campaign.
+  EXPECT_TRUE(std::filesystem::exists(Path("campaign/report.html")));
+  EXPECT_NE(r.output.find("report with"), std::string::npos) << r.output;
   // The second experiment is the designed one.
   const nlohmann::json first = ReadJson(Path("campaign/iteration_0/run.json"));
   const nlohmann::json second = ReadJson(Path("campaign/iteration_1/run.json"));

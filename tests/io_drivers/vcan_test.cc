@@ -453,7 +453,7 @@ TEST_F(VcanTest, CampaignRunsItsExperimentsOverCan) {
   StartEmulator();
   const CliResult r = RunKcrig("campaign --config " + config_ +
                                " --rig can:vcan0 --iterations 1 --budget 12 "
-                               "--quiet --out " +
+                               "--quiet --no-report --out " +
                                Path("campaign"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   for (const char* file :

@@ -1,0 +1,116 @@
+// The report in a real browser: a campaign (which writes its report), a
+// timing check and a diagnosis in one folder, `kcrig report` over it, and
+// headless Chromium opening the page. The page records how many figures it
+// created, how many plotly rendered (an SVG with drawn traces) and every
+// error (uncaught or console.error); the test reads that from the DOM and
+// keeps a screenshot in the build tree (report_screenshot.png).
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <string>
+
+#include "gtest/gtest.h"
+#include "tests/support/cli_runner.h"
+#include "tests/support/temp_dir_test.h"
+
+namespace kcrig {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Width and height from a PNG's IHDR chunk (0 when not a PNG).
+std::pair<std::uint32_t, std::uint32_t> PngSize(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char header[24] = {};
+  in.read(reinterpret_cast<char*>(header), sizeof(header));
+  if (!in || header[1] != 'P' || header[2] != 'N' || header[3] != 'G') {
+    return {0, 0};
+  }
+  auto be32 = [&](int at) {
+    return static_cast<std::uint32_t>(header[at]) << 24 |
+           static_cast<std::uint32_t>(header[at + 1]) << 16 |
+           static_cast<std::uint32_t>(header[at + 2]) << 8 | header[at + 3];
+  };
+  return {be32(16), be32(20)};
+}
+
+std::string Attribute(const std::string& dom, const std::string& name) {
+  const std::regex pattern(name + "=\"([^\"]*)\"");
+  std::smatch match;
+  std::regex_search(dom, match, pattern);
+  return match.size() > 1 ? match[1].str() : "";
+}
+
+class ReportBrowserTest : public TempDirTest {};
+
+TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
+  const std::string dir = Path("campaign");
+  CliResult r =
+      RunKcrig("campaign --iterations 1 --budget 12 --quiet --out " + dir);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("report with 7 figures: " + dir + "/report.html"),
+            std::string::npos)
+      << r.output;
+  ASSERT_TRUE(fs::exists(dir + "/report.html"));
+
+  // The loop's timing on this machine; exit 4 is "over budget", which a
+  // shared machine may be, and the report shows then.
+  r = RunKcrig("timing-check --duration 1 --baseline 0.5 --quiet --out " + dir +
+               "/timing.json");
+  ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 4) << r.output;
+  for (const auto& [name, args] :
+       {std::pair<std::string, std::string>{"a", "--phi 85 --z -0.45"},
+        {"b", "--phi 10 --z -0.1"},
+        {"h", "--phi 45 --z -0.3"}}) {
+    r = RunKcrig("simulate --noise --seed 5 " + args +
+                 " --effect hysteresis --duration 1.5 --hold 0.3 --return 1 "
+                 "--out " +
+                 dir + "/" + name + ".csv");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  r = RunKcrig("diagnose --quiet --log " + dir + "/a.csv --log " + dir +
+               "/b.csv --holdout " + dir + "/h.csv --out " + dir +
+               "/diag.json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+
+  r = RunKcrig("report --from " + dir + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // 7 campaign figures, 3 of the diagnosis, 1 of the timing.
+  ASSERT_NE(r.output.find("11 figures"), std::string::npos) << r.output;
+
+  const std::string screenshot =
+      std::string(KCRIG_TEST_ARTIFACT_DIR) + "/report_screenshot.png";
+  fs::remove(screenshot);
+  const std::string dom_file = Path("dom.html");
+  // --virtual-time-budget lets the page's scripts run to completion
+  // before the DOM is dumped and the screenshot taken.
+  r = RunCommand(
+      "chromium --headless=new --no-sandbox --disable-gpu "
+      "--disable-dev-shm-usage --hide-scrollbars --no-first-run "
+      "--virtual-time-budget=60000 --window-size=1400,10000 "
+      "--screenshot=" +
+      screenshot + " --dump-dom file://" + dir + "/report.html > " + dom_file);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dom_file);
+  const std::string dom((std::istreambuf_iterator<char>(in)),
+                        std::istreambuf_iterator<char>());
+  ASSERT_NE(dom.find("id=\"kcrig-status\""), std::string::npos)
+      << dom.substr(0, 2000);
+  EXPECT_EQ(Attribute(dom, "data-state"), "done");
+  EXPECT_EQ(Attribute(dom, "data-expected"), "11");
+  EXPECT_EQ(Attribute(dom, "data-figures"), "11");
+  EXPECT_EQ(Attribute(dom, "data-rendered"), "11");
+  EXPECT_EQ(Attribute(dom, "data-errors"), "[]");
+  // Chromium's own log of the page's console (beside the page's record).
+  EXPECT_EQ(r.output.find("Uncaught"), std::string::npos) << r.output;
+
+  const auto [width, height] = PngSize(screenshot);
+  EXPECT_EQ(width, 1400u);
+  EXPECT_EQ(height, 10000u);
+  // A blank page of that size compresses to a few kB; the figures do not.
+  EXPECT_GT(fs::file_size(screenshot), 500u * 1024u);
+}
+
+}  // namespace
+}  // namespace kcrig

@@ -1,0 +1,255 @@
+// `kcrig report` through the real CLI: the data the page is built from (read
+// back out of the written HTML) and the errors on bad folders. That every
+// figure renders in a browser is report_browser_test's job.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "gtest/gtest.h"
+#include "nlohmann/json.hpp"
+#include "tests/support/cli_runner.h"
+#include "tests/support/temp_dir_test.h"
+
+namespace kcrig {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The JSON the page draws from, as inlined in the HTML.
+Json PageData(const std::string& html) {
+  const std::string open =
+      "<script type=\"application/json\" id=\"kcrig-data\">";
+  const size_t begin = html.find(open);
+  EXPECT_NE(begin, std::string::npos);
+  const size_t end = html.find("</script>", begin);
+  std::string json =
+      html.substr(begin + open.size(), end - begin - open.size());
+  return Json::parse(json);
+}
+
+// One small campaign shared by the tests (a second each in Release).
+class ReportCliTest : public TempDirTest {
+ protected:
+  static void SetUpTestSuite() {
+    campaign_ = new std::string(
+        (fs::temp_directory_path() / "kcrig_report_cli_campaign").string());
+    fs::remove_all(*campaign_);
+    const CliResult r = RunKcrig(
+        "campaign --iterations 1 --budget 12 --quiet --no-report "
+        "--out " +
+        *campaign_);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*campaign_);
+    delete campaign_;
+  }
+  static std::string* campaign_;
+};
+std::string* ReportCliTest::campaign_ = nullptr;
+
+TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
+  ASSERT_FALSE(fs::exists(*campaign_ + "/report.html"));
+  const std::string html = Path("report.html");
+  const CliResult r = RunKcrig("report --from " + *campaign_ +
+                               " --grid 4x3 --quiet --out " + html);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // 2 experiments, sensitivities, estimates, D and A surfaces, kriging.
+  EXPECT_NE(r.output.find("7 figures (2 experiments, campaign)"),
+            std::string::npos)
+      << r.output;
+  const std::string text = ReadText(html);
+  // Self-contained: plotly inlined, nothing fetched.
+  EXPECT_NE(text.find("plotly.js v"), std::string::npos);
+  EXPECT_EQ(text.find("<script src="), std::string::npos);
+  const Json data = PageData(text);
+  EXPECT_EQ(data["expected_figures"], 7);
+
+  ASSERT_EQ(data["experiments"].size(), 2u);
+  for (const Json& e : data["experiments"]) {
+    ASSERT_EQ(e["channels"].size(), 6u);
+    EXPECT_LE(e["t"].size(), 1001u);
+    for (const Json& c : e["channels"]) {
+      const std::string name = c["name"];
+      EXPECT_EQ(c["unit"],
+                name == "x" || name == "y" || name == "z" ? "mm" : "deg");
+      ASSERT_EQ(c["measured"].size(), e["t"].size());
+      // The model at the final estimate leaves the sensor noise: its RMS
+      // is the sigma (0.02 mm, 0.01 deg) within sampling error.
+      const double ratio = c["rms"].get<double>() / c["sigma"].get<double>();
+      EXPECT_GT(ratio, 0.9) << e["name"] << " " << name;
+      EXPECT_LT(ratio, 1.1) << e["name"] << " " << name;
+    }
+  }
+  const Json& estimates = data["estimates"];
+  EXPECT_EQ(estimates["unit"], "N/mm");
+  ASSERT_EQ(estimates["parameters"].size(), 5u);
+  ASSERT_EQ(estimates["value"].size(), 2u);
+  for (int i = 0; i < 2; ++i) {
+    for (int p = 0; p < 5; ++p) {
+      const double v = estimates["value"][i][p];
+      EXPECT_GT(v, 3000);  // plant.yaml: 3600 .. 4400 N/mm
+      EXPECT_LT(v, 5000);
+      EXPECT_LT(estimates["ci95_low"][i][p].get<double>(), v);
+      EXPECT_GT(estimates["ci95_high"][i][p].get<double>(), v);
+    }
+  }
+  // The designed experiment lowers log10 diag((J^T J)^-1) of every
+  // parameter (more information).
+  for (int p = 0; p < 5; ++p) {
+    EXPECT_LT(estimates["log10_diag_inv_jtj"][1][p].get<double>(),
+              estimates["log10_diag_inv_jtj"][0][p].get<double>());
+  }
+  ASSERT_EQ(data["surfaces"].size(), 2u);
+  for (const Json& s : data["surfaces"]) {
+    ASSERT_EQ(s["phi_deg"].size(), 4u);
+    ASSERT_EQ(s["z_a"].size(), 3u);
+    EXPECT_DOUBLE_EQ(s["phi_deg"][0].get<double>(), 0.0);
+    EXPECT_DOUBLE_EQ(s["phi_deg"][3].get<double>(), 90.0);
+    ASSERT_EQ(s["values"].size(), 3u);
+    for (const Json& row : s["values"]) {
+      ASSERT_EQ(row.size(), 4u);
+      for (const Json& v : row) EXPECT_TRUE(std::isfinite(v.get<double>()));
+    }
+  }
+  // The campaign designed with D: its optimizer's points are on D's surface.
+  EXPECT_EQ(data["surfaces"][0]["criterion"], "D");
+  ASSERT_EQ(data["surfaces"][0]["runs"].size(), 1u);
+  EXPECT_FALSE(data["surfaces"][0]["runs"][0]["evaluated"].empty());
+  EXPECT_TRUE(data["surfaces"][1]["runs"].empty());
+  ASSERT_TRUE(data["kriging"].is_object());
+  EXPECT_FALSE(data["kriging"]["panels"].empty());
+  EXPECT_TRUE(data["diagnoses"].empty());
+  EXPECT_TRUE(data["timings"].empty());
+}
+
+TEST_F(ReportCliTest, DiagnosisAndTimingFilesInTheFolderArePickedUp) {
+  const std::string dir = Path("diag");
+  fs::create_directories(dir);
+  const std::string effect = " --effect rig_compliance:k=1e7";
+  for (const auto& [name, args] :
+       {std::pair<std::string, std::string>{"a", "--phi 85 --z -0.45"},
+        {"b", "--phi 10 --z -0.1"},
+        {"h", "--phi 45 --z -0.3"}}) {
+    const CliResult sim =
+        RunKcrig("simulate --noise --seed 3 " + args + effect +
+                 " --duration 1.5 --out " + dir + "/" + name + ".csv");
+    ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  }
+  const CliResult diag = RunKcrig(
+      "diagnose --quiet --candidates rig_compliance,sensor_offset "
+      "--log " +
+      dir + "/a.csv --log " + dir + "/b.csv --holdout " + dir +
+      "/h.csv --out " + dir + "/diag.json");
+  ASSERT_EQ(diag.exit_code, 0) << diag.output;
+  // A timing.json as timing-check writes it (the real one needs a 1 kHz
+  // loop: report_browser_test runs it).
+  std::ofstream(dir + "/timing.json") << R"({"format": "kcrig timing 1",
+    "period_us": 1000.0, "cycles": 3, "overruns": 1, "skipped_cycles": 0,
+    "phases": {"wakeup": {"p99_us": 30, "max_us": 40,
+                          "histogram_us": [[20.0, 2], [40.0, 1]]},
+               "compute": {"p99_us": 5, "max_us": 6,
+                           "histogram_us": [[5.0, 3]]}},
+    "budget": {"compute_p999_fraction": 0.2, "wakeup_p99_us": 500.0,
+               "cycle_p999_fraction": 0.8, "within": true,
+               "violations": []}})";
+  const CliResult r =
+      RunKcrig("report --from " + dir + " --quiet --out " + Path("r.html"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("4 figures (0 experiments, diagnosis, timing)"),
+            std::string::npos)
+      << r.output;
+  const Json data = PageData(ReadText(Path("r.html")));
+  const Json written = Json::parse(std::ifstream(dir + "/diag.json"));
+  ASSERT_EQ(data["diagnoses"].size(), 1u);
+  const Json& d = data["diagnoses"][0];
+  EXPECT_EQ(d["verdict"], written["verdict"]);
+  EXPECT_EQ(d["verdict"], "rig_compliance");
+  EXPECT_EQ(d["channels"].size(), 6u);
+  EXPECT_FALSE(d["regimes"].empty());
+  EXPECT_EQ(d["energy"].size(), d["regimes"].size());
+  // The overlay is on the held-out log; the attributed model fits it to
+  // the noise, the nominal one does not.
+  EXPECT_EQ(d["overlay_on"], "held-out log");
+  const Json& overlay = d["overlay"];
+  EXPECT_EQ(overlay["log"], "h.csv");
+  for (const Json& c : overlay["channels"]) {
+    EXPECT_LT(c["attributed_rms"].get<double>(), 1.2 * c["sigma"].get<double>())
+        << c["name"];
+  }
+  EXPECT_GT(overlay["channels"][0]["rms"].get<double>(),
+            2 * overlay["channels"][0]["sigma"].get<double>());
+  ASSERT_EQ(data["timings"].size(), 1u);
+  EXPECT_EQ(data["timings"][0]["budget_us"]["wakeup"], 500.0);
+  EXPECT_EQ(data["timings"][0]["budget_us"]["compute"], 200.0);
+  EXPECT_EQ(data["timings"][0]["overruns"], 1);
+}
+
+// Every failure is one line naming what is wrong, and no report is left.
+void ExpectRefused(const std::string& args, const std::string& what,
+                   const std::string& out) {
+  const CliResult r = RunKcrig("report " + args + " --quiet --out " + out);
+  EXPECT_EQ(r.exit_code, 1) << args << "\n" << r.output;
+  EXPECT_EQ(CountLines(r.output), 1) << r.output;
+  EXPECT_NE(r.output.find(what), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out)) << args;
+}
+
+TEST_F(ReportCliTest, BadFoldersAreOneLineErrorsAndWriteNothing) {
+  const std::string out = Path("r.html");
+  ExpectRefused("--from " + Path("missing"), "missing: not a folder", out);
+  fs::create_directories(Path("empty"));
+  ExpectRefused("--from " + Path("empty"),
+                "no campaign.json, diag.json or timing.json", out);
+  ExpectRefused("--from " + *campaign_ + " --grid 19", "--grid 19", out);
+  ExpectRefused("--from " + *campaign_ + " --grid 1x5", "--grid 1x5", out);
+
+  // A copy of the campaign, broken in one place at a time.
+  const std::string copy = Path("copy");
+  auto fresh = [&] {
+    fs::remove_all(copy);
+    fs::copy(*campaign_, copy, fs::copy_options::recursive);
+  };
+  fresh();
+  const std::string summary = copy + "/campaign.json";
+  std::string text = ReadText(summary);
+  std::ofstream(summary) << text.substr(0, text.size() / 2);
+  ExpectRefused("--from " + copy, "campaign.json: not valid JSON", out);
+
+  Json doc = Json::parse(text);
+  doc["iterations"][1].erase("parameters");
+  std::ofstream(summary) << doc.dump();
+  ExpectRefused("--from " + copy,
+                "campaign.json: iterations[1]: missing field 'parameters'",
+                out);
+
+  doc = Json::parse(text);
+  doc["iterations"][0]["experiment"]["phi_deg"] = "85";
+  std::ofstream(summary) << doc.dump();
+  ExpectRefused("--from " + copy, "iterations[0].experiment.phi_deg", out);
+
+  fresh();
+  fs::remove(copy + "/iteration_1/run.csv");
+  ExpectRefused("--from " + copy, "iteration_1/run.csv", out);
+
+  fresh();
+  std::ofstream(copy + "/diag.json") << "{\"verdict\": 3}";
+  ExpectRefused("--from " + copy, "diag.json", out);
+
+  fresh();
+  std::ofstream(copy + "/timing.json") << "{\"period_us\": 1000}";
+  ExpectRefused("--from " + copy, "timing.json: missing field 'phases'", out);
+}
+
+}  // namespace
+}  // namespace kcrig
