@@ -203,8 +203,8 @@ int RunCampaignCommand(const CampaignArgs& args) {
     const std::string html =
         (std::filesystem::path(args.out) / "report.html").string();
     ReportOptions report_options;
-    report_options.on_progress = [&](const std::string& text) {
-      progress.Show("report: " + text);
+    report_options.on_progress = [&](const std::string& text, double fraction) {
+      progress.Show("report: " + text, fraction);
     };
     ReportSummary report;
     status = WriteReport(config, args.out, html, report_options, &report);

@@ -118,8 +118,8 @@ int RunDiagnose(const DiagnoseArgs& args) {
   DiagnosisResult result;
   {
     ProgressLine line(args.quiet);
-    options.on_progress = [&line](const std::string& text) {
-      line.Show("kcrig diagnose: " + text);
+    options.on_progress = [&line](const std::string& text, double fraction) {
+      line.Show("kcrig diagnose: " + text, fraction);
     };
     status = Diagnose(config.model, training, holdout, options,
                       config.experiment.step, &result);

@@ -19,6 +19,21 @@ void ProgressLine::Show(const std::string& text) {
   shown_ = true;
 }
 
+void ProgressLine::Show(const std::string& text, double fraction) {
+  if (!enabled_) return;
+  const double elapsed =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_)
+          .count();
+  char tail[96];
+  if (fraction >= 0.02 && fraction < 1) {
+    std::snprintf(tail, sizeof(tail), " | %.0f %%, %.0f s, ~%.0f s left",
+                  100 * fraction, elapsed, elapsed * (1 - fraction) / fraction);
+  } else {
+    std::snprintf(tail, sizeof(tail), " | %.0f s", elapsed);
+  }
+  Show(text + tail);
+}
+
 void ProgressLine::Clear() {
   if (!enabled_ || !shown_) return;
   std::fprintf(stderr, "\r\033[K");

@@ -4,6 +4,7 @@
 #ifndef KCRIG_APPS_PROGRESS_H_
 #define KCRIG_APPS_PROGRESS_H_
 
+#include <chrono>
 #include <string>
 
 namespace kcrig {
@@ -16,12 +17,18 @@ class ProgressLine {
   ProgressLine& operator=(const ProgressLine&) = delete;
 
   void Show(const std::string& text);
+  // With the `fraction` (0..1) of the work done: appends the time elapsed
+  // since construction and the time left at the average rate so far (an
+  // estimate, marked "~"; none before 2 % is done).
+  void Show(const std::string& text, double fraction);
   // Erases the line (before printing results).
   void Clear();
 
  private:
   bool enabled_;
   bool shown_ = false;
+  std::chrono::steady_clock::time_point start_ =
+      std::chrono::steady_clock::now();
 };
 
 }  // namespace kcrig

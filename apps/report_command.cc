@@ -46,8 +46,8 @@ int RunReport(const ReportArgs& args) {
   ReportSummary summary;
   {
     ProgressLine line(args.quiet);
-    options.on_progress = [&line](const std::string& text) {
-      line.Show("kcrig report: " + text);
+    options.on_progress = [&line](const std::string& text, double fraction) {
+      line.Show("kcrig report: " + text, fraction);
     };
     status = WriteReport(config, args.from, out, options, &summary);
     line.Clear();

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "apps/cli_util.h"
+#include "apps/progress.h"
 #include "estimator/screening.h"
 #include "io_drivers/config_loader.h"
 #include "io_drivers/run_log.h"
@@ -25,6 +26,7 @@ struct ScreenArgs {
   int levels = 4;
   std::uint64_t seed = 1;
   std::string out;
+  bool quiet = false;
 };
 
 std::string ToJson(const ScreeningResult& r,
@@ -85,8 +87,16 @@ int RunScreen(const ScreenArgs& args) {
   status = LoadExperiments(args.logs, config, &experiments);
   if (!status.ok()) return fail(status);
   ScreeningResult result;
-  status = Screen(config.model, experiments, estimator_options, options,
-                  config.experiment.step, &result);
+  {
+    ProgressLine line(args.quiet);
+    options.on_progress = [&line](int done, int total) {
+      line.Show("kcrig screen: " + std::to_string(done) + "/" +
+                    std::to_string(total) + " model evaluations",
+                static_cast<double>(done) / total);
+    };
+    status = Screen(config.model, experiments, estimator_options, options,
+                    config.experiment.step, &result);
+  }
   if (!status.ok()) return fail(status);
   if (!args.out.empty()) {
     status = WriteFilesAtomically({{args.out, ToJson(result, args.logs)}});
@@ -137,6 +147,7 @@ void AddScreenCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--levels", args->levels, "Grid levels per parameter");
   cmd->add_option("--seed", args->seed, "Seed of the Morris design");
   cmd->add_option("--out", args->out, "screen.json to write");
+  cmd->add_flag("--quiet", args->quiet, "No progress line");
   cmd->callback([args, run] { *run = [args] { return RunScreen(*args); }; });
 }
 

@@ -100,7 +100,7 @@ int RunTimingCheck(const TimingCheckArgs& args) {
     std::snprintf(text, sizeof(text),
                   "kcrig timing-check: loop t = %.1f / %.1f s", t,
                   args.duration);
-    progress.Show(text);
+    progress.Show(text, t / args.duration);
   };
   RigSessionResult result;
   status = RunRigSession(config, rig_config, rig.get(), options, &result);

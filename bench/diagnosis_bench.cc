@@ -54,7 +54,7 @@ void BM_FullDiagnosis(benchmark::State& state) {
   DiagnosisOptions options;
   options.num_threads = static_cast<int>(state.range(0));
   const auto t0 = std::chrono::steady_clock::now();
-  options.on_progress = [t0](const std::string& text) {
+  options.on_progress = [t0](const std::string& text, double) {
     if (std::getenv("KCRIG_BENCH_TRACE") == nullptr) return;
     std::fprintf(
         stderr, "%6.2f %s\n",

@@ -427,12 +427,14 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   EffectFitOptions fit_options = options.fit;
   fit_options.uncertainty = options.estimator;
   std::mutex progress_mutex;
-  auto progress = [&](const std::string& text) {
+  // The fraction done is a rough guide from typical stage costs: the fits
+  // of the single effects take about half of a diagnosis, pairs a quarter.
+  auto progress = [&](const std::string& text, double fraction) {
     if (!options.on_progress) return;
     std::lock_guard<std::mutex> lock(progress_mutex);
-    options.on_progress(text);
+    options.on_progress(text, fraction);
   };
-  progress("nominal fit");
+  progress("nominal fit", 0);
 
   // 1. The nominal fit and its gap tests.
   CandidateScore& nominal_score = result->nominal;
@@ -463,7 +465,7 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   InformationCriteria(chi2, n_nominal, m, &nominal_score);
 
   // 2. Where the gap lies.
-  progress("localisation and per-log fits");
+  progress("localisation and per-log fits", 0.1);
   Localize(training, residuals, options, result);
 
   // Scores models (their `fit` set) on data they were not fitted to: the
@@ -619,6 +621,7 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   using Start = std::vector<double>;
   auto fit_and_score = [&](const std::vector<const EffectModel*>& models,
                            const std::vector<std::vector<Start>>& starts,
+                           double from, double to,
                            std::vector<CandidateScore>* scores) {
     const int count = static_cast<int>(models.size());
     scores->assign(count, CandidateScore());
@@ -655,15 +658,19 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
       }
       std::vector<EffectFit> fits(todo.size());
       std::vector<Status> status_of(todo.size());
-      ParallelFor(static_cast<int>(todo.size()), options.num_threads,
-                  [&](int k) {
-                    const int i = todo[k];
-                    status_of[k] =
-                        FitEffectModel(*models[i], training, starts[i][round],
-                                       fit_options, step, &fits[k]);
-                    progress("candidate fits " + std::to_string(++done) + " (" +
-                             models[i]->Name() + ")");
-                  });
+      ParallelFor(
+          static_cast<int>(todo.size()), options.num_threads, [&](int k) {
+            const int i = todo[k];
+            status_of[k] =
+                FitEffectModel(*models[i], training, starts[i][round],
+                               fit_options, step, &fits[k]);
+            const int finished = ++done;
+            progress("candidate fits " + std::to_string(finished) + " (" +
+                         models[i]->Name() + ")",
+                     from + (to - from) * 0.9 *
+                                std::min(1.0, static_cast<double>(finished) /
+                                                  count));
+          });
       for (size_t k = 0; k < todo.size(); ++k) {
         const int i = todo[k];
         if (!status_of[k].ok()) {
@@ -677,7 +684,8 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
       }
     }
     progress("scoring " + std::to_string(count) + " candidates (" +
-             result->scoring + ")");
+                 result->scoring + ")",
+             from + (to - from) * 0.9);
     std::vector<const EffectModel*> ok_models;
     std::vector<CandidateScore*> ok_scores;
     for (int i = 0; i < count; ++i) {
@@ -714,7 +722,7 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
     }
     single_starts.push_back({biased, configured});
   }
-  fit_and_score(single_models, single_starts, &result->ranking);
+  fit_and_score(single_models, single_starts, 0.15, 0.75, &result->ranking);
   auto rank = [](std::vector<CandidateScore>* list) {
     std::stable_sort(list->begin(), list->end(),
                      [](const CandidateScore& a, const CandidateScore& b) {
@@ -809,7 +817,7 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
       }
       pair_starts.push_back({start});
     }
-    fit_and_score(pointers, pair_starts, &pairs);
+    fit_and_score(pointers, pair_starts, 0.75, 0.97, &pairs);
     rank(&pairs);
     // A pair must beat the best single effect clearly too.
     const bool pair_wins =

@@ -69,7 +69,7 @@ struct DiagnosisOptions {
   int min_samples = 500;
   // Called with a short line at each stage and after each candidate fit
   // (one call at a time, from any thread). Optional.
-  std::function<void(const std::string&)> on_progress;
+  std::function<void(const std::string& stage, double fraction)> on_progress;
 };
 
 // Residual energy of the nominal fit in one slice of the data.

@@ -80,6 +80,9 @@ Status Screen(const SuspensionParameters<double>& nominal,
       effects[i].push_back((cost - previous) / delta);
       previous = cost;
     }
+    if (options.on_progress) {
+      options.on_progress(result->evaluations, options.trajectories * (k + 1));
+    }
   }
   for (int i = 0; i < k; ++i) {
     ScreenedParameter p;

@@ -15,6 +15,7 @@
 #define KCRIG_ESTIMATOR_SCREENING_H_
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -38,6 +39,9 @@ struct ScreeningOptions {
   double negligible_fraction = 0.01;
   // Sensitivity columns correlated beyond this are mutually dependent.
   double dependence_correlation = 0.95;
+  // Called after each trajectory with the evaluations done and the total
+  // (progress display); may be empty.
+  std::function<void(int done, int total)> on_progress;
 };
 
 struct ScreenedParameter {

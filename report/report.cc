@@ -305,9 +305,10 @@ Status SurfacesJson(const KcrigConfig& config, const CampaignData& data,
     if (!failed[job].ok()) return;
     d[job] = EvaluateCriterion(Criterion::kD, information).value;
     a[job] = EvaluateCriterion(Criterion::kA, information).value;
-    if (options.on_progress && (++done % 20 == 0 || done == np * nz)) {
+    if (options.on_progress && (++done % 10 == 0 || done == np * nz)) {
       options.on_progress("criterion surfaces " + std::to_string(done.load()) +
-                          "/" + std::to_string(np * nz));
+                              "/" + std::to_string(np * nz),
+                          static_cast<double>(done) / (np * nz));
     }
   });
   for (const Status& s : failed) {
@@ -635,7 +636,7 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
     return Status::Error(from_dir + ": not a folder");
   }
   auto progress = [&](const std::string& text) {
-    if (options.on_progress) options.on_progress(text);
+    if (options.on_progress) options.on_progress(text, -1);
   };
   std::ifstream plotly_in(options.plotly_js, std::ios::binary);
   if (!plotly_in) {

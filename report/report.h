@@ -40,7 +40,7 @@ struct ReportOptions {
   // The plotly.js bundle inlined into the page (Debian: python3-plotly).
   std::string plotly_js = KCRIG_PLOTLY_JS;
   // Stage messages for a progress line (may be empty).
-  std::function<void(const std::string&)> on_progress;
+  std::function<void(const std::string& stage, double fraction)> on_progress;
 };
 
 // What the report found in the folder (for the caller's summary line).
