@@ -18,10 +18,13 @@ class ProgressLine {
 
   void Show(const std::string& text);
   // With the `fraction` (0..1) of the work done: appends the time elapsed
-  // since construction and the time left at the average rate so far (an
-  // estimate, marked "~"; none before 2 % is done).
+  // and the time left at the average rate so far (an estimate, marked "~";
+  // none before 2 % is done). Time counts from construction, or from the
+  // last call with a fraction of 0 (the start of a stage with its own
+  // fraction).
   void Show(const std::string& text, double fraction);
-  // Erases the line (before printing results).
+  // Erases the line (before printing results). Text longer than the
+  // terminal is cut: a wrapped line could not be rewritten in place.
   void Clear();
 
  private:

@@ -1,5 +1,6 @@
 #include "apps/report_command.h"
 
+#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -33,12 +34,16 @@ int RunReport(const ReportArgs& args) {
           ? (std::filesystem::path(args.from) / "report.html").string()
           : args.out;
   ReportOptions options;
-  char x = 0, rest = 0;
-  if (std::sscanf(args.grid.c_str(), "%d%c%d%c", &options.surface_phi_points,
-                  &x, &options.surface_z_points, &rest) != 3 ||
-      x != 'x' || options.surface_phi_points < 2 ||
-      options.surface_z_points < 2 || options.surface_phi_points > 200 ||
-      options.surface_z_points > 200) {
+  const char* begin = args.grid.data();
+  const char* end = begin + args.grid.size();
+  const auto phi = std::from_chars(begin, end, options.surface_phi_points);
+  const bool has_x = phi.ec == std::errc() && phi.ptr != end && *phi.ptr == 'x';
+  const auto z =
+      has_x ? std::from_chars(phi.ptr + 1, end, options.surface_z_points)
+            : std::from_chars_result{end, std::errc::invalid_argument};
+  if (!has_x || z.ec != std::errc() || z.ptr != end ||
+      options.surface_phi_points < 2 || options.surface_z_points < 2 ||
+      options.surface_phi_points > 200 || options.surface_z_points > 200) {
     return fail(Status::Error("--grid " + args.grid +
                               ": expected PHIxZ, 2..200 points each (e.g. "
                               "19x11)"));

@@ -3,8 +3,8 @@
 // hysteresis, each a ramp of `half` seconds and a return ramp as long, no
 // hold-out (so the candidates are also scored by blocked cross-validation),
 // the nominal fit, the six candidates (a second start when none reaches the
-// noise), localisation and drift. Args: threads, half [s]: 2 s + 2 s = the
-// issue's 4 s logs, and 4 s + 4 s (the paper's 4 s ramp and back) as a
+// noise), localisation and drift. Args: candidate threads, half [s]: 2 s + 2 s
+// = the 4 s logs, and 4 s + 4 s (the paper's 4 s ramp and back) as a
 // longer case; one thread and two show what the parallel fits buy.
 // Run: build/bin/diagnosis_bench --benchmark_format=json
 #include <chrono>
@@ -79,7 +79,7 @@ void BM_FullDiagnosis(benchmark::State& state) {
   state.counters["candidates"] = static_cast<double>(result.ranking.size());
 }
 BENCHMARK(BM_FullDiagnosis)
-    ->ArgNames({"threads", "half_s"})
+    ->ArgNames({"candidate_threads", "half_s"})
     ->Args({2, 2})
     ->Args({1, 2})
     ->Args({2, 4})

@@ -9,8 +9,8 @@
 #include <limits>
 #include <mutex>
 #include <numeric>
-#include <thread>
 
+#include "estimator/parallel_for.h"
 #include "unsupported/Eigen/FFT"
 
 namespace kcrig {
@@ -18,18 +18,6 @@ namespace {
 
 bool Observed(const Experiment& e, size_t j) {
   return e.observed.empty() || e.observed[j];
-}
-
-// Runs fn(0 .. count-1) on up to `threads` threads.
-void ParallelFor(int count, int threads, const std::function<void(int)>& fn) {
-  std::atomic<int> next{0};
-  auto work = [&] {
-    for (int i = next++; i < count; i = next++) fn(i);
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < std::min(threads, count); ++t) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
 }
 
 // Weighted residuals (sensed - measured) / sigma per sample (zero where

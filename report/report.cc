@@ -1,14 +1,17 @@
 #include "report/report.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
+#include <mutex>
 #include <numbers>
 #include <sstream>
-#include <thread>
 
 #include "designer/criteria.h"
 #include "designer/design_objective.h"
@@ -17,6 +20,7 @@
 #include "estimator/effect_model.h"
 #include "estimator/estimator.h"
 #include "estimator/experiment.h"
+#include "estimator/parallel_for.h"
 #include "io_drivers/run_log.h"
 #include "nlohmann/json.hpp"
 #include "report/report_page.h"
@@ -29,7 +33,6 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
 constexpr double kDegree = std::numbers::pi / 180.0;
-constexpr const char* kChannels[6] = {"x", "y", "z", "toe", "camber", "caster"};
 constexpr const char* kChannelUnits[6] = {"mm",  "mm",  "mm",
                                           "deg", "deg", "deg"};
 
@@ -71,6 +74,33 @@ Status Field(const Json& node, const std::string& key, const std::string& where,
   return Status::Ok();
 }
 
+// Runs `read`, which reads `file`: JSON of a shape the field checks did not
+// anticipate (an array where an object belongs, a string for a number)
+// becomes an error naming the file instead of an exception.
+template <typename Read>
+Status Guarded(const fs::path& file, Read&& read) {
+  try {
+    return read();
+  } catch (const Json::exception& e) {
+    return Status::Error(file.string() + ": unexpected content (" + e.what() +
+                         ")");
+  }
+}
+
+// The rows of `rows` that start with `width` numbers (the others dropped):
+// what the page plots from a file's point lists.
+Json NumberRows(const Json& rows, size_t width) {
+  Json out = Json::array();
+  if (!rows.is_array()) return out;
+  for (const Json& row : rows) {
+    if (!row.is_array() || row.size() < width) continue;
+    bool numbers = true;
+    for (size_t i = 0; i < width; ++i) numbers = numbers && row[i].is_number();
+    if (numbers) out.push_back(row);
+  }
+  return out;
+}
+
 // Every `stride`-th index so that at most `max_points` remain (the last
 // sample always).
 std::vector<size_t> Decimation(size_t count, int max_points) {
@@ -104,15 +134,8 @@ Json TimeHistories(const Experiment& e, const std::vector<Vec6<double>>& model,
                    int max_points) {
   const size_t n = e.measured.size();
   const std::vector<size_t> index = Decimation(n, max_points);
-  Json t = Json::array(), force = Json::array();
-  for (size_t j : index) {
-    t.push_back(j * e.sample_period);
-  }
-  for (int a = 0; a < 3; ++a) {
-    Json f = Json::array();
-    for (size_t j : index) f.push_back(e.forces[j](a) / 1e3);
-    force.push_back(f);
-  }
+  Json t = Json::array();
+  for (size_t j : index) t.push_back(j * e.sample_period);
   Json channels = Json::array();
   for (int k = 0; k < 6; ++k) {
     Json measured = Json::array(), predicted = Json::array(),
@@ -126,12 +149,18 @@ Json TimeHistories(const Experiment& e, const std::vector<Vec6<double>>& model,
       ++count;
     }
     for (size_t j : index) {
-      measured.push_back(Display(k, e.measured[j](k)));
       predicted.push_back(Display(k, model[j](k)));
+      // A cycle without a fresh sample measured nothing: a gap in the plot.
+      if (!e.observed.empty() && !e.observed[j]) {
+        measured.push_back(nullptr);
+        residual.push_back(nullptr);
+        continue;
+      }
+      measured.push_back(Display(k, e.measured[j](k)));
       residual.push_back(Display(k, e.measured[j](k) - model[j](k)));
     }
     channels.push_back(
-        {{"name", kChannels[k]},
+        {{"name", kChannelNames[k]},
          {"unit", kChannelUnits[k]},
          {"measured", measured},
          {"model", predicted},
@@ -139,7 +168,7 @@ Json TimeHistories(const Experiment& e, const std::vector<Vec6<double>>& model,
          {"rms", Display(k, count > 0 ? std::sqrt(sum / count) : 0.0)},
          {"sigma", Display(k, e.sigma(k))}});
   }
-  return {{"t", t}, {"force_kN", force}, {"channels", channels}};
+  return {{"t", t}, {"channels", channels}};
 }
 
 // What the nominal model (bushings from `estimate`) predicts for `e`.
@@ -158,18 +187,6 @@ Status Predict(const KcrigConfig& config,
   }
   return SimulateEffectModel(nominal, values, e, config.experiment.step,
                              sensed);
-}
-
-// Runs fn(0 .. count-1) on `threads` threads.
-void ParallelFor(int count, int threads, const std::function<void(int)>& fn) {
-  std::atomic<int> next{0};
-  std::vector<std::thread> pool;
-  for (int t = 0; t < std::max(1, threads); ++t) {
-    pool.emplace_back([&] {
-      for (int i = next++; i < count; i = next++) fn(i);
-    });
-  }
-  for (std::thread& thread : pool) thread.join();
 }
 
 struct CampaignData {
@@ -225,12 +242,24 @@ Status ReadCampaign(const fs::path& dir, CampaignData* data) {
   return Status::Ok();
 }
 
+// A parameter's unit as engineers read it and the factor from SI to it.
+std::pair<std::string, double> DisplayUnit(const std::string& si) {
+  if (si == "N/m") return {"N/mm", 1e-3};
+  if (si == "N s/m") return {"N s/mm", 1e-3};
+  if (si == "m") return {"mm", 1e3};
+  return {si, 1.0};
+}
+
 // Per-iteration sensitivities and estimates, in the page's units.
 Json EstimatesJson(const CampaignData& data) {
   const Json& iterations = data.doc["iterations"];
-  Json names = Json::array(), labels = Json::array(), log10 = Json::array(),
-       value = Json::array(), low = Json::array(), high = Json::array();
-  for (const Json& p : iterations[0]["parameters"]) names.push_back(p["name"]);
+  Json names = Json::array(), units = Json::array(), labels = Json::array(),
+       log10 = Json::array(), value = Json::array(), low = Json::array(),
+       high = Json::array();
+  for (const Json& p : iterations[0]["parameters"]) {
+    names.push_back(p["name"]);
+    units.push_back(DisplayUnit(p.value("unit", "")).first);
+  }
   for (const Json& it : iterations) {
     labels.push_back(
         "iteration " + std::to_string(it["iteration"].get<int>()) + " (" +
@@ -240,8 +269,7 @@ Json EstimatesJson(const CampaignData& data) {
          hi = Json::array();
     for (const Json& p : it["parameters"]) {
       l.push_back(p.value("log10_diag_inv_jtj", Json(nullptr)));
-      // Stiffnesses in N/mm.
-      const double scale = p.value("unit", "") == "N/m" ? 1e-3 : 1.0;
+      const double scale = DisplayUnit(p.value("unit", "")).second;
       v.push_back(p["value"].get<double>() * scale);
       if (p.contains("ci95") && p["ci95"].is_array() && p["ci95"].size() == 2 &&
           p["ci95"][0].is_number() && p["ci95"][1].is_number()) {
@@ -263,7 +291,7 @@ Json EstimatesJson(const CampaignData& data) {
           {"value", value},
           {"ci95_low", low},
           {"ci95_high", high},
-          {"unit", "N/mm"}};
+          {"units", units}};
 }
 
 // The D and A surfaces over the design box at the first estimate, with the
@@ -289,102 +317,132 @@ Status SurfacesJson(const KcrigConfig& config, const CampaignData& data,
   status = InformationEvaluator::Create(config.model, names, values,
                                         config.experiment, prior, &with_prior);
   if (!status.ok()) return status;
-  const Interval phi = config.experiment.phi_bounds;
-  const Interval z = config.experiment.z_a_bounds;
-  const int np = std::max(2, options.surface_phi_points);
-  const int nz = std::max(2, options.surface_z_points);
-  std::vector<double> d(np * nz), a(np * nz);
-  std::vector<Status> failed(np * nz, Status::Ok());
-  std::atomic<int> done{0};
-  ParallelFor(np * nz, options.num_threads, [&](int job) {
-    const int i = job % np, j = job / np;
-    const Design design{phi.lower + (phi.upper - phi.lower) * i / (np - 1),
-                        z.lower + (z.upper - z.lower) * j / (nz - 1)};
-    Eigen::MatrixXd information;
-    failed[job] = with_prior->Information(design, false, &information);
-    if (!failed[job].ok()) return;
-    d[job] = EvaluateCriterion(Criterion::kD, information).value;
-    a[job] = EvaluateCriterion(Criterion::kA, information).value;
-    if (options.on_progress && (++done % 10 == 0 || done == np * nz)) {
-      options.on_progress("criterion surfaces " + std::to_string(done.load()) +
-                              "/" + std::to_string(np * nz),
-                          static_cast<double>(done) / (np * nz));
-    }
-  });
-  for (const Status& s : failed) {
-    if (!s.ok()) return s;
-  }
-  Json phi_axis = Json::array(), z_axis = Json::array();
-  for (int i = 0; i < np; ++i) {
-    phi_axis.push_back((phi.lower + (phi.upper - phi.lower) * i / (np - 1)) /
-                       kDegree);
-  }
-  for (int j = 0; j < nz; ++j) {
-    z_axis.push_back(z.lower + (z.upper - z.lower) * j / (nz - 1));
-  }
-  auto grid = [&](const std::vector<double>& v) {
-    Json rows = Json::array();
-    for (int j = 0; j < nz; ++j) {
-      Json row = Json::array();
-      for (int i = 0; i < np; ++i) row.push_back(v[j * np + i]);
-      rows.push_back(row);
-    }
-    return rows;
-  };
-  // The first design's runs go on the surface of their criterion.
+  // The first design's runs go on the surface of their criterion, which is
+  // drawn beside D and A when it is another (E, MM).
   Json design;
-  std::string criterion;
+  std::string criterion_name;
   const fs::path design_file = data.iteration_dirs[0] / "design.json";
   if (fs::exists(design_file)) {
     status = ReadJsonFile(design_file, &design);
     if (!status.ok()) return status;
-    status = Field(design, "criterion", design_file.string(), &criterion);
+    status = Field(design, "criterion", design_file.string(), &criterion_name);
     if (!status.ok()) return status;
   }
+  std::vector<Criterion> criteria = {Criterion::kD, Criterion::kA};
+  Criterion designed;
+  if (ParseCriterion(criterion_name, &designed).ok() &&
+      std::find(criteria.begin(), criteria.end(), designed) == criteria.end()) {
+    criteria.push_back(designed);
+  }
+  const Interval phi = config.experiment.phi_bounds;
+  const Interval z = config.experiment.z_a_bounds;
+  const int np = std::max(2, options.surface_phi_points);
+  const int nz = std::max(2, options.surface_z_points);
+  const int points = np * nz;
+  auto design_at = [&](int i, int j) {
+    return Design{phi.lower + (phi.upper - phi.lower) * i / (np - 1),
+                  z.lower + (z.upper - z.lower) * j / (nz - 1)};
+  };
+  // One information matrix per point serves every criterion. A point whose
+  // simulation fails (diverges) is left empty, not fatal.
+  std::vector<std::vector<double>> surface(
+      criteria.size(),
+      std::vector<double>(points, std::numeric_limits<double>::quiet_NaN()));
+  std::mutex progress_mutex;
+  int done = 0;
+  auto progress = [&](int finished) {
+    if (!options.on_progress) return;
+    options.on_progress("criterion surfaces " + std::to_string(finished) + "/" +
+                            std::to_string(points),
+                        static_cast<double>(finished) / points);
+  };
+  progress(0);
+  ParallelFor(points, options.num_threads, [&](int job) {
+    Eigen::MatrixXd information;
+    if (with_prior
+            ->Information(design_at(job % np, job / np), false, &information)
+            .ok()) {
+      for (size_t c = 0; c < criteria.size(); ++c) {
+        surface[c][job] = EvaluateCriterion(criteria[c], information).value;
+      }
+    }
+    std::lock_guard<std::mutex> lock(progress_mutex);
+    if (++done % 10 == 0 || done == points) progress(done);
+  });
+  Json phi_axis = Json::array(), z_axis = Json::array();
+  for (int i = 0; i < np; ++i)
+    phi_axis.push_back(design_at(i, 0).phi / kDegree);
+  for (int j = 0; j < nz; ++j) z_axis.push_back(design_at(0, j).z_a);
   *out = Json::array();
-  for (const char* name : {"D", "A"}) {
+  for (size_t c = 0; c < criteria.size(); ++c) {
+    Json rows = Json::array();
+    for (int j = 0; j < nz; ++j) {
+      Json row = Json::array();
+      for (int i = 0; i < np; ++i) {
+        const double v = surface[c][j * np + i];
+        row.push_back(std::isfinite(v) ? Json(v) : Json(nullptr));
+      }
+      rows.push_back(row);
+    }
+    const std::string name = CriterionName(criteria[c]);
     Json runs = Json::array();
-    if (criterion == name) {
-      for (const Json& run : design.value("runs", Json::array())) {
-        runs.push_back({{"optimizer", run.value("optimizer", "")},
-                        {"evaluated", run.value("evaluated", Json::array())},
-                        {"path", run.value("path", Json::array())}});
+    if (name == criterion_name && design.contains("runs") &&
+        design["runs"].is_array()) {
+      for (const Json& run : design["runs"]) {
+        if (!run.is_object()) continue;
+        runs.push_back(
+            {{"optimizer", run.value("optimizer", "")},
+             {"evaluated", NumberRows(run.value("evaluated", Json()), 3)},
+             {"path", NumberRows(run.value("path", Json()), 2)}});
       }
     }
     out->push_back({{"criterion", name},
                     {"phi_deg", phi_axis},
                     {"z_a", z_axis},
-                    {"values", grid(std::string(name) == "D" ? d : a)},
+                    {"values", rows},
                     {"runs", runs}});
   }
   return Status::Ok();
 }
 
-// The kriging surrogate refitted to the samples of its first, middle and
-// last batch (the refinement of Fig. 2), from the first kriging design run
-// of the campaign.
-Json KrigingJson(const KcrigConfig& config, const CampaignData& data) {
+// The kriging surrogate refitted to the samples the designer had after its
+// first, middle and last batch (the refinement of Fig. 2; batch 0 is the
+// start design alone), on the scale the designer fitted (ln for A, E, MM),
+// from the first kriging design run of the campaign.
+Status KrigingJson(const KcrigConfig& config, const CampaignData& data,
+                   Json* out) {
+  *out = nullptr;
   for (const fs::path& dir : data.iteration_dirs) {
+    const fs::path file = dir / "design.json";
+    if (!fs::exists(file)) continue;
     Json design;
-    if (!fs::exists(dir / "design.json") ||
-        !ReadJsonFile(dir / "design.json", &design).ok()) {
-      continue;
-    }
-    for (const Json& run : design.value("runs", Json::array())) {
-      if (run.value("optimizer", "") != "kriging") continue;
-      const Json& evaluated = run.value("evaluated", Json::array());
+    Status status = ReadJsonFile(file, &design);
+    if (!status.ok()) return status;
+    std::string criterion_name;
+    status = Field(design, "criterion", file.string(), &criterion_name);
+    if (!status.ok()) return status;
+    Criterion criterion;
+    status = ParseCriterion(criterion_name, &criterion);
+    if (!status.ok())
+      return Status::Error(file.string() + ": " + status.message());
+    if (!design.contains("runs") || !design["runs"].is_array()) continue;
+    for (const Json& run : design["runs"]) {
+      if (!run.is_object() || run.value("optimizer", "") != "kriging") continue;
       const Interval phi = config.experiment.phi_bounds;
       const Interval z = config.experiment.z_a_bounds;
       std::vector<Eigen::Vector2d> x;
       std::vector<double> y;
       std::vector<int> batch;
-      for (const Json& row : evaluated) {
-        if (!row.is_array() || row.size() < 4) continue;
-        x.emplace_back((row[0].get<double>() * kDegree - phi.lower) /
-                           (phi.upper - phi.lower),
-                       (row[1].get<double>() - z.lower) / (z.upper - z.lower));
-        y.push_back(row[2].get<double>());
+      Json shown = Json::array();
+      for (const Json& row : NumberRows(run.value("evaluated", Json()), 4)) {
+        const double phi_deg = row[0], z_a = row[1], value = row[2];
+        if (!std::isfinite(value)) continue;
+        x.emplace_back(
+            (phi_deg * kDegree - phi.lower) / (phi.upper - phi.lower),
+            (z_a - z.lower) / (z.upper - z.lower));
+        y.push_back(OptimizationScale(criterion, value));
         batch.push_back(row[3].get<int>());
+        shown.push_back({phi_deg, z_a});
       }
       if (x.empty()) continue;
       const int last = *std::max_element(batch.begin(), batch.end());
@@ -400,7 +458,7 @@ Json KrigingJson(const KcrigConfig& config, const CampaignData& data) {
           if (batch[k] > stage) continue;
           xs.push_back(x[k]);
           ys.push_back(y[k]);
-          points.push_back({evaluated[k][0], evaluated[k][1]});
+          points.push_back(shown[k]);
         }
         KrigingModel model;
         if (!model.Fit(xs, ys, KrigingOptions()).ok()) continue;
@@ -428,18 +486,25 @@ Json KrigingJson(const KcrigConfig& config, const CampaignData& data) {
              {"values", rows},
              {"points", points}});
       }
-      return {{"criterion", design.value("criterion", "")},
+      if (panels.empty()) continue;
+      const std::string scaled = OptimizationScale(criterion, 2.0) == 2.0
+                                     ? criterion_name
+                                     : "ln " + criterion_name;
+      *out = {{"criterion", scaled},
               {"iteration", dir.filename().string()},
               {"panels", panels}};
+      return Status::Ok();
     }
   }
-  return nullptr;
+  return Status::Ok();
 }
 
-// Resolves a log path written in diag.json: as written, else beside it.
+// Resolves a log path written in diag.json: beside it (a folder moved as a
+// whole), else as written (relative to where diagnose ran).
 fs::path LogPath(const fs::path& diag_file, const std::string& written) {
-  if (fs::exists(written)) return written;
-  return diag_file.parent_path() / fs::path(written).filename();
+  const fs::path beside =
+      diag_file.parent_path() / fs::path(written).filename();
+  return fs::exists(beside) ? beside : fs::path(written);
 }
 
 Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
@@ -467,12 +532,12 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
       regimes.push_back(slice.value("name", ""));
       Json row = Json::array();
       const Json& per = slice.value("score_per_channel", Json::object());
-      for (const char* c : kChannels)
+      for (const char* c : kChannelNames)
         row.push_back(per.value(c, Json(nullptr)));
       energy.push_back(row);
     }
   }
-  result["channels"] = kChannels;
+  result["channels"] = kChannelNames;
   result["regimes"] = regimes;
   result["energy"] = energy;
   Json ranking = Json::array();
@@ -514,7 +579,12 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
   const fs::path log = LogPath(file, logs[0]);
   Experiment e;
   status = LoadExperiment(log.string(), config, &e);
-  if (!status.ok()) return status;
+  if (!status.ok()) {
+    // The diagnosis stands without its overlay: say why it is missing.
+    result["overlay_missing"] = status.message();
+    *out = result;
+    return Status::Ok();
+  }
   auto simulate = [&](const Json& candidate, std::vector<Vec6<double>>* y) {
     const std::string name = candidate.value("model", "nominal");
     std::vector<std::string> effects;
@@ -558,6 +628,7 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
   }
   overlay["log"] = log.filename().string();
   overlay["attributed_model"] = chosen->value("model", "");
+  overlay["attributed"] = verdict != "unexplained";
   result["overlay"] = overlay;
   *out = result;
   return Status::Ok();
@@ -617,12 +688,28 @@ Status TimingJson(const fs::path& root, const fs::path& file, Json* out) {
   return Status::Ok();
 }
 
-// `text` with every `key` replaced by `value` (the template's slots).
-std::string Fill(std::string text, const std::string& key,
-                 const std::string& value) {
-  const size_t at = text.find(key);
-  if (at != std::string::npos) text.replace(at, key.size(), value);
-  return text;
+// The template with its three slots filled. The slots are found in the
+// template itself, so nothing inserted (plotly, user data) is searched.
+Status FillTemplate(const std::string& plotly, const std::string& data,
+                    std::string* page) {
+  const std::string page_template = kReportPageTemplate;
+  std::string out;
+  size_t from = 0;
+  for (const auto& [slot, value] :
+       {std::pair<std::string, const std::string*>{"/*KCRIG_PLOTLY*/", &plotly},
+        {"/*KCRIG_DATA*/", &data},
+        {"/*KCRIG_PAGE_SCRIPT*/", nullptr}}) {
+    const size_t at = page_template.find(slot, from);
+    if (at == std::string::npos) {
+      return Status::Error("report template: slot " + slot + " missing");
+    }
+    out.append(page_template, from, at - from);
+    out += value != nullptr ? *value : std::string(kReportPageScript);
+    from = at + slot.size();
+  }
+  out.append(page_template, from, std::string::npos);
+  *page = std::move(out);
+  return Status::Ok();
 }
 
 }  // namespace
@@ -638,11 +725,15 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
   auto progress = [&](const std::string& text) {
     if (options.on_progress) options.on_progress(text, -1);
   };
-  std::ifstream plotly_in(options.plotly_js, std::ios::binary);
+  const char* plotly_override = std::getenv("KCRIG_PLOTLY_JS");
+  const std::string plotly_path =
+      plotly_override != nullptr ? plotly_override : options.plotly_js;
+  std::ifstream plotly_in(plotly_path, std::ios::binary);
   if (!plotly_in) {
-    return Status::Error(options.plotly_js +
+    return Status::Error(plotly_path +
                          ": plotly.js not found (Debian package "
-                         "python3-plotly; scripts/setup.sh installs it)");
+                         "python3-plotly; scripts/setup.sh installs it; "
+                         "KCRIG_PLOTLY_JS names another copy)");
   }
   std::stringstream plotly;
   plotly << plotly_in.rdbuf();
@@ -657,42 +748,49 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
 
   Status status;
   if (fs::exists(root / "campaign.json")) {
-    CampaignData campaign;
-    status = ReadCampaign(root, &campaign);
+    status = Guarded(root / "campaign.json", [&] {
+      CampaignData campaign;
+      Status read = ReadCampaign(root, &campaign);
+      if (!read.ok()) return read;
+      summary->campaign = true;
+      data["criterion"] = campaign.doc.value("criterion", "");
+      data["estimates"] = EstimatesJson(campaign);
+      // Every experiment against the final estimate.
+      const auto& final_estimate = campaign.estimates.back();
+      Json experiments = Json::array();
+      for (size_t k = 0; k < campaign.iteration_dirs.size(); ++k) {
+        const fs::path log = campaign.iteration_dirs[k] / "run.csv";
+        progress("time histories " + std::to_string(k + 1) + "/" +
+                 std::to_string(campaign.iteration_dirs.size()));
+        Experiment e;
+        read = LoadExperiment(log.string(), config, &e);
+        if (!read.ok()) return read;
+        std::vector<Vec6<double>> model;
+        read = Predict(config, final_estimate, e, &model);
+        if (!read.ok()) {
+          return Status::Error(log.string() + ": " + read.message());
+        }
+        Json histories = TimeHistories(e, model, options.max_plot_samples);
+        histories["name"] = fs::relative(log, root).string();
+        histories["phi_deg"] = campaign.designs[k].phi / kDegree;
+        histories["z_a"] = campaign.designs[k].z_a;
+        experiments.push_back(histories);
+      }
+      data["experiments"] = experiments;
+      data["model_label"] = "model at the final estimate (iteration " +
+                            std::to_string(campaign.iteration_dirs.size() - 1) +
+                            ")";
+      summary->experiments = static_cast<int>(experiments.size());
+      Json surfaces, kriging;
+      read = SurfacesJson(config, campaign, options, &surfaces);
+      if (!read.ok()) return read;
+      data["surfaces"] = surfaces;
+      read = KrigingJson(config, campaign, &kriging);
+      if (!read.ok()) return read;
+      data["kriging"] = kriging;
+      return Status::Ok();
+    });
     if (!status.ok()) return status;
-    summary->campaign = true;
-    data["criterion"] = campaign.doc.value("criterion", "");
-    data["estimates"] = EstimatesJson(campaign);
-    // Every experiment against the final estimate.
-    const auto& final_estimate = campaign.estimates.back();
-    Json experiments = Json::array();
-    for (size_t k = 0; k < campaign.iteration_dirs.size(); ++k) {
-      const fs::path log = campaign.iteration_dirs[k] / "run.csv";
-      progress("time histories " + std::to_string(k + 1) + "/" +
-               std::to_string(campaign.iteration_dirs.size()));
-      Experiment e;
-      status = LoadExperiment(log.string(), config, &e);
-      if (!status.ok()) return status;
-      std::vector<Vec6<double>> model;
-      status = Predict(config, final_estimate, e, &model);
-      if (!status.ok())
-        return Status::Error(log.string() + ": " + status.message());
-      Json histories = TimeHistories(e, model, options.max_plot_samples);
-      histories["name"] = fs::relative(log, root).string();
-      histories["phi_deg"] = campaign.designs[k].phi / kDegree;
-      histories["z_a"] = campaign.designs[k].z_a;
-      experiments.push_back(histories);
-    }
-    data["experiments"] = experiments;
-    data["model_label"] = "model at the final estimate (iteration " +
-                          std::to_string(campaign.iteration_dirs.size() - 1) +
-                          ")";
-    summary->experiments = static_cast<int>(experiments.size());
-    Json surfaces;
-    status = SurfacesJson(config, campaign, options, &surfaces);
-    if (!status.ok()) return status;
-    data["surfaces"] = surfaces;
-    data["kriging"] = KrigingJson(config, campaign);
   }
   // Diagnosis and timing files anywhere in the folder.
   std::vector<fs::path> diag_files, timing_files;
@@ -707,9 +805,10 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
   std::sort(timing_files.begin(), timing_files.end());
   Json diagnoses = Json::array();
   for (const fs::path& file : diag_files) {
-    progress("diagnosis " + file.string());
+    progress("diagnosis " + fs::relative(file, root).string());
     Json d;
-    status = DiagnosisJson(config, file, options, &d);
+    status =
+        Guarded(file, [&] { return DiagnosisJson(config, file, options, &d); });
     if (!status.ok()) return status;
     diagnoses.push_back(d);
   }
@@ -718,7 +817,7 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
   Json timings = Json::array();
   for (const fs::path& file : timing_files) {
     Json t;
-    status = TimingJson(root, file, &t);
+    status = Guarded(file, [&] { return TimingJson(root, file, &t); });
     if (!status.ok()) return status;
     timings.push_back(t);
   }
@@ -742,18 +841,25 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
   }
   figures += static_cast<int>(timings.size());
   summary->figures = figures;
-  data["expected_figures"] = summary->figures;
+  data["expected_figures"] = figures;
 
-  // Inside <script> a "</" would end the element: JSON allows "<\/".
-  std::string json = data.dump();
-  for (size_t at = json.find("</"); at != std::string::npos;
-       at = json.find("</", at + 3)) {
-    json.replace(at, 2, "<\\/");
+  // Inside <script> a "</script" or "<!--" would change how the page
+  // parses: every "<" (only ever inside JSON strings) is written escaped.
+  // Invalid UTF-8 (a file name) is replaced rather than thrown on.
+  const std::string raw =
+      data.dump(-1, ' ', false, Json::error_handler_t::replace);
+  std::string json;
+  json.reserve(raw.size());
+  for (char c : raw) {
+    if (c == '<') {
+      json += "\\u003c";
+    } else {
+      json += c;
+    }
   }
-  std::string page = kReportPageTemplate;
-  page = Fill(page, "/*KCRIG_PLOTLY*/", plotly.str());
-  page = Fill(page, "/*KCRIG_DATA*/", json);
-  page = Fill(page, "/*KCRIG_PAGE_SCRIPT*/", kReportPageScript);
+  std::string page;
+  status = FillTemplate(plotly.str(), json, &page);
+  if (!status.ok()) return status;
   return WriteFilesAtomically({{html_path, page}});
 }
 

@@ -26,6 +26,14 @@
     nav.appendChild(a);
     return s;
   }
+  // A section that fails to build is recorded and the others still drawn.
+  function guarded(name, build) {
+    try {
+      build();
+    } catch (error) {
+      window.kcrigErrors.push(name + ': ' + String(error));
+    }
+  }
   function note(parent, text) { parent.appendChild(el('p', {class: 'note'}, text)); }
   function figure(parent, traces, layout, height) {
     var div = el('div', {class: 'figure'});
@@ -108,7 +116,7 @@
     note(parent, 'residual RMS: ' + rms.join(', '));
   }
 
-  if (data.experiments) {
+  guarded('experiments', function () { if (data.experiments) {
     var s = section('experiments', 'Experiments: measured vs model');
     note(s, 'Each experiment against the ' + data.model_label +
          '; residual = measured \u2212 model, with the sensor\u2019s \u00b12\u03c3.');
@@ -119,7 +127,9 @@
     });
   }
 
-  if (data.estimates) {
+  });
+
+  guarded('estimates', function () { if (data.estimates) {
     var e = data.estimates;
     var s2 = section('sensitivity', 'Sensitivities and estimates');
     note(s2, 'log10 diag((J\u1d40J)\u207b\u00b9) per parameter (the paper\u2019s ' +
@@ -138,8 +148,7 @@
                       yaxis: {title: {text: 'log10 diag((J\u1d40J)\u207b\u00b9)'}},
                       legend: {orientation: 'h', y: -0.15}});
     var traces = [];
-    var layout = {title: {text: 'Estimates with 95 % intervals per iteration [' +
-                                e.unit + ']'},
+    var layout = {title: {text: 'Estimates with 95 % intervals per iteration'},
                   showlegend: false,
                   grid: {rows: 1, columns: e.parameters.length,
                          pattern: 'independent'}};
@@ -159,12 +168,15 @@
                    marker: {color: palette[p % palette.length]}});
       layout['xaxis' + ax(p + 1)] = {title: {text: name + ', iteration'},
                                      dtick: 1};
-      layout['yaxis' + ax(p + 1)] = {tickformat: '.5r'};
+      layout['yaxis' + ax(p + 1)] = {tickformat: '.5r',
+                                     title: {text: e.units[p]}};
     });
     figure(s2, traces, layout, 380);
   }
 
-  if (data.surfaces) {
+  });
+
+  guarded('surfaces', function () { if (data.surfaces) {
     var s3 = section('surfaces', 'Criterion surfaces over (phi, z_a)');
     note(s3, 'D and A criteria of the next experiment at the first estimate, ' +
          'with the first experiment as prior (the paper\u2019s Fig. 5); ' +
@@ -202,7 +214,9 @@
     });
   }
 
-  if (data.kriging) {
+  });
+
+  guarded('kriging', function () { if (data.kriging) {
     var k = data.kriging;
     var s4 = section('kriging', 'Kriging surrogate refinement');
     note(s4, 'The ' + k.criterion + ' criterion\u2019s kriging surrogate (' +
@@ -231,23 +245,31 @@
     figure(s4, traces, layout, 420);
   }
 
-  if (data.diagnoses && data.diagnoses.length) {
+  });
+
+  guarded('diagnosis', function () { if (data.diagnoses && data.diagnoses.length) {
     var s5 = section('diagnosis', 'Sim-to-real gap diagnosis');
     data.diagnoses.forEach(function (d) {
       s5.appendChild(el('h3', {}, d.file));
       s5.appendChild(el('div', {class: 'verdict'}, 'verdict: ' + d.verdict +
                         (d.confidence ? ' (confidence ' + d.confidence + ')' : '') +
                         ' \u2014 ' + d.reason));
-      var text = d.energy.map(function (row) {
-        return row.map(function (v) { return v === null ? '' : fmt(v, 3); });
+      // Each cell's value written on it (plotly 2.6 heatmaps have no
+      // texttemplate).
+      var cells = [];
+      d.energy.forEach(function (row, r) {
+        row.forEach(function (v, c) {
+          if (v === null) return;
+          cells.push({x: d.channels[c], y: d.regimes[r], text: fmt(v, 3),
+                      showarrow: false, font: {color: v > 10 ? '#fff' : '#000'}});
+        });
       });
       figure(s5, [{type: 'heatmap', x: d.channels, y: d.regimes, z: d.energy,
-                   text: text, texttemplate: '%{text}', colorscale: 'YlOrRd',
-                   reversescale: true,
-                   zmin: 1, colorbar: {title: {text: 'score'}}}],
+                   colorscale: 'YlOrRd', reversescale: true, zmin: 1,
+                   colorbar: {title: {text: 'score'}}}],
              {title: {text: 'Residual energy by channel \u00d7 load regime ' +
                             '(mean (r/\u03c3)\u00b2; 1 = noise)'},
-              yaxis: {autorange: 'reversed'}}, 420);
+              yaxis: {autorange: 'reversed'}, annotations: cells}, 420);
       if (d.ranking.length) {
         var models = d.ranking.map(function (c) { return c.model; });
         var scores = d.ranking.map(function (c) { return c.score; });
@@ -273,16 +295,21 @@
                Math.max(300, 40 * models.length + 120));
       }
       if (d.overlay) {
+        var label = d.overlay.attributed ? d.overlay.attributed_model :
+                    d.overlay.attributed_model + ' (best candidate, not attributed)';
         histories(s5, d.overlay, 'On the ' + d.overlay_on + ' ' + d.overlay.log +
-                  ': nominal vs with ' + d.overlay.attributed_model,
-                  d.overlay.attributed_model);
+                  ': nominal vs with ' + label, label);
+      } else if (d.overlay_missing) {
+        note(s5, 'No before/after overlay: ' + d.overlay_missing);
       } else {
         note(s5, 'No before/after overlay: no candidate was fitted.');
       }
     });
   }
 
-  if (data.timings && data.timings.length) {
+  });
+
+  guarded('timing', function () { if (data.timings && data.timings.length) {
     var s6 = section('timing', 'Loop timing');
     data.timings.forEach(function (t) {
       var phases = ['wakeup', 'compute', 'cycle'].filter(function (p) {
@@ -321,9 +348,12 @@
       figure(s6, traces, layout, 380);
       note(s6, 'Dashed red: the budget (wake-up p99, compute and cycle ' +
            'p99.9 as fractions of the period, from rig.yaml).' +
-           (t.violations.length ? ' Violations: ' + t.violations.join('; ') : ''));
+           ((t.violations || []).length ?
+            ' Violations: ' + t.violations.join('; ') : ''));
     });
   }
+
+  });
 
   // A figure rendered when plotly drew its SVG and at least one trace.
   var status = document.getElementById('kcrig-status');

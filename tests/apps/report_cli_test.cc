@@ -1,6 +1,8 @@
 // `kcrig report` through the real CLI: the data the page is built from (read
 // back out of the written HTML) and the errors on bad folders. That every
 // figure renders in a browser is report_browser_test's job.
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -37,12 +39,15 @@ Json PageData(const std::string& html) {
   return Json::parse(json);
 }
 
-// One small campaign shared by the tests (a second each in Release).
+// One small campaign per test process (ctest runs each test in its own
+// process, two at a time: the folder is the process's).
 class ReportCliTest : public TempDirTest {
  protected:
   static void SetUpTestSuite() {
     campaign_ = new std::string(
-        (fs::temp_directory_path() / "kcrig_report_cli_campaign").string());
+        (fs::temp_directory_path() /
+         ("kcrig_report_cli_campaign_" + std::to_string(getpid())))
+            .string());
     fs::remove_all(*campaign_);
     const CliResult r = RunKcrig(
         "campaign --iterations 1 --budget 12 --quiet --no-report "
@@ -92,7 +97,7 @@ TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
     }
   }
   const Json& estimates = data["estimates"];
-  EXPECT_EQ(estimates["unit"], "N/mm");
+  EXPECT_EQ(estimates["units"], Json({"N/mm", "N/mm", "N/mm", "N/mm", "N/mm"}));
   ASSERT_EQ(estimates["parameters"].size(), 5u);
   ASSERT_EQ(estimates["value"].size(), 2u);
   for (int i = 0; i < 2; ++i) {
@@ -198,7 +203,11 @@ TEST_F(ReportCliTest, DiagnosisAndTimingFilesInTheFolderArePickedUp) {
 // Every failure is one line naming what is wrong, and no report is left.
 void ExpectRefused(const std::string& args, const std::string& what,
                    const std::string& out) {
-  const CliResult r = RunKcrig("report " + args + " --quiet --out " + out);
+  // A small surface grid: the errors come after the surfaces.
+  const std::string grid =
+      args.find("--grid") == std::string::npos ? " --grid 2x2" : "";
+  const CliResult r =
+      RunKcrig("report " + args + grid + " --quiet --out " + out);
   EXPECT_EQ(r.exit_code, 1) << args << "\n" << r.output;
   EXPECT_EQ(CountLines(r.output), 1) << r.output;
   EXPECT_NE(r.output.find(what), std::string::npos) << r.output;
@@ -249,6 +258,38 @@ TEST_F(ReportCliTest, BadFoldersAreOneLineErrorsAndWriteNothing) {
   fresh();
   std::ofstream(copy + "/timing.json") << "{\"period_us\": 1000}";
   ExpectRefused("--from " + copy, "timing.json: missing field 'phases'", out);
+
+  // Files of an unexpected shape are errors naming them, never a crash.
+  fresh();
+  std::ofstream(copy + "/timing.json")
+      << "{\"period_us\": 1000, \"phases\": {}, \"budget\": null}";
+  ExpectRefused("--from " + copy, "timing.json: unexpected content", out);
+  fresh();
+  std::ofstream(copy + "/diag.json")
+      << "{\"verdict\": \"none\", \"reason\": \"r\", \"localisation\": 7}";
+  ExpectRefused("--from " + copy, "diag.json: unexpected content", out);
+  fresh();
+  doc = Json::parse(text);
+  doc["iterations"][0]["parameters"] = "c_O1";
+  std::ofstream(summary) << doc.dump();
+  ExpectRefused("--from " + copy, "campaign.json", out);
+}
+
+// Text from the files (a diagnosis reason here) cannot end the page's data
+// script or open a comment in it: the data reads back intact.
+TEST_F(ReportCliTest, MarkupInTheFilesCannotBreakThePage) {
+  const std::string dir = Path("markup");
+  fs::create_directories(dir);
+  std::ofstream(dir + "/diag.json") << R"({"verdict": "none",
+    "reason": "</script><!--<script> /*KCRIG_PAGE_SCRIPT*/"})";
+  const CliResult r =
+      RunKcrig("report --from " + dir + " --quiet --out " + Path("r.html"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string html = ReadText(Path("r.html"));
+  EXPECT_EQ(html.find("</script><!--"), std::string::npos);
+  const Json data = PageData(html);
+  EXPECT_EQ(data["diagnoses"][0]["reason"],
+            "</script><!--<script> /*KCRIG_PAGE_SCRIPT*/");
 }
 
 }  // namespace
