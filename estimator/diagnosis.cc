@@ -16,10 +16,6 @@
 namespace kcrig {
 namespace {
 
-bool Observed(const Experiment& e, size_t j) {
-  return e.observed.empty() || e.observed[j];
-}
-
 // Weighted residuals (sensed - measured) / sigma per sample (zero where
 // not observed) of a model at `values`.
 Status WeightedResiduals(const EffectModel& model,
@@ -36,12 +32,6 @@ Status WeightedResiduals(const EffectModel& model,
             : Vec6<double>::Zero();
   }
   return Status::Ok();
-}
-
-int ObservedCount(const Experiment& e) {
-  int n = 0;
-  for (size_t j = 0; j < e.measured.size(); ++j) n += Observed(e, j);
-  return n;
 }
 
 // Accumulates the mean squared weighted residual and the per-channel RMS
@@ -462,7 +452,6 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
   // one-step approximation of the fold's refit; all folds of all models
   // side by side), or, with one log only, the training chi-square per
   // degree of freedom.
-  std::vector<EffectFit> per_log;
   auto score_models = [&](const std::vector<const EffectModel*>& models,
                           const std::vector<CandidateScore*>& scores) {
     const int count = static_cast<int>(models.size());
@@ -524,7 +513,7 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
     }
   };
   // Per-log nominal fits: the stiffness drift between experiments.
-  per_log.resize(training.size() > 1 ? training.size() : 0);
+  std::vector<EffectFit> per_log(training.size() > 1 ? training.size() : 0);
   std::vector<Status> per_log_status(per_log.size());
   ParallelFor(
       static_cast<int>(per_log.size()), options.num_threads, [&](int l) {

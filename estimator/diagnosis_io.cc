@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 
 #include "estimator/estimate_io.h"
 #include "nlohmann/json.hpp"
@@ -68,14 +67,6 @@ Json CandidateJson(const CandidateScore& s) {
   out["seconds"] = s.fit.result.seconds;
   return out;
 }
-
-constexpr double kDegree = std::numbers::pi / 180.0;
-
-// A channel value in the unit an engineer reads: mm or deg.
-double Display(int channel, double si) {
-  return channel < 3 ? si * 1e3 : si / kDegree;
-}
-const char* DisplayUnitOf(int channel) { return channel < 3 ? "mm" : "deg"; }
 
 }  // namespace
 
@@ -219,8 +210,9 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
     if (r.gap)
       std::snprintf(share, sizeof(share), "%7.0f%%", 100 * s.excess_share);
     std::snprintf(line, sizeof(line), "  %-8s %8.4f %-3s %8.2f %s %8.4f %s\n",
-                  s.name.c_str(), Display(k, s.rms(k)), DisplayUnitOf(k),
-                  s.score, share, Display(k, s.mean(k)), DisplayUnitOf(k));
+                  s.name.c_str(), ChannelDisplayValue(k, s.rms(k)),
+                  ChannelDisplayUnit(k), s.score, share,
+                  ChannelDisplayValue(k, s.mean(k)), ChannelDisplayUnit(k));
     add();
   }
   out += r.gap ? "  load regime (score, share of excess):"
@@ -292,8 +284,9 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
                      : "  (one log, no hold-out: no held-out rms)";
     for (int k = 0; k < 6 && s.heldout; ++k) {
       std::snprintf(line, sizeof(line), " %s %.4f->%.4f %s", kChannelNames[k],
-                    Display(k, r.nominal.heldout_rms(k)),
-                    Display(k, s.heldout_rms(k)), DisplayUnitOf(k));
+                    ChannelDisplayValue(k, r.nominal.heldout_rms(k)),
+                    ChannelDisplayValue(k, s.heldout_rms(k)),
+                    ChannelDisplayUnit(k));
       add();
     }
     out += "\n  fitted:";

@@ -171,9 +171,8 @@ class EffectResidual : public ceres::CostFunction {
     if (!SimulateSensed(*model_, seeded.data(), *experiment_, step_, &sensed)) {
       return false;
     }
-    const std::vector<bool>& observed = experiment_->observed;
     for (size_t j = 0; j < sensed.size(); ++j) {
-      const bool seen = observed.empty() || observed[j];
+      const bool seen = Observed(*experiment_, j);
       for (int k = 0; k < 6; ++k) {
         const size_t row = j * 6 + k;
         const double inverse_sigma = seen ? 1.0 / experiment_->sigma(k) : 0.0;
@@ -346,10 +345,7 @@ Status FitEffectModel(const EffectModel& model,
     problem.AddResidualBlock(
         new EffectResidual(&model, &e, integrator_step, lower, upper), nullptr,
         theta.data());
-
-    for (size_t j = 0; j < e.measured.size(); ++j) {
-      observed += (e.observed.empty() || e.observed[j]) ? 6 : 0;
-    }
+    observed += 6 * ObservedCount(e);
   }
   ceres::Solver::Options solver;
   solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;

@@ -236,7 +236,7 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   int row = 0;
   for (const Experiment& experiment : experiments) {
     for (size_t j = 0; j < experiment.measured.size(); ++j) {
-      const bool seen = experiment.observed.empty() || experiment.observed[j];
+      const bool seen = Observed(experiment, j);
       for (size_t c = 0; c < channels; ++c, ++row) {
         const int k = options.channels[c];
         if (!seen) continue;

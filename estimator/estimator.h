@@ -5,6 +5,7 @@
 #ifndef KCRIG_ESTIMATOR_ESTIMATOR_H_
 #define KCRIG_ESTIMATOR_ESTIMATOR_H_
 
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,15 @@ namespace kcrig {
 
 inline constexpr const char* kChannelNames[6] = {"x",   "y",      "z",
                                                  "toe", "camber", "caster"};
+
+// A channel's value as engineers read it (mm for x, y, z; deg for the
+// angles) from SI (m, rad), and that unit.
+inline double ChannelDisplayValue(int channel, double si) {
+  return channel < 3 ? si * 1e3 : si / (std::numbers::pi / 180.0);
+}
+inline const char* ChannelDisplayUnit(int channel) {
+  return channel < 3 ? "mm" : "deg";
+}
 
 struct EstimatorOptions {
   // Parameters to estimate, by name (see ListParameters); the others keep

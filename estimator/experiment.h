@@ -34,6 +34,18 @@ struct Experiment {
   std::string geometry;
 };
 
+// Whether sample j of `e` carries a measurement (see Experiment::observed).
+inline bool Observed(const Experiment& e, size_t j) {
+  return e.observed.empty() || e.observed[j];
+}
+
+// The number of samples of `e` that carry one.
+inline int ObservedCount(const Experiment& e) {
+  int n = 0;
+  for (size_t j = 0; j < e.measured.size(); ++j) n += Observed(e, j);
+  return n;
+}
+
 // Checks that the samples are evenly spaced at the sidecar's rate and that
 // the sample period is a whole multiple of the integrator step; rows without
 // a fresh sample become unobserved (see Experiment::observed).

@@ -72,9 +72,8 @@ bool TrajectoryResidual::SimulateAndFill(double const* const* parameters,
   std::vector<TrajectorySample<T>> samples;
   if (!SimulateTrajectory(model, load, options, &samples).ok()) return false;
   int row = 0;
-  const std::vector<bool>& observed = experiment_->observed;
   for (size_t j = 0; j < samples.size(); ++j) {
-    const bool seen = observed.empty() || observed[j];
+    const bool seen = Observed(*experiment_, j);
     for (int k : channels_) {
       // An unobserved sample: zero residual, zero sensitivity.
       const double inverse_sigma = seen ? 1.0 / experiment_->sigma(k) : 0.0;

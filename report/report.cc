@@ -33,13 +33,6 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
 constexpr double kDegree = std::numbers::pi / 180.0;
-constexpr const char* kChannelUnits[6] = {"mm",  "mm",  "mm",
-                                          "deg", "deg", "deg"};
-
-// A channel value as an engineer reads it: mm or deg.
-double Display(int channel, double si) {
-  return channel < 3 ? si * 1e3 : si / kDegree;
-}
 
 Status ReadJsonFile(const fs::path& path, Json* doc) {
   std::ifstream in(path);
@@ -143,30 +136,32 @@ Json TimeHistories(const Experiment& e, const std::vector<Vec6<double>>& model,
     double sum = 0;
     int count = 0;
     for (size_t j = 0; j < n; ++j) {
-      if (!e.observed.empty() && !e.observed[j]) continue;
+      if (!Observed(e, j)) continue;
       const double r = e.measured[j](k) - model[j](k);
       sum += r * r;
       ++count;
     }
     for (size_t j : index) {
-      predicted.push_back(Display(k, model[j](k)));
+      predicted.push_back(ChannelDisplayValue(k, model[j](k)));
       // A cycle without a fresh sample measured nothing: a gap in the plot.
-      if (!e.observed.empty() && !e.observed[j]) {
+      if (!Observed(e, j)) {
         measured.push_back(nullptr);
         residual.push_back(nullptr);
         continue;
       }
-      measured.push_back(Display(k, e.measured[j](k)));
-      residual.push_back(Display(k, e.measured[j](k) - model[j](k)));
+      measured.push_back(ChannelDisplayValue(k, e.measured[j](k)));
+      residual.push_back(
+          ChannelDisplayValue(k, e.measured[j](k) - model[j](k)));
     }
     channels.push_back(
         {{"name", kChannelNames[k]},
-         {"unit", kChannelUnits[k]},
+         {"unit", ChannelDisplayUnit(k)},
          {"measured", measured},
          {"model", predicted},
          {"residual", residual},
-         {"rms", Display(k, count > 0 ? std::sqrt(sum / count) : 0.0)},
-         {"sigma", Display(k, e.sigma(k))}});
+         {"rms",
+          ChannelDisplayValue(k, count > 0 ? std::sqrt(sum / count) : 0.0)},
+         {"sigma", ChannelDisplayValue(k, e.sigma(k))}});
   }
   return {{"t", t}, {"channels", channels}};
 }
@@ -189,12 +184,44 @@ Status Predict(const KcrigConfig& config,
                              sensed);
 }
 
+// An iteration's design.json: the criterion it optimised and its runs
+// (empty when the iteration designed nothing, the last one).
+struct DesignFile {
+  std::string name;  // the iteration folder, e.g. "iteration_0"
+  Criterion criterion = Criterion::kD;
+  std::string criterion_name;
+  Json runs = Json::array();
+};
+
 struct CampaignData {
   Json doc;
   std::vector<fs::path> iteration_dirs;
   std::vector<std::vector<std::pair<std::string, double>>> estimates;
-  std::vector<Design> designs;  // of the experiments run
+  std::vector<Design> designs;           // of the experiments run
+  std::vector<DesignFile> design_files;  // of the iterations that designed
 };
+
+// Reads `file` when it exists (appending it to `designs`).
+Status ReadDesignFile(const fs::path& file, std::vector<DesignFile>* designs) {
+  if (!fs::exists(file)) return Status::Ok();
+  Json doc;
+  Status status = ReadJsonFile(file, &doc);
+  if (!status.ok()) return status;
+  DesignFile design;
+  design.name = file.parent_path().filename().string();
+  status = Field(doc, "criterion", file.string(), &design.criterion_name);
+  if (!status.ok()) return status;
+  status = ParseCriterion(design.criterion_name, &design.criterion);
+  if (!status.ok())
+    return Status::Error(file.string() + ": " + status.message());
+  if (doc.contains("runs") && doc["runs"].is_array()) {
+    for (const Json& run : doc["runs"]) {
+      if (run.is_object()) design.runs.push_back(run);
+    }
+  }
+  designs->push_back(std::move(design));
+  return Status::Ok();
+}
 
 Status ReadCampaign(const fs::path& dir, CampaignData* data) {
   const fs::path file = dir / "campaign.json";
@@ -236,6 +263,9 @@ Status ReadCampaign(const fs::path& dir, CampaignData* data) {
     }
     data->iteration_dirs.push_back(dir /
                                    ("iteration_" + std::to_string(index)));
+    status = ReadDesignFile(data->iteration_dirs.back() / "design.json",
+                            &data->design_files);
+    if (!status.ok()) return status;
     data->estimates.push_back(estimate);
     data->designs.push_back({phi_deg * kDegree, z_a});
   }
@@ -319,20 +349,16 @@ Status SurfacesJson(const KcrigConfig& config, const CampaignData& data,
   if (!status.ok()) return status;
   // The first design's runs go on the surface of their criterion, which is
   // drawn beside D and A when it is another (E, MM).
-  Json design;
-  std::string criterion_name;
-  const fs::path design_file = data.iteration_dirs[0] / "design.json";
-  if (fs::exists(design_file)) {
-    status = ReadJsonFile(design_file, &design);
-    if (!status.ok()) return status;
-    status = Field(design, "criterion", design_file.string(), &criterion_name);
-    if (!status.ok()) return status;
-  }
+  const DesignFile* first =
+      !data.design_files.empty() &&
+              data.design_files[0].name ==
+                  data.iteration_dirs[0].filename().string()
+          ? &data.design_files[0]
+          : nullptr;
   std::vector<Criterion> criteria = {Criterion::kD, Criterion::kA};
-  Criterion designed;
-  if (ParseCriterion(criterion_name, &designed).ok() &&
-      std::find(criteria.begin(), criteria.end(), designed) == criteria.end()) {
-    criteria.push_back(designed);
+  if (first != nullptr && std::find(criteria.begin(), criteria.end(),
+                                    first->criterion) == criteria.end()) {
+    criteria.push_back(first->criterion);
   }
   const Interval phi = config.experiment.phi_bounds;
   const Interval z = config.experiment.z_a_bounds;
@@ -384,19 +410,16 @@ Status SurfacesJson(const KcrigConfig& config, const CampaignData& data,
       }
       rows.push_back(row);
     }
-    const std::string name = CriterionName(criteria[c]);
     Json runs = Json::array();
-    if (name == criterion_name && design.contains("runs") &&
-        design["runs"].is_array()) {
-      for (const Json& run : design["runs"]) {
-        if (!run.is_object()) continue;
+    if (first != nullptr && first->criterion == criteria[c]) {
+      for (const Json& run : first->runs) {
         runs.push_back(
             {{"optimizer", run.value("optimizer", "")},
              {"evaluated", NumberRows(run.value("evaluated", Json()), 3)},
              {"path", NumberRows(run.value("path", Json()), 2)}});
       }
     }
-    out->push_back({{"criterion", name},
+    out->push_back({{"criterion", CriterionName(criteria[c])},
                     {"phi_deg", phi_axis},
                     {"z_a", z_axis},
                     {"values", rows},
@@ -409,25 +432,10 @@ Status SurfacesJson(const KcrigConfig& config, const CampaignData& data,
 // first, middle and last batch (the refinement of Fig. 2; batch 0 is the
 // start design alone), on the scale the designer fitted (ln for A, E, MM),
 // from the first kriging design run of the campaign.
-Status KrigingJson(const KcrigConfig& config, const CampaignData& data,
-                   Json* out) {
-  *out = nullptr;
-  for (const fs::path& dir : data.iteration_dirs) {
-    const fs::path file = dir / "design.json";
-    if (!fs::exists(file)) continue;
-    Json design;
-    Status status = ReadJsonFile(file, &design);
-    if (!status.ok()) return status;
-    std::string criterion_name;
-    status = Field(design, "criterion", file.string(), &criterion_name);
-    if (!status.ok()) return status;
-    Criterion criterion;
-    status = ParseCriterion(criterion_name, &criterion);
-    if (!status.ok())
-      return Status::Error(file.string() + ": " + status.message());
-    if (!design.contains("runs") || !design["runs"].is_array()) continue;
-    for (const Json& run : design["runs"]) {
-      if (!run.is_object() || run.value("optimizer", "") != "kriging") continue;
+Json KrigingJson(const KcrigConfig& config, const CampaignData& data) {
+  for (const DesignFile& design : data.design_files) {
+    for (const Json& run : design.runs) {
+      if (run.value("optimizer", "") != "kriging") continue;
       const Interval phi = config.experiment.phi_bounds;
       const Interval z = config.experiment.z_a_bounds;
       std::vector<Eigen::Vector2d> x;
@@ -440,7 +448,7 @@ Status KrigingJson(const KcrigConfig& config, const CampaignData& data,
         x.emplace_back(
             (phi_deg * kDegree - phi.lower) / (phi.upper - phi.lower),
             (z_a - z.lower) / (z.upper - z.lower));
-        y.push_back(OptimizationScale(criterion, value));
+        y.push_back(OptimizationScale(design.criterion, value));
         batch.push_back(row[3].get<int>());
         shown.push_back({phi_deg, z_a});
       }
@@ -487,16 +495,15 @@ Status KrigingJson(const KcrigConfig& config, const CampaignData& data,
              {"points", points}});
       }
       if (panels.empty()) continue;
-      const std::string scaled = OptimizationScale(criterion, 2.0) == 2.0
-                                     ? criterion_name
-                                     : "ln " + criterion_name;
-      *out = {{"criterion", scaled},
-              {"iteration", dir.filename().string()},
+      const std::string scaled = OptimizationScale(design.criterion, 2.0) == 2.0
+                                     ? design.criterion_name
+                                     : "ln " + design.criterion_name;
+      return {{"criterion", scaled},
+              {"iteration", design.name},
               {"panels", panels}};
-      return Status::Ok();
     }
   }
-  return Status::Ok();
+  return nullptr;
 }
 
 // Resolves a log path written in diag.json: beside it (a folder moved as a
@@ -781,13 +788,11 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
                             std::to_string(campaign.iteration_dirs.size() - 1) +
                             ")";
       summary->experiments = static_cast<int>(experiments.size());
-      Json surfaces, kriging;
+      Json surfaces;
       read = SurfacesJson(config, campaign, options, &surfaces);
       if (!read.ok()) return read;
       data["surfaces"] = surfaces;
-      read = KrigingJson(config, campaign, &kriging);
-      if (!read.ok()) return read;
-      data["kriging"] = kriging;
+      data["kriging"] = KrigingJson(config, campaign);
       return Status::Ok();
     });
     if (!status.ok()) return status;
