@@ -65,9 +65,8 @@ Status DesignForAmbiguity(const KcrigConfig& config,
   std::vector<double> values[2];
   const std::string names[2] = {result.ambiguous_a, result.ambiguous_b};
   for (int i = 0; i < 2; ++i) {
-    std::vector<std::string> effects = SplitList(names[i], '+');
-    Status status = EffectModel::Create(
-        config.model, effects, options.estimator.lower_scale,
+    Status status = EffectModel::CreateNamed(
+        config.model, names[i], options.estimator.lower_scale,
         options.estimator.upper_scale, &models[i]);
     if (!status.ok()) return status;
     for (const CandidateScore& s : result.ranking) {

@@ -230,6 +230,21 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
   return Status::Ok();
 }
 
+Status EffectModel::CreateNamed(const SuspensionParameters<double>& nominal,
+                                const std::string& name, double lower_scale,
+                                double upper_scale, EffectModel* model) {
+  std::vector<std::string> effects;
+  if (name != "nominal") {
+    for (size_t begin = 0;;) {
+      const size_t end = name.find('+', begin);
+      effects.push_back(name.substr(begin, end - begin));
+      if (end == std::string::npos) break;
+      begin = end + 1;
+    }
+  }
+  return Create(nominal, effects, lower_scale, upper_scale, model);
+}
+
 std::string EffectModel::Name() const {
   if (effects_.empty()) return "nominal";
   std::string name;

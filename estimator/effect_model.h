@@ -52,6 +52,12 @@ class EffectModel {
                        double lower_scale, double upper_scale,
                        EffectModel* model);
 
+  // Create for a model's Name(): "nominal", "hysteresis",
+  // "hysteresis+actuator_lag" (as diag.json and a diagnosis name them).
+  static Status CreateNamed(const SuspensionParameters<double>& nominal,
+                            const std::string& name, double lower_scale,
+                            double upper_scale, EffectModel* model);
+
   // "nominal", "hysteresis", "hysteresis+actuator_lag".
   std::string Name() const;
   const std::vector<std::string>& effects() const { return effects_; }

@@ -174,7 +174,10 @@ Status Predict(const KcrigConfig& config,
   Status status = ModelWith(config.model, estimate, &model);
   if (!status.ok()) return status;
   EffectModel nominal;
-  status = EffectModel::Create(model, {}, 0.1, 10.0, &nominal);
+  // The estimator's default stiffness bounds, as the diagnosis uses them.
+  const EstimatorOptions bounds;
+  status = EffectModel::Create(model, {}, bounds.lower_scale,
+                               bounds.upper_scale, &nominal);
   if (!status.ok()) return status;
   std::vector<double> values;
   for (int i = 0; i < kNumBushings; ++i) {
@@ -592,17 +595,13 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
     *out = result;
     return Status::Ok();
   }
+  // The estimator's default stiffness bounds, as the diagnosis uses them.
+  const EstimatorOptions bounds;
   auto simulate = [&](const Json& candidate, std::vector<Vec6<double>>* y) {
     const std::string name = candidate.value("model", "nominal");
-    std::vector<std::string> effects;
-    if (name != "nominal") {
-      std::stringstream list(name);
-      for (std::string part; std::getline(list, part, '+');) {
-        effects.push_back(part);
-      }
-    }
     EffectModel model;
-    Status made = EffectModel::Create(config.model, effects, 0.1, 10.0, &model);
+    Status made = EffectModel::CreateNamed(
+        config.model, name, bounds.lower_scale, bounds.upper_scale, &model);
     if (!made.ok()) return made;
     const Json& parameters = candidate.value("parameters", Json::array());
     if (static_cast<int>(parameters.size()) != model.num_parameters()) {
