@@ -11,14 +11,16 @@
 
 #include "apps/design_command.h"
 #include "apps/progress.h"
-#include "apps/rig_factory.h"
 #include "designer/campaign.h"
+#include "emulator/plant_config.h"
 #include "emulator/simulated_run.h"
 #include "estimator/estimate_io.h"
-#include "io_drivers/config_loader.h"
-#include "io_drivers/rig_session.h"
-#include "io_drivers/run_log.h"
+#include "hil/rig_config.h"
+#include "hil/rig_factory.h"
+#include "hil/rig_session.h"
+#include "records/run_log.h"
 #include "report/report.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {

@@ -5,9 +5,9 @@
 #include <memory>
 #include <string>
 
-#include "apps/rig_factory.h"
-#include "io_drivers/can_bus_log.h"
+#include "hil/rig_factory.h"
 #include "io_drivers/socket_can.h"
+#include "records/can_bus_log.h"
 
 namespace kcrig {
 namespace {

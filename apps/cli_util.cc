@@ -1,8 +1,12 @@
 #include "apps/cli_util.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <numbers>
+
+#include "hil/rig_config.h"
+#include "records/read_log.h"
 
 namespace kcrig {
 
@@ -95,6 +99,19 @@ RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
           args.duration.value_or(experiment.duration),
           args.hold.value_or(0.0),
           args.return_duration.value_or(0.0)};
+}
+
+Status LoadLogs(const std::vector<std::string>& paths,
+                const KcrigConfig& config,
+                std::vector<Experiment>* experiments) {
+  std::string dbc_file;
+  if (std::any_of(paths.begin(), paths.end(), IsCanBusLog)) {
+    RigConfig rig;
+    const Status status = LoadRigConfig(config.directory, &rig);
+    if (!status.ok()) return status;
+    dbc_file = rig.can.dbc_file;
+  }
+  return LoadExperiments(paths, config, dbc_file, experiments);
 }
 
 }  // namespace kcrig

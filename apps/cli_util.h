@@ -7,9 +7,10 @@
 #include <vector>
 
 #include "CLI/CLI.hpp"
-#include "io_drivers/config_loader.h"
-#include "rt_core/excitation.h"
-#include "rt_core/status.h"
+#include "base/status.h"
+#include "estimator/experiment.h"
+#include "rt_core/model/excitation.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 
@@ -38,6 +39,12 @@ void AddExcitationOptions(CLI::App* cmd, ExcitationArgs* args);
 // The given values over the config's defaults; phi in rad. Unchecked.
 RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
                                    const ExperimentConfig& experiment);
+
+// The logs as experiments (estimator's LoadExperiments); a CAN bus log is
+// decoded with the DBC of the config's rig.yaml.
+Status LoadLogs(const std::vector<std::string>& paths,
+                const KcrigConfig& config,
+                std::vector<Experiment>* experiments);
 
 }  // namespace kcrig
 

@@ -13,8 +13,8 @@
 #include "designer/design_io.h"
 #include "designer/information.h"
 #include "estimator/estimate_io.h"
-#include "io_drivers/config_loader.h"
-#include "io_drivers/run_log.h"
+#include "records/run_log.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {

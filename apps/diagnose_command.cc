@@ -9,10 +9,10 @@
 #include "apps/cli_util.h"
 #include "apps/progress.h"
 #include "designer/discrimination.h"
-#include "estimator/diagnosis.h"
-#include "estimator/diagnosis_io.h"
-#include "io_drivers/config_loader.h"
-#include "io_drivers/run_log.h"
+#include "diagnosis/diagnosis.h"
+#include "diagnosis/diagnosis_io.h"
+#include "records/run_log.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {
@@ -104,9 +104,9 @@ int RunDiagnose(const DiagnoseArgs& args) {
   options.num_threads = args.threads;
 
   std::vector<Experiment> training, holdout;
-  status = LoadExperiments(args.logs, config, &training);
+  status = LoadLogs(args.logs, config, &training);
   if (!status.ok()) return fail(status);
-  status = LoadExperiments(args.holdout, config, &holdout);
+  status = LoadLogs(args.holdout, config, &holdout);
   if (!status.ok()) return fail(status);
   std::vector<Experiment> all = training;
   all.insert(all.end(), holdout.begin(), holdout.end());

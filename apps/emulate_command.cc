@@ -7,13 +7,16 @@
 #include <string>
 #include <vector>
 
-#include "apps/rig_factory.h"
 #include "emulator/can_front_end.h"
 #include "emulator/modbus_front_end.h"
+#include "emulator/plant_config.h"
 #include "emulator/rig_emulator.h"
-#include "io_drivers/config_loader.h"
-#include "rt_core/plant_effects.h"
-#include "rt_core/realtime.h"
+#include "hil/rig_config.h"
+#include "hil/rig_factory.h"
+#include "io_drivers/modbus_map.h"
+#include "rt_core/model/model_config.h"
+#include "rt_core/model/plant_effects.h"
+#include "rt_core/runtime/realtime.h"
 
 namespace kcrig {
 namespace {

@@ -9,8 +9,8 @@
 #include "estimator/estimate_io.h"
 #include "estimator/estimator.h"
 #include "estimator/profile_likelihood.h"
-#include "io_drivers/config_loader.h"
-#include "io_drivers/run_log.h"
+#include "records/run_log.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {
@@ -68,7 +68,7 @@ int RunEstimate(const EstimateArgs& args) {
   }
 
   std::vector<Experiment> experiments;
-  status = LoadExperiments(args.logs, config, &experiments);
+  status = LoadLogs(args.logs, config, &experiments);
   if (!status.ok()) return fail(status);
   EstimationResult result;
   status = Estimate(config.model, experiments, options, initial,

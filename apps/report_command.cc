@@ -7,8 +7,8 @@
 #include <string>
 
 #include "apps/progress.h"
-#include "io_drivers/config_loader.h"
 #include "report/report.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {

@@ -10,9 +10,10 @@
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
-#include "apps/rig_factory.h"
-#include "io_drivers/config_loader.h"
-#include "io_drivers/rig_session.h"
+#include "hil/rig_config.h"
+#include "hil/rig_factory.h"
+#include "hil/rig_session.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {

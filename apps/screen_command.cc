@@ -8,9 +8,9 @@
 #include "apps/cli_util.h"
 #include "apps/progress.h"
 #include "estimator/screening.h"
-#include "io_drivers/config_loader.h"
-#include "io_drivers/run_log.h"
 #include "nlohmann/json.hpp"
+#include "records/run_log.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {
@@ -84,7 +84,7 @@ int RunScreen(const ScreenArgs& args) {
   options.levels = args.levels;
   options.seed = args.seed;
   std::vector<Experiment> experiments;
-  status = LoadExperiments(args.logs, config, &experiments);
+  status = LoadLogs(args.logs, config, &experiments);
   if (!status.ok()) return fail(status);
   ScreeningResult result;
   {

@@ -9,8 +9,8 @@
 
 #include "apps/cli_util.h"
 #include "emulator/simulated_run.h"
-#include "io_drivers/config_loader.h"
-#include "io_drivers/run_log.h"
+#include "records/run_log.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {

@@ -8,13 +8,14 @@
 #include <vector>
 
 #include "apps/progress.h"
-#include "apps/rig_factory.h"
-#include "io_drivers/config_loader.h"
-#include "io_drivers/rig_session.h"
-#include "io_drivers/run_log.h"
+#include "hil/rig_config.h"
+#include "hil/rig_factory.h"
+#include "hil/rig_session.h"
 #include "nlohmann/json.hpp"
-#include "rt_core/cycle_timer.h"
-#include "rt_core/realtime.h"
+#include "records/run_log.h"
+#include "rt_core/model/model_config.h"
+#include "rt_core/runtime/cycle_timer.h"
+#include "rt_core/runtime/realtime.h"
 
 namespace kcrig {
 namespace {

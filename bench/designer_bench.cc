@@ -16,8 +16,9 @@
 #include "designer/campaign.h"
 #include "designer/ecnoise.h"
 #include "designer/optimizers.h"
+#include "emulator/plant_config.h"
 #include "emulator/simulated_run.h"
-#include "io_drivers/config_loader.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {

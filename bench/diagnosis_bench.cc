@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "benchmark/benchmark.h"
+#include "diagnosis/diagnosis.h"
 #include "emulator/simulated_run.h"
-#include "estimator/diagnosis.h"
-#include "io_drivers/config_loader.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {

@@ -18,9 +18,9 @@
 #include "estimator/estimator.h"
 #include "estimator/fit_problem.h"
 #include "estimator/trajectory_residual.h"
-#include "io_drivers/config_loader.h"
-#include "rt_core/measurement_noise.h"
-#include "rt_core/simulation.h"
+#include "rt_core/model/measurement_noise.h"
+#include "rt_core/model/model_config.h"
+#include "rt_core/model/simulation.h"
 
 namespace kcrig {
 namespace {

@@ -12,8 +12,8 @@
 
 #include "benchmark/benchmark.h"
 #include "ceres/jet.h"
-#include "io_drivers/config_loader.h"
-#include "rt_core/simulation.h"
+#include "rt_core/model/model_config.h"
+#include "rt_core/model/simulation.h"
 #include "tests/support/reference_integrators.h"
 
 namespace kcrig {

@@ -30,12 +30,14 @@
 #include <thread>
 
 #include "benchmark/benchmark.h"
-#include "io_drivers/config_loader.h"
+#include "hil/rig_config.h"
 #include "io_drivers/kc_rig_protocol.h"
+#include "io_drivers/modbus_map.h"
 #include "io_drivers/modbus_rig.h"
 #include "io_drivers/socket_can.h"
-#include "rt_core/control_loop.h"
-#include "rt_core/realtime.h"
+#include "rt_core/model/model_config.h"
+#include "rt_core/runtime/control_loop.h"
+#include "rt_core/runtime/realtime.h"
 
 extern char** environ;
 

@@ -10,8 +10,8 @@
 #include "designer/information.h"
 #include "estimator/estimate_io.h"
 #include "estimator/experiment.h"
-#include "io_drivers/run_log.h"
 #include "nlohmann/json.hpp"
+#include "records/run_log.h"
 
 namespace kcrig {
 namespace {
@@ -97,7 +97,7 @@ Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
                   k, logs.size(), logs.size() == 1 ? "" : "s");
     stage(text);
     // Only the new log is read; the earlier ones are kept.
-    status = LoadExperiment(csv, config, &experiments.emplace_back());
+    status = LoadExperiment(csv, config, "", &experiments.emplace_back());
     if (!status.ok()) return status;
     status = Estimate(config.model, experiments, options.estimator, current,
                       config.experiment.step, &it.estimate);

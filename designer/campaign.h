@@ -14,7 +14,7 @@
 #include "designer/design_io.h"
 #include "designer/optimizers.h"
 #include "estimator/estimator.h"
-#include "io_drivers/config_loader.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 

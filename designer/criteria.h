@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "Eigen/Core"
-#include "rt_core/status.h"
+#include "base/status.h"
 
 namespace kcrig {
 

@@ -7,7 +7,7 @@
 
 #include "nlohmann/json.hpp"
 #include "nlopt.hpp"
-#include "rt_core/excitation.h"
+#include "rt_core/model/excitation.h"
 
 namespace kcrig {
 namespace {

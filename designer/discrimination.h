@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
-#include "estimator/effect_model.h"
-#include "io_drivers/config_loader.h"
-#include "rt_core/status.h"
+#include "base/status.h"
+#include "diagnosis/effect_model.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 

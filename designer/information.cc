@@ -6,7 +6,7 @@
 
 #include "estimator/estimator.h"
 #include "estimator/trajectory_residual.h"
-#include "rt_core/excitation.h"
+#include "rt_core/model/excitation.h"
 
 namespace kcrig {
 namespace {

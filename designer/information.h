@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "Eigen/Core"
+#include "base/status.h"
 #include "estimator/experiment.h"
-#include "io_drivers/config_loader.h"
-#include "rt_core/status.h"
-#include "rt_core/suspension_parameters.h"
+#include "rt_core/model/model_config.h"
+#include "rt_core/model/suspension_parameters.h"
 
 namespace kcrig {
 

@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "Eigen/Core"
+#include "base/status.h"
 #include "designer/optimizers.h"
-#include "rt_core/status.h"
 
 namespace kcrig {
 

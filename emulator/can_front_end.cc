@@ -2,7 +2,7 @@
 
 #include "io_drivers/kc_rig_protocol.h"
 #include "io_drivers/socket_can.h"
-#include "rt_core/cycle_timer.h"
+#include "rt_core/runtime/cycle_timer.h"
 
 namespace kcrig {
 namespace {

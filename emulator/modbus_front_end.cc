@@ -2,7 +2,7 @@
 
 #include "io_drivers/modbus_registers.h"
 #include "io_drivers/modbus_server.h"
-#include "rt_core/cycle_timer.h"
+#include "rt_core/runtime/cycle_timer.h"
 
 namespace kcrig {
 namespace {

@@ -12,7 +12,7 @@
 #include <string>
 
 #include "emulator/rig_emulator.h"
-#include "io_drivers/config_loader.h"
+#include "io_drivers/modbus_map.h"
 
 namespace kcrig {
 

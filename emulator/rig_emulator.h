@@ -13,10 +13,11 @@
 #include <random>
 #include <vector>
 
-#include "io_drivers/config_loader.h"
-#include "rt_core/plant_effects.h"
-#include "rt_core/rig_interface.h"
-#include "rt_core/rig_plant.h"
+#include "emulator/plant_config.h"
+#include "rt_core/model/model_config.h"
+#include "rt_core/model/plant_effects.h"
+#include "rt_core/model/rig_plant.h"
+#include "rt_core/runtime/rig_interface.h"
 
 namespace kcrig {
 

@@ -3,9 +3,9 @@
 #include <cmath>
 #include <vector>
 
-#include "rt_core/measurement_noise.h"
-#include "rt_core/rig_plant.h"
-#include "rt_core/simulation.h"
+#include "rt_core/model/measurement_noise.h"
+#include "rt_core/model/rig_plant.h"
+#include "rt_core/model/simulation.h"
 
 namespace kcrig {
 

@@ -7,10 +7,11 @@
 #include <cstdint>
 #include <string>
 
-#include "io_drivers/config_loader.h"
-#include "io_drivers/run_log.h"
-#include "rt_core/excitation.h"
-#include "rt_core/plant_effects.h"
+#include "emulator/plant_config.h"
+#include "records/run_log.h"
+#include "rt_core/model/excitation.h"
+#include "rt_core/model/model_config.h"
+#include "rt_core/model/plant_effects.h"
 
 namespace kcrig {
 

@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "Eigen/Core"
+#include "base/status.h"
 #include "estimator/experiment.h"
-#include "rt_core/status.h"
-#include "rt_core/suspension_parameters.h"
+#include "rt_core/model/suspension_parameters.h"
 
 namespace kcrig {
 

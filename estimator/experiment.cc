@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "io_drivers/can_log_decoder.h"
-#include "rt_core/excitation.h"
+#include "records/read_log.h"
+#include "rt_core/model/excitation.h"
 
 namespace kcrig {
 
@@ -83,22 +83,14 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
 }
 
 Status LoadExperiment(const std::string& path, const KcrigConfig& config,
-                      Experiment* experiment) {
+                      const std::string& dbc_file, Experiment* experiment) {
+  CanLogDecoderOptions can;
+  can.dbc_file = dbc_file;
+  can.sigma_position = config.experiment.sigma_position;
+  can.sigma_angle = config.experiment.sigma_angle;
   RunLog log;
-  if (path.size() >= 4 && path.substr(path.size() - 4) == ".log") {
-    RigConfig rig;
-    Status status = LoadRigConfig(config.directory, &rig);
-    if (!status.ok()) return status;
-    CanLogDecoderOptions options;
-    options.dbc_file = rig.can.dbc_file;
-    options.sigma_position = config.experiment.sigma_position;
-    options.sigma_angle = config.experiment.sigma_angle;
-    status = DecodeCanLog(path, options, &log);
-    if (!status.ok()) return status;
-  } else {
-    const Status status = ReadRunLog(path, &log);
-    if (!status.ok()) return status;
-  }
+  const Status status = ReadLog(path, can, &log);
+  if (!status.ok()) return status;
   return MakeExperiment(path, log, config.experiment.step, experiment);
 }
 
@@ -122,11 +114,12 @@ Experiment PlannedExperiment(const RampExcitation<double>& ramp,
 }
 
 Status LoadExperiments(const std::vector<std::string>& paths,
-                       const KcrigConfig& config,
+                       const KcrigConfig& config, const std::string& dbc_file,
                        std::vector<Experiment>* experiments) {
   experiments->assign(paths.size(), Experiment());
   for (size_t i = 0; i < paths.size(); ++i) {
-    const Status status = LoadExperiment(paths[i], config, &(*experiments)[i]);
+    const Status status =
+        LoadExperiment(paths[i], config, dbc_file, &(*experiments)[i]);
     if (!status.ok()) return status;
   }
   return Status::Ok();

@@ -7,11 +7,12 @@
 #include <string>
 #include <vector>
 
-#include "io_drivers/config_loader.h"
-#include "io_drivers/run_log.h"
-#include "rt_core/excitation.h"
-#include "rt_core/rotation.h"
-#include "rt_core/status.h"
+#include "base/status.h"
+#include "records/can_log_decoder.h"
+#include "records/run_log.h"
+#include "rt_core/model/excitation.h"
+#include "rt_core/model/model_config.h"
+#include "rt_core/model/rotation.h"
 
 namespace kcrig {
 
@@ -52,12 +53,11 @@ inline int ObservedCount(const Experiment& e) {
 Status MakeExperiment(const std::string& source, const RunLog& log,
                       double integrator_step, Experiment* experiment);
 
-// A run log (run.csv with its sidecar: ReadRunLog) or a CAN bus log (a
-// `.log` in candump -l format: DecodeCanLog with the DBC of the config's
-// rig.yaml and the sigmas of its experiment.yaml), then MakeExperiment with
+// A log read by records' ReadLog (a CAN bus log decoded with `dbc_file`
+// and the config's sensor sigmas; "" refuses one), then MakeExperiment with
 // the config's integrator step.
 Status LoadExperiment(const std::string& path, const KcrigConfig& config,
-                      Experiment* experiment);
+                      const std::string& dbc_file, Experiment* experiment);
 
 // An experiment not yet run: the excitation's forces sampled at the
 // config's log rate over the whole excitation, the config's integrator step
@@ -67,7 +67,7 @@ Experiment PlannedExperiment(const RampExcitation<double>& ramp,
 
 // LoadExperiment for each path, in order.
 Status LoadExperiments(const std::vector<std::string>& paths,
-                       const KcrigConfig& config,
+                       const KcrigConfig& config, const std::string& dbc_file,
                        std::vector<Experiment>* experiments);
 
 }  // namespace kcrig

@@ -5,8 +5,8 @@
 #include <utility>
 
 #include "ceres/jet.h"
-#include "rt_core/excitation.h"
-#include "rt_core/simulation.h"
+#include "rt_core/model/excitation.h"
+#include "rt_core/model/simulation.h"
 
 namespace kcrig {
 namespace {

@@ -23,7 +23,7 @@
 
 #include "ceres/cost_function.h"
 #include "estimator/experiment.h"
-#include "rt_core/suspension_parameters.h"
+#include "rt_core/model/suspension_parameters.h"
 
 namespace kcrig {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <string_view>
 
-#include "io_drivers/candump_log.h"
+#include "records/candump_log.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
                                       std::size_t size) {

@@ -6,6 +6,8 @@
 
 #include <cstdint>
 
+#include "base/status.h"
+
 namespace kcrig {
 
 struct CanFrame {
@@ -22,6 +24,21 @@ struct CanFrame {
 struct TimedCanFrame {
   std::int64_t time_us = 0;
   CanFrame frame;
+};
+
+// Where a CAN rig hands every frame it sent or took in. Transports do no
+// file I/O of their own: hil/ gives the rig records' can.log writer.
+class CanFrameSink {
+ public:
+  virtual ~CanFrameSink() = default;
+  // From the cycle's thread: no allocation, no I/O.
+  virtual void Push(const TimedCanFrame& frame) = 0;
+  // Keeps what was pushed (an experiment ran).
+  virtual Status Close() = 0;
+  // Drops it (the rig was never activated).
+  virtual void Discard() = 0;
+  virtual std::int64_t written() const = 0;
+  virtual std::uint64_t dropped() const = 0;
 };
 
 }  // namespace kcrig

@@ -53,10 +53,12 @@ const char* CanErrorFault(const CanFrame& frame) {
   return nullptr;
 }
 
-CanRig::CanRig(const CanRigOptions& options) : options_(options) {}
+CanRig::CanRig(CanRigOptions options) : options_(std::move(options)) {}
 
 // A rig that was never activated ran no experiment: its bus log goes.
-CanRig::~CanRig() { bus_log_.Discard(); }
+CanRig::~CanRig() {
+  if (options_.bus_log) options_.bus_log->Discard();
+}
 
 std::string CanRig::Describe() const { return "can:" + options_.interface; }
 
@@ -72,10 +74,6 @@ Status CanRig::Configure() {
   socket_options.error_frames = true;
   status = socket_.Open(socket_options);
   if (!status.ok()) return status;
-  if (!options_.bus_log.empty()) {
-    status = bus_log_.Open(options_.bus_log, options_.interface);
-    if (!status.ok()) return status;
-  }
   // The rig must be there and speak this protocol before anything starts.
   const auto deadline = std::chrono::steady_clock::now() +
                         std::chrono::microseconds(static_cast<long>(
@@ -104,7 +102,7 @@ void CanRig::SetFault(const char* what) {
 }
 
 void CanRig::Take(const TimedCanFrame& timed) {
-  bus_log_.Push(timed);
+  if (options_.bus_log) options_.bus_log->Push(timed);
   ++frames_received_;
   const CanFrame& frame = timed.frame;
   if (frame.error) {
@@ -156,7 +154,7 @@ bool CanRig::SendFrame(const CanFrame& frame) {
   if (result == CanSocket::SendResult::kSent) {
     ++frames_sent_;
     queue_full_since_us_ = -1;
-    bus_log_.Push(TimedCanFrame{now, frame});
+    if (options_.bus_log) options_.bus_log->Push(TimedCanFrame{now, frame});
     return true;
   }
   if (result == CanSocket::SendResult::kQueueFull) {
@@ -242,8 +240,9 @@ Status CanRig::Deactivate() {
 }
 
 Status CanRig::FinishBusLog() {
-  if (activated_) return bus_log_.Close();
-  bus_log_.Discard();
+  if (!options_.bus_log) return Status::Ok();
+  if (activated_) return options_.bus_log->Close();
+  options_.bus_log->Discard();
   return Status::Ok();
 }
 
@@ -300,8 +299,9 @@ std::string CanRig::CountersJson() const {
   j["transmit_queue_full"] = queue_full_;
   j["send_errors"] = send_errors_;
   j["receive_errors"] = receive_errors_;
-  j["bus_log_frames"] = bus_log_.written();
-  j["bus_log_dropped"] = bus_log_.dropped();
+  const CanFrameSink* log = options_.bus_log.get();
+  j["bus_log_frames"] = log != nullptr ? log->written() : 0;
+  j["bus_log_dropped"] = log != nullptr ? log->dropped() : 0;
   if (fault_ != nullptr) j["fault"] = fault_;
   return j.dump();
 }

@@ -23,13 +23,14 @@
 #ifndef KCRIG_IO_DRIVERS_CAN_RIG_H_
 #define KCRIG_IO_DRIVERS_CAN_RIG_H_
 
+#include <memory>
 #include <string>
 
-#include "io_drivers/can_bus_log.h"
-#include "io_drivers/config_loader.h"
+#include "io_drivers/can_frame.h"
 #include "io_drivers/kc_rig_protocol.h"
 #include "io_drivers/socket_can.h"
-#include "rt_core/rig_interface.h"
+#include "io_drivers/transport_config.h"
+#include "rt_core/runtime/rig_interface.h"
 
 namespace kcrig {
 
@@ -45,12 +46,13 @@ struct CanRigOptions {
   std::string interface;  // vcan0, can0
   CanSettings settings;   // rig.yaml can:
   double period = 1e-3;   // the loop's [s], sent in KC_Setup
-  std::string bus_log;    // can.log to write ("" = none)
+  // Receives every frame (hil/: can.log); none when null.
+  std::unique_ptr<CanFrameSink> bus_log;
 };
 
 class CanRig : public RigInterface {
  public:
-  explicit CanRig(const CanRigOptions& options);
+  explicit CanRig(CanRigOptions options);
   ~CanRig() override;
 
   Status Configure() override;
@@ -82,7 +84,6 @@ class CanRig : public RigInterface {
   KcRigProtocol protocol_;
   KcSampleAssembler assembler_{&protocol_};
   CanSocket socket_;
-  CanBusLog bus_log_;
   double z_a_ = 0;
   bool activated_ = false;  // the bus log is kept only for an activated rig
 

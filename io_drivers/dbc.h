@@ -19,7 +19,7 @@
 #include <string_view>
 #include <vector>
 
-#include "rt_core/status.h"
+#include "base/status.h"
 
 namespace kcrig {
 

@@ -15,8 +15,9 @@
 #include <string>
 #include <thread>
 
-#include "io_drivers/config_loader.h"
-#include "rt_core/rig_interface.h"
+#include "io_drivers/modbus_map.h"
+#include "io_drivers/transport_config.h"
+#include "rt_core/runtime/rig_interface.h"
 
 typedef struct _modbus modbus_t;
 

@@ -12,8 +12,8 @@
 #include <functional>
 #include <string>
 
-#include "io_drivers/config_loader.h"
-#include "rt_core/status.h"
+#include "base/status.h"
+#include "io_drivers/modbus_map.h"
 
 typedef struct _modbus modbus_t;
 typedef struct _modbus_mapping_t modbus_mapping_t;

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "io_drivers/can_frame.h"
-#include "rt_core/status.h"
 
 namespace kcrig {
 

@@ -13,18 +13,18 @@
 #include <numbers>
 #include <sstream>
 
+#include "base/parallel_for.h"
 #include "designer/criteria.h"
 #include "designer/design_objective.h"
 #include "designer/information.h"
 #include "designer/kriging.h"
-#include "estimator/effect_model.h"
+#include "diagnosis/effect_model.h"
 #include "estimator/estimator.h"
 #include "estimator/experiment.h"
-#include "estimator/parallel_for.h"
-#include "io_drivers/run_log.h"
 #include "nlohmann/json.hpp"
+#include "records/run_log.h"
 #include "report/report_page.h"
-#include "rt_core/plant_effects.h"
+#include "rt_core/model/plant_effects.h"
 
 namespace kcrig {
 namespace {
@@ -588,7 +588,7 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
   }
   const fs::path log = LogPath(file, logs[0]);
   Experiment e;
-  status = LoadExperiment(log.string(), config, &e);
+  status = LoadExperiment(log.string(), config, "", &e);
   if (!status.ok()) {
     // The diagnosis stands without its overlay: say why it is missing.
     result["overlay_missing"] = status.message();
@@ -769,7 +769,7 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
         progress("time histories " + std::to_string(k + 1) + "/" +
                  std::to_string(campaign.iteration_dirs.size()));
         Experiment e;
-        read = LoadExperiment(log.string(), config, &e);
+        read = LoadExperiment(log.string(), config, "", &e);
         if (!read.ok()) return read;
         std::vector<Vec6<double>> model;
         read = Predict(config, final_estimate, e, &model);

@@ -19,8 +19,8 @@
 #include <functional>
 #include <string>
 
-#include "io_drivers/config_loader.h"
-#include "rt_core/status.h"
+#include "base/status.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 

@@ -140,7 +140,7 @@ TEST(EstimatorTest, LogWithoutLoadCellUsesTheCommandedRamp) {
   const std::string path = ::testing::TempDir() + "kcrig_no_load_cell.csv";
   ASSERT_TRUE(WriteRunLog(path, log).ok());
   Experiment experiment;
-  const Status loaded = LoadExperiment(path, config, &experiment);
+  const Status loaded = LoadExperiment(path, config, "", &experiment);
   ASSERT_TRUE(loaded.ok()) << loaded.message();
   for (size_t j = 0; j < log.samples.size(); j += 500) {
     EXPECT_LT((experiment.forces[j] - log.samples[j].force).norm(), 1e-9);

@@ -10,11 +10,11 @@
 #include <random>
 #include <string>
 
-#include "io_drivers/can_log_decoder.h"
 #include "io_drivers/can_rig.h"
-#include "io_drivers/candump_log.h"
 #include "io_drivers/dbc.h"
 #include "io_drivers/kc_rig_protocol.h"
+#include "records/can_log_decoder.h"
+#include "records/candump_log.h"
 
 namespace kcrig {
 namespace {

@@ -1,5 +1,3 @@
-#include "io_drivers/config_loader.h"
-
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -8,6 +6,7 @@
 #include <string>
 
 #include "gtest/gtest.h"
+#include "rt_core/model/model_config.h"
 #include "tests/support/temp_dir_test.h"
 
 namespace kcrig {

@@ -11,6 +11,7 @@
 #include "emulator/modbus_front_end.h"
 #include "emulator/rig_emulator.h"
 #include "gtest/gtest.h"
+#include "hil/rig_config.h"
 #include "io_drivers/modbus_registers.h"
 #include "io_drivers/modbus_rig.h"
 #include "io_drivers/modbus_server.h"

@@ -24,9 +24,9 @@
 #include <vector>
 
 #include "gtest/gtest.h"
-#include "io_drivers/can_log_decoder.h"
-#include "io_drivers/candump_log.h"
 #include "nlohmann/json.hpp"
+#include "records/can_log_decoder.h"
+#include "records/candump_log.h"
 #include "tests/support/child_process.h"
 #include "tests/support/cli_runner.h"
 #include "tests/support/edited_config.h"

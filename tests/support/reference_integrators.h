@@ -8,8 +8,8 @@
 #include <functional>
 #include <vector>
 
-#include "rt_core/status.h"
-#include "rt_core/suspension_model.h"
+#include "base/status.h"
+#include "rt_core/model/suspension_model.h"
 
 namespace kcrig {
 

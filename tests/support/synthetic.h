@@ -10,9 +10,9 @@
 #include "emulator/simulated_run.h"
 #include "estimator/experiment.h"
 #include "gtest/gtest.h"
-#include "io_drivers/config_loader.h"
-#include "rt_core/measurement_noise.h"
-#include "rt_core/simulation.h"
+#include "rt_core/model/measurement_noise.h"
+#include "rt_core/model/model_config.h"
+#include "rt_core/model/simulation.h"
 
 namespace kcrig {
 

@@ -3,8 +3,8 @@
 #define KCRIG_TESTS_SUPPORT_TEST_CONFIG_H_
 
 #include "gtest/gtest.h"
-#include "io_drivers/config_loader.h"
-#include "rt_core/excitation.h"
+#include "rt_core/model/excitation.h"
+#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 

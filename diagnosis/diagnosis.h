@@ -1,0 +1,184 @@
+// The sim-to-real gap diagnosis: is there a gap between the nominal model
+// and the logs beyond the sensor noise, where does it lie (channel, load
+// regime, frequency band, lag, drift of the stiffnesses between
+// experiments), which unmodelled effect of the library explains it
+// (candidate models refitted and scored on data they were not fitted to),
+// and how much of the gap that effect closes.
+//
+// Scores are mean squared weighted residuals S = |r / sigma|^2 / n on
+// held-out data: 1 is the noise floor, S - 1 the gap. A candidate closes
+// (S_nominal - S) / (S_nominal - 1) of it. Without hold-out logs the score
+// is a blocked cross-validation over whole training logs (each log
+// predicted by the fit to the others, approximated by one Gauss-Newton step
+// from the fit to all); with a single log and no hold-out
+// only the information criteria are left, and the result says so.
+#ifndef KCRIG_DIAGNOSIS_DIAGNOSIS_H_
+#define KCRIG_DIAGNOSIS_DIAGNOSIS_H_
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "base/status.h"
+#include "diagnosis/effect_model.h"
+#include "estimator/experiment.h"
+
+namespace kcrig {
+
+struct DiagnosisOptions {
+  // Bounds of the bushing stiffnesses (x nominal) and the uncertainty
+  // thresholds, as for `kcrig estimate`.
+  EstimatorOptions estimator;
+  EffectFitOptions fit;
+  // The candidate effects (names of kEffectNames).
+  std::vector<std::string> candidates = {kEffectNames.begin(),
+                                         kEffectNames.end()};
+  // Gap test: the nominal residual is noise unless the chi-square test or
+  // a Ljung-Box test (Bonferroni over logs x channels) rejects at this
+  // level.
+  double significance = 1e-3;
+  int ljung_box_lags = 20;
+  // Largest lag of the residual-force cross-correlation [s].
+  double max_lag = 0.1;
+  // The best candidate is the verdict only when it closes at least this
+  // fraction of the held-out gap...
+  double min_gap_closed = 0.8;
+  // ...and is clearly better than the runner-up: it closes at least
+  // min_gap_margin more of the gap, or the runner-up leaves three times its
+  // remaining gap open (at least five standard deviations of a score at the
+  // noise floor); and the BIC prefers it by at least min_bic_difference
+  // (strong evidence). A pair of effects must be clearly better than the
+  // best single one in the same sense.
+  double min_gap_margin = 0.2;
+  double min_bic_difference = 10;
+  // Pairs of effects are tried, from the best `pair_pool` single ones, when
+  // no single effect closes min_gap_closed, or when the best one leaves
+  // structure beyond the noise.
+  bool consider_pairs = true;
+  int pair_pool = 3;
+  // A stiffness estimated from single logs drifts when two logs disagree by
+  // more than this many combined standard errors.
+  double drift_z = 4;
+  // When no candidate's first fit brings the training residual down to
+  // the noise, the second start (effect_model.h: second_initial) is tried
+  // for the best `retry_pool` of them.
+  int retry_pool = 2;
+  // Candidates are fitted on this many threads.
+  int num_threads = 2;
+  // Every log needs at least this many observed samples.
+  int min_samples = 500;
+  // Called with a short line at each stage and after each candidate fit
+  // (one call at a time, from any thread). Optional.
+  std::function<void(const std::string& stage, double fraction)> on_progress;
+};
+
+// Residual energy of the nominal fit in one slice of the data.
+struct GapSlice {
+  std::string name;
+  int samples = 0;
+  // Mean squared weighted residual over the slice (1: noise) and per
+  // channel; the slice's share of the total excess energy sum(w^2 - 1).
+  double score = 0;
+  Vec6<double> channel_score = Vec6<double>::Zero();
+  double excess_share = 0;
+  // The residual's mean (a bias, e.g. an offset) and RMS per channel
+  // [m, rad].
+  Vec6<double> mean = Vec6<double>::Zero();
+  Vec6<double> rms = Vec6<double>::Zero();
+};
+
+struct FrequencyBand {
+  double low_hz = 0, high_hz = 0;
+  // Share of the residual energy in the band, and the share white noise
+  // would have (the band's width over the Nyquist frequency).
+  double energy_share = 0;
+  double white_share = 0;
+};
+
+struct LagCorrelation {
+  std::string channel;
+  // Peak of the cross-correlation of the weighted residual with the force
+  // along the excitation direction and with its rate, over lags within
+  // max_lag (positive: the residual follows the force). [s], [-].
+  double force_lag = 0, force_correlation = 0;
+  double rate_lag = 0, rate_correlation = 0;
+};
+
+struct StiffnessDrift {
+  std::string parameter;
+  std::vector<double> values;           // one per training log [N/m]
+  std::vector<double> standard_errors;  // [N/m]
+  double max_z = 0;                     // largest pairwise disagreement
+  bool drifts = false;
+};
+
+struct CandidateScore {
+  std::string model;  // "nominal", an effect, or "a+b"
+  EffectFit fit;      // on all training logs
+  double train_chi2 = 0;
+  int num_parameters = 0;
+  double bic = 0, aicc = 0;
+  // Held-out (or cross-validated) score, its per-channel RMS [m, rad] and
+  // the fraction of the nominal gap closed.
+  // `scored`: score and gap_closed were computed (not when the verdict is
+  // `none`); `heldout`: heldout_rms too (not with one log and no hold-out).
+  double score = 0;
+  Vec6<double> heldout_rms = Vec6<double>::Zero();
+  double gap_closed = 0;
+  // Whiteness of the residual on the scored data (the hold-out logs, else
+  // the training logs): the smallest Ljung-Box p-value, Bonferroni-corrected.
+  double ljung_box_p = 1;
+  bool scored = false;
+  bool heldout = false;
+  bool ok = true;  // false: the fit failed (error says why)
+  std::string error;
+};
+
+struct DiagnosisResult {
+  // Gap test on the nominal fit.
+  double chi2 = 0;
+  int dof = 0;
+  double chi2_p = 1;
+  double ljung_box_p = 1;  // smallest, Bonferroni-corrected
+  bool gap = false;
+  // Where the gap lies (nominal fit, training logs).
+  std::vector<GapSlice> channels;   // x .. caster
+  std::vector<GapSlice> magnitude;  // near_zero, low, mid, high |F|
+  std::vector<GapSlice> direction;  // loading, unloading, hold
+  std::vector<FrequencyBand> bands;
+  std::vector<LagCorrelation> lags;
+  std::vector<StiffnessDrift> drift;  // with two or more training logs
+  bool drift_detected = false;
+  // How candidates were scored: "holdout", "cross_validation" or
+  // "information_criterion".
+  std::string scoring;
+  // The nominal model first, then the candidates ranked best first.
+  CandidateScore nominal;
+  std::vector<CandidateScore> ranking;
+  // The verdict: "none", an effect, "a+b", or "unexplained"; confidence
+  // "high" or "low" ("" for none); why, in one line.
+  std::string verdict;
+  std::string confidence;
+  std::string reason;
+  // Two candidates the data cannot tell apart (both empty otherwise): the
+  // caller may design an experiment that discriminates them.
+  std::string ambiguous_a, ambiguous_b;
+  double seconds = 0;
+};
+
+// Diagnoses the gap of `training` (and, when given, scores on `holdout`).
+// Errors on unusable input: no training log, a log shorter than
+// min_samples observed samples, unknown candidates.
+Status Diagnose(const SuspensionParameters<double>& nominal,
+                const std::vector<Experiment>& training,
+                const std::vector<Experiment>& holdout,
+                const DiagnosisOptions& options, double integrator_step,
+                DiagnosisResult* result);
+
+// The upper tail probability of the chi-square distribution with `dof`
+// degrees of freedom at `x` (regularized incomplete gamma).
+double ChiSquareUpperTail(double x, double dof);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_DIAGNOSIS_DIAGNOSIS_H_

@@ -1,0 +1,318 @@
+#include "diagnosis/diagnosis_io.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include "estimator/estimate_io.h"
+#include "nlohmann/json.hpp"
+
+namespace kcrig {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+Json Number(double value) {
+  if (std::isfinite(value)) return value;
+  return nullptr;
+}
+
+Json PerChannel(const Vec6<double>& v) {
+  Json out;
+  for (int k = 0; k < 6; ++k) out[kChannelNames[k]] = Number(v(k));
+  return out;
+}
+
+Json SliceJson(const GapSlice& s) {
+  return {{"name", s.name},
+          {"samples", s.samples},
+          {"score", Number(s.score)},
+          {"score_per_channel", PerChannel(s.channel_score)},
+          {"excess_share", Number(s.excess_share)},
+          {"mean_residual", PerChannel(s.mean)},
+          {"rms", PerChannel(s.rms)}};
+}
+
+Json ParametersJson(const EstimationResult& r) {
+  Json list = Json::array();
+  for (const ParameterEstimate& p : r.parameters) {
+    list.push_back({{"name", p.name},
+                    {"unit", p.unit},
+                    {"value", p.value},
+                    {"standard_error", Number(p.standard_error)},
+                    {"ci95", {Number(p.ci95_low), Number(p.ci95_high)}},
+                    {"identifiable", p.identifiable},
+                    {"at_bound", p.at_bound}});
+  }
+  return list;
+}
+
+Json CandidateJson(const CandidateScore& s) {
+  Json out = {{"model", s.model}, {"ok", s.ok}};
+  if (!s.ok) {
+    out["error"] = s.error;
+    return out;
+  }
+  out["parameters"] = ParametersJson(s.fit.result);
+  out["num_parameters"] = s.num_parameters;
+  out["train_chi2"] = Number(s.train_chi2);
+  out["bic"] = Number(s.bic);
+  out["aicc"] = Number(s.aicc);
+  // Not computed is null, never a zero that reads as "below the noise".
+  out["score"] = s.scored ? Number(s.score) : Json(nullptr);
+  out["heldout_rms"] = s.heldout ? PerChannel(s.heldout_rms) : Json(nullptr);
+  out["gap_closed"] = s.scored ? Number(s.gap_closed) : Json(nullptr);
+  out["ljung_box_p"] = s.scored ? Number(s.ljung_box_p) : Json(nullptr);
+  out["iterations"] = s.fit.result.iterations;
+  out["converged"] = s.fit.result.converged;
+  out["seconds"] = s.fit.result.seconds;
+  return out;
+}
+
+}  // namespace
+
+std::string DiagnosisToJson(const DiagnosisResult& r,
+                            const std::vector<std::string>& training_logs,
+                            const std::vector<std::string>& holdout_logs,
+                            const std::string& design_json) {
+  Json doc;
+  doc["format"] = "kcrig diagnose 1";
+  doc["logs"] = training_logs;
+  doc["holdout"] = holdout_logs;
+  doc["verdict"] = r.verdict;
+  doc["confidence"] = r.confidence;
+  doc["reason"] = r.reason;
+  doc["gap"] = {{"present", r.gap},
+                {"chi2", Number(r.chi2)},
+                {"dof", r.dof},
+                {"chi2_p", Number(r.chi2_p)},
+                {"ljung_box_p", Number(r.ljung_box_p)},
+                {"score", Number(r.dof > 0 ? r.chi2 / r.dof : 0)}};
+  Json localisation;
+  Json channels = Json::array();
+  for (int k = 0; k < static_cast<int>(r.channels.size()); ++k) {
+    const GapSlice& s = r.channels[k];
+    channels.push_back({{"channel", s.name},
+                        {"unit", k < 3 ? "m" : "rad"},
+                        {"rms", Number(s.rms(k))},
+                        {"score", Number(s.score)},
+                        {"excess_share", Number(s.excess_share)},
+                        {"mean_residual", Number(s.mean(k))}});
+  }
+  localisation["channels"] = channels;
+  Json magnitude = Json::array(), direction = Json::array();
+  for (const GapSlice& s : r.magnitude) magnitude.push_back(SliceJson(s));
+  for (const GapSlice& s : r.direction) direction.push_back(SliceJson(s));
+  localisation["load_magnitude"] = magnitude;
+  localisation["load_direction"] = direction;
+  Json bands = Json::array();
+  for (const FrequencyBand& b : r.bands) {
+    bands.push_back({{"low_hz", b.low_hz},
+                     {"high_hz", b.high_hz},
+                     {"energy_share", Number(b.energy_share)},
+                     {"white_noise_share", Number(b.white_share)}});
+  }
+  localisation["frequency_bands"] = bands;
+  Json lags = Json::array();
+  for (const LagCorrelation& c : r.lags) {
+    lags.push_back({{"channel", c.channel},
+                    {"force_lag_s", c.force_lag},
+                    {"force_correlation", Number(c.force_correlation)},
+                    {"rate_lag_s", c.rate_lag},
+                    {"rate_correlation", Number(c.rate_correlation)}});
+  }
+  localisation["lags"] = lags;
+  Json drift = Json::array();
+  for (const StiffnessDrift& d : r.drift) {
+    Json se = Json::array();
+    for (double v : d.standard_errors) se.push_back(Number(v));
+    drift.push_back({{"parameter", d.parameter},
+                     {"unit", "N/m"},
+                     {"per_log", d.values},
+                     {"standard_errors", se},
+                     {"max_z", Number(d.max_z)},
+                     {"drifts", d.drifts}});
+  }
+  localisation["stiffness_drift"] = drift;
+  localisation["drift_detected"] = r.drift_detected;
+  doc["localisation"] = localisation;
+  doc["scoring"] = r.scoring;
+  doc["nominal"] = CandidateJson(r.nominal);
+  Json ranking = Json::array();
+  for (const CandidateScore& s : r.ranking) ranking.push_back(CandidateJson(s));
+  doc["candidates"] = ranking;
+  // Quantification: the verdict's model against the nominal one.
+  const CandidateScore* chosen = nullptr;
+  for (const CandidateScore& s : r.ranking) {
+    if (s.model == r.verdict) chosen = &s;
+  }
+  if (chosen != nullptr) {
+    Json stiffness = Json::array();
+    for (int i = 0; i < kNumBushings; ++i) {
+      const ParameterEstimate& before = r.nominal.fit.result.parameters[i];
+      const ParameterEstimate& after = chosen->fit.result.parameters[i];
+      stiffness.push_back(
+          {{"name", before.name},
+           {"unit", "N/m"},
+           {"before", before.value},
+           {"after", after.value},
+           {"after_standard_error", Number(after.standard_error)},
+           {"bias", before.value - after.value}});
+    }
+    Json effect = Json::array();
+    for (size_t i = kNumBushings; i < chosen->fit.result.parameters.size();
+         ++i) {
+      const ParameterEstimate& p = chosen->fit.result.parameters[i];
+      effect.push_back({{"name", p.name},
+                        {"unit", p.unit},
+                        {"value", p.value},
+                        {"ci95", {Number(p.ci95_low), Number(p.ci95_high)}}});
+    }
+    doc["quantification"] = {
+        {"model", chosen->model},
+        {"scored_on", r.scoring},
+        {"rms_before",
+         r.nominal.heldout ? PerChannel(r.nominal.heldout_rms) : Json(nullptr)},
+        {"rms_after",
+         chosen->heldout ? PerChannel(chosen->heldout_rms) : Json(nullptr)},
+        {"score_before", Number(r.nominal.score)},
+        {"score_after", Number(chosen->score)},
+        {"gap_closed", Number(chosen->gap_closed)},
+        {"effect_parameters", effect},
+        {"stiffness", stiffness}};
+  }
+  if (!r.ambiguous_a.empty()) {
+    doc["ambiguous"] = {r.ambiguous_a, r.ambiguous_b};
+  }
+  if (!design_json.empty()) {
+    doc["discriminating_design"] = Json::parse(design_json);
+  }
+  doc["seconds"] = r.seconds;
+  return doc.dump(2) + "\n";
+}
+
+std::string DiagnosisSummary(const DiagnosisResult& r) {
+  std::string out;
+  char line[400];
+  auto add = [&out, &line] { out += line; };
+  std::snprintf(line, sizeof(line),
+                "gap test: chi2/dof %.3f (p %.2g), Ljung-Box p %.2g -> %s\n",
+                r.dof > 0 ? r.chi2 / r.dof : 0.0, r.chi2_p, r.ljung_box_p,
+                r.gap ? "a gap beyond the sensor noise"
+                      : "consistent with the sensor noise");
+  add();
+  std::snprintf(line, sizeof(line), "  %-8s %12s %8s %8s %12s\n", "channel",
+                "rms", "score", "excess", "mean");
+  add();
+  for (int k = 0; k < static_cast<int>(r.channels.size()); ++k) {
+    const GapSlice& s = r.channels[k];
+    // Without a gap the excess is noise and its shares mean nothing.
+    char share[16] = "       -";
+    if (r.gap)
+      std::snprintf(share, sizeof(share), "%7.0f%%", 100 * s.excess_share);
+    std::snprintf(line, sizeof(line), "  %-8s %8.4f %-3s %8.2f %s %8.4f %s\n",
+                  s.name.c_str(), ChannelDisplayValue(k, s.rms(k)),
+                  ChannelDisplayUnit(k), s.score, share,
+                  ChannelDisplayValue(k, s.mean(k)), ChannelDisplayUnit(k));
+    add();
+  }
+  out += r.gap ? "  load regime (score, share of excess):"
+               : "  load regime (score):";
+  for (const std::vector<GapSlice>* group : {&r.magnitude, &r.direction}) {
+    for (const GapSlice& s : *group) {
+      if (s.samples == 0) continue;
+      if (r.gap) {
+        std::snprintf(line, sizeof(line), " %s %.2f/%.0f%%", s.name.c_str(),
+                      s.score, 100 * s.excess_share);
+      } else {
+        std::snprintf(line, sizeof(line), " %s %.2f", s.name.c_str(), s.score);
+      }
+      add();
+    }
+  }
+  out += "\n  residual spectrum (share vs white):";
+  for (const FrequencyBand& b : r.bands) {
+    std::snprintf(line, sizeof(line), " %g-%gHz %.0f%%/%.0f%%", b.low_hz,
+                  b.high_hz, 100 * b.energy_share, 100 * b.white_share);
+    add();
+  }
+  out += "\n";
+  if (!r.drift.empty()) {
+    out += "  stiffness per log [N/mm]:";
+    for (const StiffnessDrift& d : r.drift) {
+      std::snprintf(line, sizeof(line), " %s", d.parameter.c_str());
+      add();
+      for (double v : d.values) {
+        std::snprintf(line, sizeof(line), " %.0f", v * 1e-3);
+        add();
+      }
+      std::snprintf(line, sizeof(line), " (z %.1f%s)", d.max_z,
+                    d.drifts ? ", drifts" : "");
+      add();
+    }
+    out += "\n";
+  }
+  if (!r.ranking.empty()) {
+    std::snprintf(line, sizeof(line),
+                  "candidates (scored by %s; score 1 = noise floor):\n"
+                  "  %-36s %6s %9s %8s %12s\n",
+                  r.scoring.c_str(), "model", "params", "score", "closed",
+                  "dBIC");
+    add();
+    for (const CandidateScore& s : r.ranking) {
+      if (!s.ok) {
+        std::snprintf(line, sizeof(line), "  %-36s failed: %s\n",
+                      s.model.c_str(), s.error.c_str());
+      } else {
+        std::snprintf(line, sizeof(line), "  %-36s %6d %9.3f %7.0f%% %12.1f\n",
+                      s.model.c_str(), s.num_parameters, s.score,
+                      100 * s.gap_closed, s.bic - r.nominal.bic);
+      }
+      add();
+    }
+    std::snprintf(line, sizeof(line), "  %-36s %6d %9.3f %7s  %12s\n",
+                  "nominal", r.nominal.num_parameters, r.nominal.score, "0%",
+                  "0.0");
+    add();
+  }
+  std::snprintf(line, sizeof(line), "verdict: %s%s%s — %s\n", r.verdict.c_str(),
+                r.confidence.empty() ? "" : ", confidence ",
+                r.confidence.c_str(), r.reason.c_str());
+  add();
+  for (const CandidateScore& s : r.ranking) {
+    if (s.model != r.verdict) continue;
+    out += s.heldout ? "  held-out rms before -> after:"
+                     : "  (one log, no hold-out: no held-out rms)";
+    for (int k = 0; k < 6 && s.heldout; ++k) {
+      std::snprintf(line, sizeof(line), " %s %.4f->%.4f %s", kChannelNames[k],
+                    ChannelDisplayValue(k, r.nominal.heldout_rms(k)),
+                    ChannelDisplayValue(k, s.heldout_rms(k)),
+                    ChannelDisplayUnit(k));
+      add();
+    }
+    out += "\n  fitted:";
+    for (size_t i = 0; i < s.fit.result.parameters.size(); ++i) {
+      const ParameterEstimate& p = s.fit.result.parameters[i];
+      const double scale = DisplayScale(p);
+      // What the engineer compares: the stiffness before the effect was
+      // modelled; a mount compliance also as a stiffness.
+      char extra[64] = "";
+      if (i < kNumBushings) {
+        std::snprintf(extra, sizeof(extra), " (was %.0f)",
+                      r.nominal.fit.result.parameters[i].value * scale);
+      } else if (p.unit == "m/N" && p.value > 0) {
+        std::snprintf(extra, sizeof(extra), " (k %.0f N/mm)", 1e-3 / p.value);
+      }
+      std::snprintf(line, sizeof(line), " %s %.4g +- %.2g %s%s", p.name.c_str(),
+                    p.value * scale,
+                    std::isfinite(p.standard_error)
+                        ? 1.96 * p.standard_error * scale
+                        : NAN,
+                    DisplayUnit(p).c_str(), extra);
+      add();
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+}  // namespace kcrig

@@ -1,0 +1,425 @@
+#include "diagnosis/effect_model.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "Eigen/QR"
+#include "ceres/ceres.h"
+#include "ceres/jet.h"
+#include "rt_core/model/excitation.h"
+#include "rt_core/model/rig_plant.h"
+
+namespace kcrig {
+namespace {
+
+// The fitted parameters of each effect. Bounds keep the plant well posed
+// (a Dahl force or lag constant of zero divides by zero) and physically
+// plausible; the start is the "no effect" end of each range, or, where that
+// end is degenerate, a small value of the effect.
+std::vector<EffectParameter> ParametersOf(
+    const std::string& effect, const SuspensionParameters<double>& nominal) {
+  if (effect == "bushing_damping") {
+    // Starts at the model's own bushing damping: no change.
+    double model_damping = 0;
+    for (const AxialElement<double>& b : nominal.bushings) {
+      model_damping += b.damping / static_cast<double>(kNumBushings);
+    }
+    return {{effect, "d", "N s/m", 0, 3e5, 0, 1e7, model_damping, 1e6}};
+  }
+  if (effect == "hysteresis") {
+    return {{effect, "force", "N", 0, 400, 1, 5000, 50, 300},
+            {effect, "sigma", "N/m", 0, 4e7, 1e6, 1e9, 4e7, 4e7}};
+  }
+  if (effect == "progressive_stiffness") {
+    return {{effect, "c3", "N/m^3", 0, 4e11, -2e13, 2e13, 0, 0}};
+  }
+  if (effect == "actuator_lag") {
+    return {{effect, "tau", "s", 0, 0.05, 2e-4, 0.5, 0.005, 0.03},
+            {effect, "dead_time", "s", 0, 0.01, 0, 0.1, 0.002, 0.005}};
+  }
+  if (effect == "rig_compliance") {
+    // Fitted as the compliance 1/k, linear in the sensed position. Its
+    // range crosses zero (no mount give) so that a rig without the effect
+    // is an interior point, not a bound the fit would crawl to; a negative
+    // compliance is unphysical and says "no effect" within the noise.
+    return {{effect, "compliance", "m/N", 0, 2e-8, -1e-6, 1e-6, 1e-10, 1e-10}};
+  }
+  if (effect == "sensor_offset") {
+    return {{effect, "x", "m", 0, 1e-4, -0.01, 0.01, 0, 0},
+            {effect, "y", "m", 0, 1e-4, -0.01, 0.01, 0, 0},
+            {effect, "z", "m", 0, 1e-4, -0.01, 0.01, 0, 0},
+            {effect, "toe", "rad", 0, 2e-4, -0.05, 0.05, 0, 0},
+            {effect, "camber", "rad", 0, 2e-4, -0.05, 0.05, 0, 0},
+            {effect, "caster", "rad", 0, 2e-4, -0.05, 0.05, 0, 0},
+            {effect, "scale", "-", 1, 0.01, 0.5, 1.5, 1, 1}};
+  }
+  return {};
+}
+
+template <typename T>
+void SetEffectParameter(const EffectParameter& p, const T& value,
+                        BasicPlantEffects<T>* e) {
+  const std::string& n = p.name;
+  if (p.effect == "bushing_damping") {
+    e->bushing_damping.enabled = true;
+    e->bushing_damping.d = value;
+  } else if (p.effect == "hysteresis") {
+    e->hysteresis.enabled = true;
+    (n == "force" ? e->hysteresis.force : e->hysteresis.sigma) = value;
+  } else if (p.effect == "progressive_stiffness") {
+    e->progressive_stiffness.enabled = true;
+    e->progressive_stiffness.c3 = value;
+  } else if (p.effect == "actuator_lag") {
+    e->actuator_lag.enabled = true;
+    (n == "tau" ? e->actuator_lag.tau : e->actuator_lag.dead_time) = value;
+  } else if (p.effect == "rig_compliance") {
+    e->rig_compliance.enabled = true;
+    e->rig_compliance.k = T(1.0) / value;
+  } else if (p.effect == "sensor_offset") {
+    e->sensor_offset.enabled = true;
+    if (n == "scale") {
+      e->sensor_offset.scale = value;
+    } else {
+      for (int k = 0; k < 6; ++k) {
+        if (n == kChannelNames[k]) e->sensor_offset.offset(k) = value;
+      }
+    }
+  }
+}
+
+template <typename T>
+bool SimulateSensed(const EffectModel& model, const T* theta,
+                    const Experiment& experiment, double step,
+                    std::vector<Vec6<T>>* sensed) {
+  SuspensionParameters<T> parameters;
+  BasicPlantEffects<T> effects;
+  model.Build(theta, &parameters, &effects);
+  BasicRigPlant<T> plant(parameters, effects, step, model.max_dead_time());
+  const std::vector<Vec3<double>>& forces = experiment.forces;
+  const SampledLoad<double> load{
+      &forces, experiment.sample_period, experiment.z_a,
+      experiment.sample_period * (forces.size() - 1)};
+  if (!plant.Settle(forces[0].cast<T>(), T(experiment.z_a)).ok()) return false;
+  sensed->resize(forces.size());
+  (*sensed)[0] = plant.Sensed();
+  long step_index = 0;
+  for (size_t j = 1; j < forces.size(); ++j) {
+    for (int s = 0; s < experiment.steps_per_sample; ++s) {
+      plant.Step(load.LoadAt(++step_index * step).force.cast<T>());
+    }
+    if (!plant.Finite(0.5)) return false;
+    (*sensed)[j] = plant.Sensed();
+  }
+  return true;
+}
+
+// The weighted residuals (sensed - measured) / sigma of one experiment over
+// all six channels, zero for unobserved samples; the Jacobian is exact
+// (a Jet of the parameter count, padded to an even size).
+class EffectResidual : public ceres::CostFunction {
+ public:
+  EffectResidual(const EffectModel* model, const Experiment* experiment,
+                 double step, std::vector<double> lower,
+                 std::vector<double> upper)
+      : model_(model),
+        experiment_(experiment),
+        step_(step),
+        lower_(std::move(lower)),
+        upper_(std::move(upper)) {
+    mutable_parameter_block_sizes()->push_back(model->num_parameters());
+    set_num_residuals(static_cast<int>(experiment->measured.size() * 6));
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const double* theta = parameters[0];
+    for (int i = 0; i < model_->num_parameters(); ++i) {
+      if (!(theta[i] >= lower_[i] && theta[i] <= upper_[i])) return false;
+    }
+    if (jacobians == nullptr || jacobians[0] == nullptr) {
+      return Fill<double>(theta, residuals, nullptr);
+    }
+    switch ((model_->num_parameters() + 1) / 2) {
+      case 0:
+      case 1:
+      case 2:
+      case 3:
+        return Fill<ceres::Jet<double, 6>>(theta, residuals, jacobians[0]);
+      case 4:
+        return Fill<ceres::Jet<double, 8>>(theta, residuals, jacobians[0]);
+      case 5:
+        return Fill<ceres::Jet<double, 10>>(theta, residuals, jacobians[0]);
+      case 6:
+        return Fill<ceres::Jet<double, 12>>(theta, residuals, jacobians[0]);
+      default:
+        return Fill<ceres::Jet<double, kMaxEffectModelParameters>>(
+            theta, residuals, jacobians[0]);
+    }
+  }
+
+ private:
+  template <typename T>
+  bool Fill(const double* theta, double* residuals, double* jacobian) const {
+    const int n = model_->num_parameters();
+    std::vector<T> seeded(n);
+    for (int i = 0; i < n; ++i) {
+      seeded[i] = T(theta[i]);
+      if constexpr (!std::is_same_v<T, double>) seeded[i].v[i] = 1.0;
+    }
+    std::vector<Vec6<T>> sensed;
+    if (!SimulateSensed(*model_, seeded.data(), *experiment_, step_, &sensed)) {
+      return false;
+    }
+    for (size_t j = 0; j < sensed.size(); ++j) {
+      const bool seen = Observed(*experiment_, j);
+      for (int k = 0; k < 6; ++k) {
+        const size_t row = j * 6 + k;
+        const double inverse_sigma = seen ? 1.0 / experiment_->sigma(k) : 0.0;
+        residuals[row] = (ValueOf(sensed[j](k)) - experiment_->measured[j](k)) *
+                         inverse_sigma;
+        if constexpr (!std::is_same_v<T, double>) {
+          for (int i = 0; i < n; ++i) {
+            jacobian[row * n + i] = sensed[j](k).v[i] * inverse_sigma;
+          }
+        }
+      }
+    }
+    return true;
+  }
+
+  const EffectModel* model_;
+  const Experiment* experiment_;
+  double step_;
+  std::vector<double> lower_, upper_;  // theta bounds
+};
+
+}  // namespace
+
+Status EffectModel::Create(const SuspensionParameters<double>& nominal,
+                           const std::vector<std::string>& effects,
+                           double lower_scale, double upper_scale,
+                           EffectModel* model) {
+  if (effects.size() > 2) {
+    return Status::Error("a candidate model combines at most two effects");
+  }
+  EffectModel m;
+  m.nominal_ = nominal;
+  m.effects_ = effects;
+  for (int i = 0; i < kNumBushings; ++i) {
+    const double c = nominal.bushings[i].stiffness;
+    m.parameters_.push_back({"", "c_" + std::string(kBushingChassisNames[i]),
+                             "N/m", 0, c, lower_scale * c, upper_scale * c, c,
+                             c});
+  }
+  for (size_t e = 0; e < effects.size(); ++e) {
+    if (std::find(effects.begin(), effects.begin() + e, effects[e]) !=
+        effects.begin() + e) {
+      return Status::Error("effect '" + effects[e] + "' given twice");
+    }
+    const std::vector<EffectParameter> own = ParametersOf(effects[e], nominal);
+    if (own.empty()) {
+      return Status::Error("unknown effect '" + effects[e] + "'");
+    }
+    m.parameters_.insert(m.parameters_.end(), own.begin(), own.end());
+    for (const EffectParameter& p : own) {
+      if (p.name == "dead_time") m.max_dead_time_ = p.upper;
+    }
+  }
+  *model = std::move(m);
+  return Status::Ok();
+}
+
+Status EffectModel::CreateNamed(const SuspensionParameters<double>& nominal,
+                                const std::string& name, double lower_scale,
+                                double upper_scale, EffectModel* model) {
+  std::vector<std::string> effects;
+  if (name != "nominal") {
+    for (size_t begin = 0;;) {
+      const size_t end = name.find('+', begin);
+      effects.push_back(name.substr(begin, end - begin));
+      if (end == std::string::npos) break;
+      begin = end + 1;
+    }
+  }
+  return Create(nominal, effects, lower_scale, upper_scale, model);
+}
+
+std::string EffectModel::Name() const {
+  if (effects_.empty()) return "nominal";
+  std::string name;
+  for (const std::string& e : effects_) name += (name.empty() ? "" : "+") + e;
+  return name;
+}
+
+template <typename T>
+void EffectModel::Build(const T* theta, SuspensionParameters<T>* parameters,
+                        BasicPlantEffects<T>* effects) const {
+  *parameters = nominal_.Cast<T>();
+  *effects = BasicPlantEffects<T>();
+  for (int i = 0; i < num_parameters(); ++i) {
+    const EffectParameter& p = parameters_[i];
+    const T value = T(p.base) + theta[i] * p.scale;
+    if (i < kNumBushings) {
+      parameters->bushings[i].stiffness = value;
+    } else {
+      SetEffectParameter(p, value, effects);
+    }
+  }
+}
+
+Status SimulateEffectModel(const EffectModel& model,
+                           const std::vector<double>& values,
+                           const Experiment& experiment, double integrator_step,
+                           std::vector<Vec6<double>>* sensed) {
+  if (static_cast<int>(values.size()) != model.num_parameters()) {
+    return Status::Error("one value per parameter of " + model.Name() +
+                         " is needed");
+  }
+  std::vector<double> theta(values.size());
+  for (size_t i = 0; i < values.size(); ++i) {
+    theta[i] = model.ToTheta(static_cast<int>(i), values[i]);
+  }
+  if (!SimulateSensed(model, theta.data(), experiment, integrator_step,
+                      sensed)) {
+    return Status::Error(experiment.source + ": the " + model.Name() +
+                         " model diverges at the fitted parameters");
+  }
+  return Status::Ok();
+}
+
+Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
+                    const std::vector<Experiment>& experiments,
+                    double integrator_step, std::vector<double>* refit) {
+  const int n = model.num_parameters();
+  if (static_cast<int>(values.size()) != n) {
+    return Status::Error("one value per parameter of " + model.Name() +
+                         " is needed");
+  }
+  std::vector<double> theta(n), lower(n), upper(n);
+  for (int i = 0; i < n; ++i) {
+    lower[i] = model.ToTheta(i, model.parameters()[i].lower);
+    upper[i] = model.ToTheta(i, model.parameters()[i].upper);
+    // A value on its bound may round just outside it.
+    theta[i] = std::clamp(model.ToTheta(i, values[i]), lower[i], upper[i]);
+  }
+  long rows = 0;
+  for (const Experiment& e : experiments) rows += 6L * e.measured.size();
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>
+      jacobian(rows, n);
+  Eigen::VectorXd residuals(rows);
+  long row = 0;
+  const double* parameters[] = {theta.data()};
+  for (const Experiment& e : experiments) {
+    EffectResidual residual(&model, &e, integrator_step, lower, upper);
+    double* jacobians[] = {jacobian.data() + row * n};
+    if (!residual.Evaluate(parameters, residuals.data() + row, jacobians)) {
+      return Status::Error(e.source + ": the " + model.Name() +
+                           " model cannot be evaluated at the fit");
+    }
+    row += residual.num_residuals();
+  }
+  // The minimum-norm step: directions the data do not determine (a sensor
+  // scale against the stiffnesses) do not move.
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> decomposition;
+  decomposition.setThreshold(1e-8);
+  decomposition.compute(jacobian);
+  const Eigen::VectorXd step = decomposition.solve(-residuals);
+  refit->resize(n);
+  for (int i = 0; i < n; ++i) {
+    const double next = std::isfinite(step(i)) ? theta[i] + step(i) : theta[i];
+    (*refit)[i] = model.ToPhysical(i, std::clamp(next, lower[i], upper[i]));
+  }
+  return Status::Ok();
+}
+
+Status FitEffectModel(const EffectModel& model,
+                      const std::vector<Experiment>& experiments,
+                      const std::vector<double>& initial,
+                      const EffectFitOptions& options, double integrator_step,
+                      EffectFit* fit) {
+  const auto start = std::chrono::steady_clock::now();
+  const int n = model.num_parameters();
+  if (!initial.empty() && static_cast<int>(initial.size()) != n) {
+    return Status::Error("one initial value per parameter of " + model.Name() +
+                         " is needed");
+  }
+  std::vector<double> theta(n), lower(n), upper(n);
+  for (int i = 0; i < n; ++i) {
+    const EffectParameter& p = model.parameters()[i];
+    lower[i] = model.ToTheta(i, p.lower);
+    upper[i] = model.ToTheta(i, p.upper);
+    const double value = initial.empty() ? p.initial : initial[i];
+    theta[i] = std::clamp(model.ToTheta(i, value), lower[i], upper[i]);
+  }
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  int observed = 0;
+  for (const Experiment& e : experiments) {
+    problem.AddResidualBlock(
+        new EffectResidual(&model, &e, integrator_step, lower, upper), nullptr,
+        theta.data());
+    observed += 6 * ObservedCount(e);
+  }
+  ceres::Solver::Options solver;
+  solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = options.max_iterations;
+  solver.function_tolerance = options.function_tolerance;
+  solver.parameter_tolerance = options.parameter_tolerance;
+  solver.gradient_tolerance = 1e-16;
+  solver.num_threads = 1;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  if (!std::isfinite(summary.final_cost) ||
+      summary.termination_type == ceres::FAILURE) {
+    return Status::Error("fitting the " + model.Name() +
+                         " model failed: " + summary.message);
+  }
+
+  // The weighted Jacobian at the solution, for the uncertainty.
+  double cost = 0;
+  ceres::CRSMatrix crs;
+  problem.Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr,
+                   &crs);
+  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
+  for (int r = 0; r < crs.num_rows; ++r) {
+    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
+      jacobian(r, crs.cols[k]) = crs.values[k];
+    }
+  }
+
+  *fit = EffectFit();
+  fit->model = model.Name();
+  EstimationResult& result = fit->result;
+  for (int i = 0; i < n; ++i) {
+    const EffectParameter& p = model.parameters()[i];
+    ParameterEstimate estimate;
+    estimate.name = p.effect.empty() ? p.name : p.effect + "." + p.name;
+    estimate.unit = p.unit;
+    estimate.nominal = p.scale;
+    estimate.initial = model.ToPhysical(i, model.ToTheta(i, p.initial));
+    estimate.value = model.ToPhysical(i, theta[i]);
+    const double span = upper[i] - lower[i];
+    estimate.at_bound =
+        theta[i] - lower[i] < 1e-3 * span || upper[i] - theta[i] < 1e-3 * span;
+    fit->values.push_back(estimate.value);
+    result.parameters.push_back(estimate);
+  }
+  result.cost = cost;
+  result.num_residuals = observed;
+  result.sigma_hat = observed > n ? std::sqrt(2 * cost / (observed - n)) : 0;
+  result.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.termination = summary.message;
+  std::fill(result.channel_used.begin(), result.channel_used.end(), true);
+  AnalyzeUncertainty(jacobian, options.uncertainty, &result);
+  result.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
+  return Status::Ok();
+}
+
+}  // namespace kcrig

@@ -1,0 +1,139 @@
+// A candidate model of the sim-to-real diagnosis: the nominal suspension
+// model plus zero, one or two of the unmodelled effects of
+// rt_core/plant_effects.h, with the five bushing stiffnesses and the effects'
+// parameters fitted jointly to logged experiments. The model is the
+// emulator's own plant (BasicRigPlant) driven by the logged load-cell
+// force, so a candidate is exactly the physics the software rig runs; the
+// sensitivities are exact (ceres::Jet through the whole trajectory).
+//
+// Parameters are fitted in scaled form theta: a bushing stiffness is
+// nominal * theta, an effect parameter base + scale * theta (scale a typical
+// magnitude, so every theta is of order one).
+#ifndef KCRIG_DIAGNOSIS_EFFECT_MODEL_H_
+#define KCRIG_DIAGNOSIS_EFFECT_MODEL_H_
+
+#include <string>
+#include <vector>
+
+#include "base/status.h"
+#include "estimator/estimator.h"
+#include "estimator/experiment.h"
+#include "rt_core/model/plant_effects.h"
+#include "rt_core/model/suspension_parameters.h"
+
+namespace kcrig {
+
+struct EffectParameter {
+  std::string effect;  // "" for a bushing stiffness
+  std::string name;    // "c_O1", "force", "dead_time", ...
+  std::string unit;
+  double base = 0;              // physical value = base + scale * theta
+  double scale = 1;             // > 0
+  double lower = 0, upper = 0;  // physical bounds of the fit
+  double initial = 0;           // physical start of the fit
+  // A second start, for effects whose fit from a small effect can end in a
+  // local minimum when the true effect is large.
+  double second_initial = 0;
+};
+
+// Most parameters of one candidate: five bushings plus two effects (the
+// sensor offset has seven).
+inline constexpr int kMaxEffectModelParameters = 14;
+
+class EffectModel {
+ public:
+  EffectModel() = default;
+
+  // `effects`: distinct names of kEffectNames, at most two; empty is the
+  // nominal model. The bushing stiffnesses are bounded by
+  // [lower_scale, upper_scale] x their `nominal` values.
+  static Status Create(const SuspensionParameters<double>& nominal,
+                       const std::vector<std::string>& effects,
+                       double lower_scale, double upper_scale,
+                       EffectModel* model);
+
+  // Create for a model's Name(): "nominal", "hysteresis",
+  // "hysteresis+actuator_lag" (as diag.json and a diagnosis name them).
+  static Status CreateNamed(const SuspensionParameters<double>& nominal,
+                            const std::string& name, double lower_scale,
+                            double upper_scale, EffectModel* model);
+
+  // "nominal", "hysteresis", "hysteresis+actuator_lag".
+  std::string Name() const;
+  const std::vector<std::string>& effects() const { return effects_; }
+  const std::vector<EffectParameter>& parameters() const { return parameters_; }
+  int num_parameters() const { return static_cast<int>(parameters_.size()); }
+  // The longest dead time the bounds allow [s] (sizes the delay line).
+  double max_dead_time() const { return max_dead_time_; }
+
+  double ToPhysical(int i, double theta) const {
+    return parameters_[i].base + parameters_[i].scale * theta;
+  }
+  double ToTheta(int i, double physical) const {
+    return (physical - parameters_[i].base) / parameters_[i].scale;
+  }
+
+  // The plant's parameters and effects at scaled values `theta`.
+  template <typename T>
+  void Build(const T* theta, SuspensionParameters<T>* parameters,
+             BasicPlantEffects<T>* effects) const;
+
+ private:
+  SuspensionParameters<double> nominal_;
+  std::vector<std::string> effects_;
+  std::vector<EffectParameter> parameters_;
+  double max_dead_time_ = 0;
+};
+
+// What the sensors of the candidate read for one experiment at the physical
+// parameter values `values` (one per EffectModel::parameters()): the plant
+// settled under the first logged force, then stepped through the logged
+// forces. Errors when the model cannot be evaluated there (diverges).
+Status SimulateEffectModel(const EffectModel& model,
+                           const std::vector<double>& values,
+                           const Experiment& experiment, double integrator_step,
+                           std::vector<Vec6<double>>* sensed);
+
+struct EffectFitOptions {
+  // Levenberg-Marquardt limits. A diagnosis compares costs between
+  // candidates: a relative change of 1e-9 is far below any difference that
+  // matters (one unit of chi-square in 10^4 residuals is 1e-4).
+  int max_iterations = 60;
+  double function_tolerance = 1e-7;
+  double parameter_tolerance = 1e-8;
+  // Options of the uncertainty analysis (rank and identifiability
+  // thresholds) as for the nominal estimate.
+  EstimatorOptions uncertainty;
+};
+
+struct EffectFit {
+  std::string model;  // EffectModel::Name()
+  // Per parameter (the bushings, then each effect's): value, standard
+  // error, 95 % interval, in physical units; covariance, sigma_hat, cost,
+  // iterations, convergence (EstimationResult's meaning; `nominal` holds
+  // the parameter's scale).
+  EstimationResult result;
+  std::vector<double> values;  // physical, one per parameter
+};
+
+// Fits all parameters of `model` to `experiments` jointly, from `initial`
+// (physical values, one per parameter; empty: each parameter's `initial`).
+// Single-threaded: a diagnosis runs candidates side by side.
+Status FitEffectModel(const EffectModel& model,
+                      const std::vector<Experiment>& experiments,
+                      const std::vector<double>& initial,
+                      const EffectFitOptions& options, double integrator_step,
+                      EffectFit* fit);
+
+// One Gauss-Newton step from `values` (a fit to more data) on
+// `experiments`, within the parameter bounds: the standard one-step
+// approximation of a refit to a subset of the data, at the cost of one
+// trajectory with sensitivities per experiment instead of a whole fit
+// (cross-validation folds).
+Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
+                    const std::vector<Experiment>& experiments,
+                    double integrator_step, std::vector<double>* refit);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_DIAGNOSIS_EFFECT_MODEL_H_

@@ -1,0 +1,91 @@
+#include "emulator/plant_config.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <vector>
+
+#include "base/yaml_reader.h"
+#include "rt_core/model/model_config.h"
+
+namespace kcrig {
+
+Status LoadPlantConfig(const std::string& directory,
+                       const SuspensionParameters<double>& model,
+                       PlantConfig* plant) {
+  const std::string file =
+      (std::filesystem::path(directory) / "plant.yaml").string();
+  YamlReader reader(file);
+  YAML::Node root;
+  KCRIG_RETURN_IF_ERROR(reader.Load(&root));
+  plant->model = model;
+  YAML::Node truth, sensors;
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "true_parameters", &truth));
+  if (!truth.IsMap()) {
+    return reader.Error(truth, "true_parameters",
+                        "expected a mapping NAME: VALUE");
+  }
+  const std::vector<NamedParameter<double>> list =
+      ListParameters(&plant->model);
+  for (const auto& entry : truth) {
+    const std::string name = entry.first.as<std::string>();
+    const auto match = std::find_if(
+        list.begin(), list.end(),
+        [&name](const NamedParameter<double>& p) { return p.name == name; });
+    if (match == list.end()) {
+      return reader.Error(entry.first, "true_parameters." + name,
+                          "unknown parameter (e.g. c_O1, d_P, k_spring)");
+    }
+    KCRIG_RETURN_IF_ERROR(
+        reader.Number(truth, "true_parameters", name, match->value));
+  }
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "sensors", &sensors));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Boolean(sensors, "sensors", "noise", &plant->noise));
+  double seed = 0;
+  KCRIG_RETURN_IF_ERROR(reader.Number(sensors, "sensors", "seed", &seed));
+  if (seed < 0 || seed != std::floor(seed) || seed > 9.0e15) {
+    return reader.Error(sensors["seed"], "sensors.seed",
+                        "must be a whole number >= 0");
+  }
+  plant->seed = static_cast<std::uint64_t>(seed);
+  std::vector<double> offset;
+  KCRIG_RETURN_IF_ERROR(reader.List(sensors, "sensors", "offset", 6, &offset));
+  for (int k = 0; k < 6; ++k) plant->sensor_offset(k) = offset[k];
+  KCRIG_RETURN_IF_ERROR(reader.Positive(sensors, "sensors",
+                                        "position_resolution",
+                                        &plant->position_resolution, false));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(sensors, "sensors", "angle_resolution",
+                                        &plant->angle_resolution, false));
+  YAML::Node actuator, rig, load_cell;
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "actuator", &actuator));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(actuator, "actuator", "tau", &plant->actuator_tau));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(actuator, "actuator", "dead_time",
+                                        &plant->actuator_dead_time, false));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(actuator, "actuator", "force_max",
+                                        &plant->actuator_force_max));
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "rig", &rig));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(rig, "rig", "step", &plant->step));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Integer(rig, "rig", "priority", 0, 99, &plant->priority));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(rig, "rig", "travel_max", &plant->travel_max));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(rig, "rig", "command_timeout", &plant->command_timeout));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(rig, "rig", "ramp_down_time", &plant->ramp_down_time));
+  if (plant->step > 1e-3) {
+    return reader.Error(rig["step"], "rig.step",
+                        "must be <= 0.001 s (the plant runs finer than the "
+                        "controller)");
+  }
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "load_cell", &load_cell));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(load_cell, "load_cell", "sigma",
+                                        &plant->load_cell_sigma, false));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(load_cell, "load_cell", "resolution",
+                                        &plant->load_cell_resolution, false));
+  return ValidateModel(plant->model, file);
+}
+
+}  // namespace kcrig

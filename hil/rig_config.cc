@@ -1,0 +1,31 @@
+#include "hil/rig_config.h"
+
+#include <filesystem>
+
+#include "base/yaml_reader.h"
+
+namespace kcrig {
+
+Status LoadRigConfig(const std::string& directory, RigConfig* rig) {
+  const std::string file =
+      (std::filesystem::path(directory) / "rig.yaml").string();
+  YamlReader reader(file);
+  YAML::Node root, budget;
+  KCRIG_RETURN_IF_ERROR(reader.Load(&root));
+  KCRIG_RETURN_IF_ERROR(LoadLoopConfig(reader, root, rig));
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "timing_budget", &budget));
+  TimingBudget& b = rig->budget;
+  KCRIG_RETURN_IF_ERROR(reader.Positive(budget, "timing_budget",
+                                        "compute_p999_fraction",
+                                        &b.compute_p999_fraction));
+  KCRIG_RETURN_IF_ERROR(
+      reader.Positive(budget, "timing_budget", "wakeup_p99", &b.wakeup_p99));
+  KCRIG_RETURN_IF_ERROR(reader.Positive(
+      budget, "timing_budget", "cycle_p999_fraction", &b.cycle_p999_fraction));
+
+  KCRIG_RETURN_IF_ERROR(
+      LoadModbusSettings(reader, root, directory, rig->period, &rig->modbus));
+  return LoadCanSettings(reader, root, directory, rig->period, &rig->can);
+}
+
+}  // namespace kcrig

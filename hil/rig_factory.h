@@ -1,0 +1,27 @@
+// The rig transports the command line can name, behind RigInterface, and the
+// SIGINT/SIGTERM handling that turns a signal into a safe ramp-down.
+#ifndef KCRIG_HIL_RIG_FACTORY_H_
+#define KCRIG_HIL_RIG_FACTORY_H_
+
+#include <atomic>
+#include <memory>
+#include <string>
+
+#include "hil/rig_config.h"
+#include "rt_core/runtime/rig_interface.h"
+
+namespace kcrig {
+
+// modbus-tcp://HOST:PORT, modbus-rtu://DEVICE or can:IFACE. The rig is
+// created, not configured. A CAN rig writes its bus log to
+// `log_dir`/can.log (none when `log_dir` is empty).
+Status MakeRig(const std::string& uri, const RigConfig& rig_config,
+               const std::string& log_dir, std::unique_ptr<RigInterface>* rig);
+
+// Installs handlers for SIGINT and SIGTERM that store the signal number in
+// the returned flag (the loop ramps down when it is non-zero).
+const std::atomic<int>& InstallStopSignalHandlers();
+
+}  // namespace kcrig
+
+#endif  // KCRIG_HIL_RIG_FACTORY_H_

@@ -1,0 +1,81 @@
+// One HIL experiment through a rig transport, end to end: lifecycle
+// (configure, activate, deactivate / error), real-time set-up, the control
+// loop on the calling thread, a logger thread that drains the loop's ring,
+// and the outputs run.csv + run.json (written together) and timing.json,
+// also after a trip or a signal. Used by `kcrig run`, `kcrig campaign` and
+// `kcrig timing-check`.
+#ifndef KCRIG_HIL_RIG_SESSION_H_
+#define KCRIG_HIL_RIG_SESSION_H_
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hil/rig_config.h"
+#include "rt_core/model/model_config.h"
+#include "rt_core/runtime/control_loop.h"
+#include "rt_core/runtime/realtime.h"
+#include "rt_core/runtime/rig_interface.h"
+
+namespace kcrig {
+
+struct RigSessionOptions {
+  // Excitation: direction [rad], acting height [m], Fmax [N], tf [s].
+  double phi = 0, z_a = 0, fmax = 0, tf = 0;
+  // Hold at +Fmax and return ramp to -Fmax after the ramp [s] (0: none).
+  double hold = 0, return_duration = 0;
+  // Output directory for run.csv, run.json, timing.json ("" = none).
+  std::string log_dir;
+  // Stop after this long [s] (0 = the whole run profile).
+  double max_duration = 0;
+  // Set by the caller's signal handler: SIGINT/SIGTERM ramp down.
+  const std::atomic<int>* stop_signal = nullptr;
+  // Called from the logger thread about every 0.25 s with the run time [s]
+  // and the phase, for progress lines. Optional.
+  std::function<void(double, RunPhase)> on_progress;
+  // Called from the logger thread, at most once a second, when cycles were
+  // skipped by overruns since the last call: one line. Optional.
+  std::function<void(const std::string&)> on_warning;
+};
+
+struct RigSessionResult {
+  LoopResult loop;
+  RealtimeReport realtime;
+  std::int64_t logged_rows = 0;  // rows in run.csv
+  std::int64_t filled_rows = 0;  // of them, cycles skipped by overruns
+  bool completed = false;        // the run profile ran to its end
+  std::string trip_message;      // one line when tripped
+  std::string timing_json;       // what timing.json holds
+};
+
+// The excitation against the safety limits of rig.yaml: finite direction,
+// height within +-2 m, 0 <= Fmax <= force_max, 0 < tf <= 3600 s, and every
+// phase of the run within force_rate_max. One-line errors.
+Status ValidateRunRequest(const RigConfig& rig_config,
+                          const RigSessionOptions& options);
+
+// `rig` may be null: the loop runs the model alone (timing checks). Returns
+// an error only when the experiment could not start or its outputs could
+// not be written; a trip is a result (completed = false, trip_message).
+Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
+                     RigInterface* rig, const RigSessionOptions& options,
+                     RigSessionResult* result);
+
+// timing.json: per phase (wakeup, read, compute, write, cycle) min, mean,
+// p50, p99, p99.9, max [us] and a histogram; overruns; the real-time set-up
+// and its warnings; the budget and whether it held.
+std::string TimingJson(const LoopTiming& timing, const LoopResult& loop,
+                       const RealtimeReport& realtime, double period,
+                       const TimingBudget& budget, bool with_transport);
+
+// Whether the timing is within `budget`; `violations` gets one line per
+// violated item.
+bool WithinBudget(const LoopTiming& timing, double period,
+                  const TimingBudget& budget, bool with_transport,
+                  std::vector<std::string>* violations);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_HIL_RIG_SESSION_H_

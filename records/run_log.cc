@@ -1,0 +1,407 @@
+#include "records/run_log.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "nlohmann/json.hpp"
+
+namespace kcrig {
+namespace {
+
+// Shortest text that reads back to the same double: logs re-read exactly.
+void AppendNumber(double value, std::string* out) {
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  out->append(buffer, result.ptr);
+}
+
+}  // namespace
+
+std::string RunLogCsvHeader(const RunLog& log) {
+  std::string csv = log.has_measured_force
+                        ? "t,Fx,Fy,Fz,x,y,z,toe,camber,caster"
+                        : "t,x,y,z,toe,camber,caster";
+  if (log.has_commanded_force) csv += ",Fx_cmd,Fy_cmd,Fz_cmd";
+  if (log.has_loop_columns) {
+    csv +=
+        ",fresh,phase,safety,rig_sample,rig_status,x_model,y_model,z_model,"
+        "toe_model,camber_model,caster_model";
+  }
+  csv += '\n';
+  return csv;
+}
+
+void AppendRunLogCsvRow(const RunLog& log, const LogSample& s,
+                        std::string* csv) {
+  AppendNumber(s.t, csv);
+  for (int k = 0; log.has_measured_force && k < 3; ++k) {
+    *csv += ',';
+    AppendNumber(s.force(k), csv);
+  }
+  for (int k = 0; k < 6; ++k) {
+    *csv += ',';
+    AppendNumber(s.y(k), csv);
+  }
+  if (log.has_commanded_force) {
+    for (int k = 0; k < 3; ++k) {
+      *csv += ',';
+      AppendNumber(s.commanded(k), csv);
+    }
+  }
+  if (log.has_loop_columns) {
+    *csv += s.fresh ? ",1," : ",0,";
+    *csv += s.phase;
+    *csv += ',' + std::to_string(s.safety) + ',' +
+            std::to_string(s.rig_sample) + ',' + std::to_string(s.rig_status);
+    for (int k = 0; k < 6; ++k) {
+      *csv += ',';
+      AppendNumber(s.predicted(k), csv);
+    }
+  }
+  *csv += '\n';
+}
+
+namespace {
+
+std::string FormatCsv(const RunLog& log) {
+  std::string csv = RunLogCsvHeader(log);
+  csv.reserve(log.samples.size() * 200);
+  for (const LogSample& s : log.samples) AppendRunLogCsvRow(log, s, &csv);
+  return csv;
+}
+
+std::string FormatSidecar(const RunLog& log) {
+  const RunMetadata& m = log.metadata;
+  nlohmann::ordered_json doc;
+  doc["format"] = "kcrig run log 1";
+  doc["software_version"] = KCRIG_VERSION;
+  doc["units"] = {{"t", "s"},       {"Fx", "N"},    {"Fy", "N"},
+                  {"Fz", "N"},      {"x", "m"},     {"y", "m"},
+                  {"z", "m"},       {"toe", "rad"}, {"camber", "rad"},
+                  {"caster", "rad"}};
+  if (log.has_commanded_force) {
+    doc["units"]["Fx_cmd"] = "N";
+    doc["units"]["Fy_cmd"] = "N";
+    doc["units"]["Fz_cmd"] = "N";
+  }
+  doc["rate_hz"] = m.rate;
+  doc["samples"] = log.samples.size();
+  doc["excitation"] = {{"type", "linear_ramp"},
+                       {"phi_rad", m.phi},
+                       {"z_a_m", m.z_a},
+                       {"fmax_n", m.fmax},
+                       {"tf_s", m.duration},
+                       {"hold_s", m.hold},
+                       {"return_s", m.return_duration}};
+  doc["measurement_sigma"] = {{"position_m", m.sigma_position},
+                              {"angle_rad", m.sigma_angle}};
+  doc["noise"] = {{"added", m.noise_added}, {"seed", m.seed}};
+  doc["transport"] = m.transport;
+  if (!m.geometry.empty()) doc["geometry"] = m.geometry;
+  if (!m.hil_json.empty())
+    doc["hil"] = nlohmann::ordered_json::parse(m.hil_json);
+  if (m.synthetic) {
+    nlohmann::ordered_json parameters;
+    for (const auto& [name, value] : m.truth_parameters) {
+      parameters[name] = value;
+    }
+    doc["truth"] = {{"parameters", parameters}, {"effects", m.truth_effects}};
+  }
+  return doc.dump(2) + "\n";
+}
+
+constexpr const char* kChannels[] = {"t", "Fx", "Fy",  "Fz",     "x",
+                                     "y", "z",  "toe", "camber", "caster"};
+constexpr const char* kCommandedChannels[] = {"Fx_cmd", "Fy_cmd", "Fz_cmd"};
+
+std::vector<std::string_view> SplitFields(std::string_view line) {
+  std::vector<std::string_view> fields;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = line.find(',', start);
+    fields.push_back(line.substr(start, comma - start));
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  return fields;
+}
+
+bool ParseFinite(std::string_view text, double* value) {
+  while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\r')) {
+    text.remove_suffix(1);
+  }
+  const char* end = text.data() + text.size();
+  const auto result = std::from_chars(text.data(), end, *value);
+  return result.ec == std::errc() && result.ptr == end && std::isfinite(*value);
+}
+
+Status ReadSidecar(const std::string& path, size_t rows, double first_t,
+                   double last_t, RunMetadata* m) {
+  std::ifstream in(path);
+  if (!in) return Status::Error(path + ": cannot open the sidecar");
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    return Status::Error(path + ": malformed JSON at byte " +
+                         std::to_string(e.byte));
+  }
+  auto number = [&](const nlohmann::json& parent, const char* section,
+                    const char* key, double* out) -> Status {
+    if (!parent.contains(key) || !parent[key].is_number()) {
+      return Status::Error(path + ": " + section + key +
+                           ": missing or not a number");
+    }
+    *out = parent[key].get<double>();
+    if (!std::isfinite(*out)) {
+      return Status::Error(path + ": " + section + key + ": not finite");
+    }
+    return Status::Ok();
+  };
+  if (!doc.is_object() || !doc.contains("excitation") ||
+      !doc["excitation"].is_object() || !doc.contains("measurement_sigma") ||
+      !doc["measurement_sigma"].is_object()) {
+    return Status::Error(path +
+                         ": not a kcrig run sidecar (no excitation or "
+                         "measurement_sigma)");
+  }
+  const nlohmann::json& ex = doc["excitation"];
+  const nlohmann::json& sigma = doc["measurement_sigma"];
+  for (const Status& status :
+       {number(doc, "", "rate_hz", &m->rate),
+        number(ex, "excitation.", "phi_rad", &m->phi),
+        number(ex, "excitation.", "z_a_m", &m->z_a),
+        number(ex, "excitation.", "fmax_n", &m->fmax),
+        number(ex, "excitation.", "tf_s", &m->duration),
+        number(sigma, "measurement_sigma.", "position_m", &m->sigma_position),
+        number(sigma, "measurement_sigma.", "angle_rad", &m->sigma_angle)}) {
+    if (!status.ok()) return status;
+  }
+  if (!(m->rate > 0) || !(m->sigma_position > 0) || !(m->sigma_angle > 0)) {
+    return Status::Error(path + ": rate_hz and measurement sigmas must be > 0");
+  }
+  if (!(m->duration > 0)) {
+    return Status::Error(path + ": excitation.tf_s must be > 0");
+  }
+  if (doc.contains("samples") && doc["samples"].is_number_unsigned() &&
+      doc["samples"].get<size_t>() != rows) {
+    return Status::Error(path + ": says " +
+                         std::to_string(doc["samples"].get<size_t>()) +
+                         " samples, the CSV has " + std::to_string(rows) +
+                         " (mismatched sidecar)");
+  }
+  const double expected_span = (rows - 1) / m->rate;
+  if (std::abs((last_t - first_t) - expected_span) > 0.5 / m->rate) {
+    return Status::Error(path + ": rate " + std::to_string(m->rate) +
+                         " Hz does not match the CSV's time column "
+                         "(mismatched sidecar)");
+  }
+  // Optional: logs written before these existed have neither.
+  for (const auto& [key, target] :
+       {std::pair{"hold_s", &m->hold}, {"return_s", &m->return_duration}}) {
+    if (!ex.contains(key)) continue;
+    const Status status = number(ex, "excitation.", key, target);
+    if (!status.ok()) return status;
+    if (*target < 0) {
+      return Status::Error(path + ": excitation." + key + ": negative");
+    }
+  }
+  if (doc.contains("transport") && doc["transport"].is_string()) {
+    m->transport = doc["transport"].get<std::string>();
+  }
+  if (doc.contains("geometry") && doc["geometry"].is_string()) {
+    m->geometry = doc["geometry"].get<std::string>();
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status ReadRunLog(const std::string& csv_path, RunLog* log) {
+  std::ifstream in(csv_path, std::ios::binary);
+  if (!in) return Status::Error(csv_path + ": cannot open");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  if (text.empty()) return Status::Error(csv_path + ": empty file");
+  if (text.back() != '\n') {
+    const long line = 1 + std::count(text.begin(), text.end(), '\n');
+    return Status::Error(csv_path + ":" + std::to_string(line) +
+                         ": truncated (the last line is incomplete)");
+  }
+
+  std::string_view rest(text);
+  auto next_line = [&rest]() {
+    const size_t end = rest.find('\n');
+    std::string_view line = rest.substr(0, end);
+    rest.remove_prefix(end + 1);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    return line;
+  };
+  const std::vector<std::string_view> header = SplitFields(next_line());
+  // Column index of each channel; -1 when absent.
+  auto find = [&header](std::string_view name) {
+    for (size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == name) return static_cast<int>(i);
+    }
+    return -1;
+  };
+  // Fx, Fy, Fz (columns 1-3) may be absent together: no load cell.
+  int column[10];
+  int forces_found = 0;
+  for (int k = 0; k < 10; ++k) {
+    column[k] = find(kChannels[k]);
+    const bool force = k >= 1 && k <= 3;
+    forces_found += force && column[k] >= 0;
+    if (column[k] < 0 && !force) {
+      return Status::Error(csv_path + ":1: missing column '" +
+                           std::string(kChannels[k]) + "'");
+    }
+  }
+  if (forces_found != 0 && forces_found != 3) {
+    return Status::Error(csv_path + ":1: Fx, Fy, Fz must appear together");
+  }
+  log->has_measured_force = forces_found == 3;
+  int commanded[3];
+  int commanded_found = 0;
+  for (int k = 0; k < 3; ++k) {
+    commanded[k] = find(kCommandedChannels[k]);
+    commanded_found += commanded[k] >= 0;
+  }
+  if (commanded_found != 0 && commanded_found != 3) {
+    return Status::Error(csv_path +
+                         ":1: Fx_cmd, Fy_cmd, Fz_cmd must appear together");
+  }
+  log->has_commanded_force = commanded_found == 3;
+  const int fresh_column = find("fresh");
+  log->samples.clear();
+
+  long line_number = 1;
+  while (!rest.empty()) {
+    ++line_number;
+    const std::string_view line = next_line();
+    const std::string where = csv_path + ":" + std::to_string(line_number);
+    const std::vector<std::string_view> fields = SplitFields(line);
+    if (fields.size() != header.size()) {
+      return Status::Error(where + ": expected " +
+                           std::to_string(header.size()) + " fields, got " +
+                           std::to_string(fields.size()));
+    }
+    double values[10] = {};
+    for (int k = 0; k < 10; ++k) {
+      if (column[k] < 0) continue;
+      if (!ParseFinite(fields[column[k]], &values[k])) {
+        return Status::Error(where + ": column '" + kChannels[k] +
+                             "': not a finite number ('" +
+                             std::string(fields[column[k]]) + "')");
+      }
+    }
+    LogSample sample;
+    sample.t = values[0];
+    sample.force << values[1], values[2], values[3];
+    sample.y << values[4], values[5], values[6], values[7], values[8],
+        values[9];
+    if (log->has_commanded_force) {
+      for (int k = 0; k < 3; ++k) {
+        if (!ParseFinite(fields[commanded[k]], &sample.commanded(k))) {
+          return Status::Error(where + ": column '" + kCommandedChannels[k] +
+                               "': not a finite number");
+        }
+      }
+    }
+    if (fresh_column >= 0) {
+      const std::string_view fresh = fields[fresh_column];
+      if (fresh != "0" && fresh != "1") {
+        return Status::Error(where +
+                             ": column 'fresh': expected 0 or 1, got '" +
+                             std::string(fresh) + "'");
+      }
+      sample.fresh = fresh == "1";
+    }
+    if (!log->samples.empty() && !(sample.t > log->samples.back().t)) {
+      return Status::Error(where + ": time " + std::string(fields[column[0]]) +
+                           " s does not increase");
+    }
+    log->samples.push_back(sample);
+  }
+  if (log->samples.size() < 2) {
+    return Status::Error(csv_path + ": fewer than 2 samples");
+  }
+  return ReadSidecar(SidecarPath(csv_path), log->samples.size(),
+                     log->samples.front().t, log->samples.back().t,
+                     &log->metadata);
+}
+
+std::string SidecarPath(const std::string& csv_path) {
+  return std::filesystem::path(csv_path).replace_extension(".json").string();
+}
+
+Status WriteFilesAtomically(
+    const std::vector<std::pair<std::string, std::string>>& files) {
+  std::vector<std::string> temporaries;
+  auto remove_temporaries = [&temporaries] {
+    for (const std::string& t : temporaries) std::remove(t.c_str());
+  };
+  for (const auto& [path, content] : files) {
+    const std::string temporary =
+        path + ".tmp." + std::to_string(static_cast<long>(getpid()));
+    std::FILE* file = std::fopen(temporary.c_str(), "wb");
+    if (file == nullptr) {
+      const std::string reason = std::strerror(errno);
+      remove_temporaries();
+      return Status::Error(path + ": cannot write: " + reason);
+    }
+    temporaries.push_back(temporary);
+    const bool written =
+        std::fwrite(content.data(), 1, content.size(), file) == content.size();
+    const bool closed = std::fclose(file) == 0;
+    if (!written || !closed) {
+      const std::string reason = std::strerror(errno);
+      remove_temporaries();
+      return Status::Error(path + ": write failed: " + reason);
+    }
+  }
+  for (size_t i = 0; i < files.size(); ++i) {
+    if (std::rename(temporaries[i].c_str(), files[i].first.c_str()) != 0) {
+      const std::string reason = std::strerror(errno);
+      for (size_t k = 0; k < i; ++k) std::remove(files[k].first.c_str());
+      remove_temporaries();
+      return Status::Error(files[i].first + ": cannot write: " + reason);
+    }
+  }
+  return Status::Ok();
+}
+
+Status FinishStreamedRunLog(const std::string& partial_path,
+                            const std::string& csv_path, const RunLog& log) {
+  const std::string sidecar = SidecarPath(csv_path);
+  Status status = WriteFilesAtomically({{sidecar, FormatSidecar(log)}});
+  if (!status.ok()) return status;
+  if (std::rename(partial_path.c_str(), csv_path.c_str()) != 0) {
+    const std::string reason = std::strerror(errno);
+    std::remove(sidecar.c_str());
+    return Status::Error(csv_path + ": cannot move " + partial_path +
+                         " into place (" + reason + ")");
+  }
+  return Status::Ok();
+}
+
+Status WriteRunLog(const std::string& csv_path, const RunLog& log) {
+  if (std::filesystem::path(csv_path).extension() != ".csv") {
+    return Status::Error(csv_path + ": a run log must end in .csv");
+  }
+  return WriteFilesAtomically({{csv_path, FormatCsv(log)},
+                               {SidecarPath(csv_path), FormatSidecar(log)}});
+}
+
+}  // namespace kcrig

@@ -1,0 +1,108 @@
+// The decoded run log: CSV with header t,Fx,Fy,Fz,x,y,z,toe,camber,caster
+// (s, N, m, rad; Fx,Fy,Fz absent when the rig has no load cell), optionally
+// followed by Fx_cmd,Fy_cmd,Fz_cmd and, from a rig run, the loop's columns
+// fresh,phase,safety,rig_sample,rig_status,x_model..caster_model; and a JSON
+// sidecar with the same stem (run.csv -> run.json). Both files appear
+// together or not at all: they are written to temporaries and renamed.
+#ifndef KCRIG_RECORDS_RUN_LOG_H_
+#define KCRIG_RECORDS_RUN_LOG_H_
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "base/status.h"
+#include "rt_core/model/rotation.h"
+
+namespace kcrig {
+
+struct LogSample {
+  double t = 0;                                   // [s]
+  Vec3<double> force = Vec3<double>::Zero();      // on the wheel [N]
+  Vec6<double> y = Vec6<double>::Zero();          // x, y, z [m], angles [rad]
+  Vec3<double> commanded = Vec3<double>::Zero();  // only with commanded force
+  // A rig log's loop columns (RunLog::has_loop_columns): whether a new rig
+  // sample arrived in this cycle (else force and y repeat the last one),
+  // the run phase and safety state, the rig's sample counter and status,
+  // and the live model prediction relative to the rest pose.
+  bool fresh = true;
+  std::string_view phase;  // static strings: RunPhaseName()
+  int safety = 0;          // SafetyState
+  std::uint32_t rig_sample = 0;
+  std::uint16_t rig_status = 0;
+  Vec6<double> predicted = Vec6<double>::Zero();
+};
+
+struct RunMetadata {
+  double rate = 0;  // [Hz]
+  // Excitation: direction [rad], acting height [m], amplitude [N], tf [s].
+  double phi = 0, z_a = 0, fmax = 0, duration = 0;
+  // After the ramp: hold at +Fmax, return ramp to -Fmax [s] (0: none).
+  double hold = 0, return_duration = 0;
+  double sigma_position = 0;  // [m]
+  double sigma_angle = 0;     // [rad]
+  std::string transport;      // "simulation", "modbus-tcp://...", "can:vcan0"
+  // GeometryFingerprint of the configured model the log was recorded with
+  // ("" in logs from before it was recorded).
+  std::string geometry;
+  bool noise_added = false;
+  std::uint64_t seed = 0;
+  // Synthetic data only: the true parameter values and the plant's effects.
+  bool synthetic = false;
+  std::vector<std::pair<std::string, double>> truth_parameters;
+  std::vector<std::string> truth_effects;
+  // Rig runs: a JSON object with the run's phases, safety outcome and loop
+  // counters, written to the sidecar as "hil" (not read back).
+  std::string hil_json;
+};
+
+struct RunLog {
+  std::vector<LogSample> samples;
+  // Without a load cell the log has no Fx, Fy, Fz columns; the force is then
+  // the commanded excitation of the sidecar (LogSample::force stays zero).
+  bool has_measured_force = true;
+  bool has_commanded_force = false;
+  // fresh,phase,safety,rig_sample,rig_status,x_model..caster_model after
+  // the channels (written by `kcrig run`; the reader uses `fresh`).
+  bool has_loop_columns = false;
+  RunMetadata metadata;
+};
+
+// run.csv -> run.json
+std::string SidecarPath(const std::string& csv_path);
+
+// Writes csv_path and its sidecar atomically; on failure neither exists.
+Status WriteRunLog(const std::string& csv_path, const RunLog& log);
+
+// For writers that stream a log row by row as it is recorded (kcrig run):
+// the header line and one row, exactly as WriteRunLog writes them (the
+// columns follow log's flags).
+std::string RunLogCsvHeader(const RunLog& log);
+void AppendRunLogCsvRow(const RunLog& log, const LogSample& sample,
+                        std::string* csv);
+
+// Completes a streamed log: writes the sidecar of `log` (which holds the
+// same samples) and renames `partial_path` to `csv_path`. Until then only
+// the partial file exists, so a crash leaves no run.csv without sidecar.
+Status FinishStreamedRunLog(const std::string& partial_path,
+                            const std::string& csv_path, const RunLog& log);
+
+// Reads a run log and its sidecar, checking everything an estimator relies
+// on: the header has every channel, each row is complete and finite, time
+// increases strictly, the file ends with a complete line, and the sidecar
+// agrees with the CSV (sample count, rate). Errors name file and line.
+// The truth block of a synthetic sidecar is not read: estimation never sees
+// it.
+Status ReadRunLog(const std::string& csv_path, RunLog* log);
+
+// Writes each (path, content) through a temporary in the same directory and
+// renames them all only when every temporary was written; on failure no
+// target is left half-written or newly created.
+Status WriteFilesAtomically(
+    const std::vector<std::pair<std::string, std::string>>& files);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_RECORDS_RUN_LOG_H_

@@ -1,0 +1,62 @@
+#include "rt_core/model/excitation.h"
+
+namespace kcrig {
+
+const char* RunPhaseName(RunPhase phase) {
+  switch (phase) {
+    case RunPhase::kTare:
+      return "tare";
+    case RunPhase::kLeadIn:
+      return "lead_in";
+    case RunPhase::kSettle:
+      return "settle";
+    case RunPhase::kRamp:
+      return "ramp";
+    case RunPhase::kHold:
+      return "hold";
+    case RunPhase::kReturn:
+      return "return";
+    case RunPhase::kRampDown:
+      return "ramp_down";
+    case RunPhase::kDone:
+      return "done";
+  }
+  return "unknown";
+}
+
+RunProfile::RunProfile(const RunProfileTimes& times, double tf, double hold,
+                       double return_duration) {
+  const double durations[kNumPhases] = {
+      times.tare, times.lead_in,   times.settle,   tf,
+      hold,       return_duration, times.ramp_down};
+  const double levels[kNumPhases] = {
+      0.0, -1.0, -1.0, 1.0, 1.0, return_duration > 0 ? -1.0 : 1.0, 0.0};
+  double end = 0;
+  for (int k = 0; k < kNumPhases; ++k) {
+    end += durations[k];
+    end_[k] = end;
+    level_[k] = levels[k];
+  }
+}
+
+RunPhase RunProfile::Phase(double t) const {
+  for (int k = 0; k < kNumPhases; ++k) {
+    if (t < end_[k]) return static_cast<RunPhase>(k);
+  }
+  return RunPhase::kDone;
+}
+
+double RunProfile::Level(double t) const {
+  double start = 0, start_level = 0;
+  for (int k = 0; k < kNumPhases; ++k) {
+    if (t < end_[k]) {
+      const double span = end_[k] - start;
+      return start_level + (level_[k] - start_level) * (t - start) / span;
+    }
+    start = end_[k];
+    start_level = level_[k];
+  }
+  return 0.0;
+}
+
+}  // namespace kcrig

@@ -1,0 +1,143 @@
+#include "rt_core/model/plant_effects.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+namespace kcrig {
+namespace {
+
+enum Range { kPositive, kNonNegative, kAnyFinite };
+
+struct Key {
+  std::string_view name;
+  double* value;
+  Range range;
+};
+
+std::vector<Key> KeysOf(std::string_view effect, PlantEffects* e) {
+  if (effect == "bushing_damping")
+    return {{"d", &e->bushing_damping.d, kPositive}};
+  if (effect == "hysteresis") {
+    return {{"force", &e->hysteresis.force, kPositive},
+            {"sigma", &e->hysteresis.sigma, kPositive}};
+  }
+  if (effect == "progressive_stiffness") {
+    return {{"c3", &e->progressive_stiffness.c3, kAnyFinite}};
+  }
+  if (effect == "actuator_lag") {
+    return {{"tau", &e->actuator_lag.tau, kPositive},
+            {"dead_time", &e->actuator_lag.dead_time, kNonNegative}};
+  }
+  if (effect == "rig_compliance")
+    return {{"k", &e->rig_compliance.k, kPositive}};
+  if (effect == "sensor_offset") {
+    PlantEffects::SensorOffset& s = e->sensor_offset;
+    return {{"x", &s.offset(0), kAnyFinite},
+            {"y", &s.offset(1), kAnyFinite},
+            {"z", &s.offset(2), kAnyFinite},
+            {"toe", &s.offset(3), kAnyFinite},
+            {"camber", &s.offset(4), kAnyFinite},
+            {"caster", &s.offset(5), kAnyFinite},
+            {"scale", &s.scale, kPositive}};
+  }
+  return {};
+}
+
+bool* EnabledFlag(std::string_view effect, PlantEffects* e) {
+  if (effect == "bushing_damping") return &e->bushing_damping.enabled;
+  if (effect == "hysteresis") return &e->hysteresis.enabled;
+  if (effect == "progressive_stiffness") {
+    return &e->progressive_stiffness.enabled;
+  }
+  if (effect == "actuator_lag") return &e->actuator_lag.enabled;
+  if (effect == "rig_compliance") return &e->rig_compliance.enabled;
+  if (effect == "sensor_offset") return &e->sensor_offset.enabled;
+  return nullptr;
+}
+
+std::string Names() {
+  std::string names;
+  for (std::string_view name : kEffectNames) {
+    if (!names.empty()) names += ", ";
+    names += name;
+  }
+  return names;
+}
+
+}  // namespace
+
+Status ParseEffect(std::string_view text, PlantEffects* effects) {
+  const size_t colon = text.find(':');
+  const std::string_view name = text.substr(0, colon);
+  bool* enabled = EnabledFlag(name, effects);
+  if (enabled == nullptr) {
+    return Status::Error("--effect " + std::string(text) +
+                         ": unknown effect '" + std::string(name) +
+                         "' (one of " + Names() + ")");
+  }
+  PlantEffects parsed = *effects;
+  std::vector<Key> keys = KeysOf(name, &parsed);
+  std::string_view rest =
+      colon == std::string_view::npos ? "" : text.substr(colon + 1);
+  while (!rest.empty()) {
+    const size_t comma = rest.find(',');
+    const std::string_view item = rest.substr(0, comma);
+    rest = comma == std::string_view::npos ? "" : rest.substr(comma + 1);
+    const size_t equals = item.find('=');
+    const std::string where =
+        "--effect " + std::string(text) + ": '" + std::string(item) + "'";
+    if (equals == std::string_view::npos) {
+      return Status::Error(where + ": expected key=value");
+    }
+    const std::string_view key = item.substr(0, equals);
+    const std::string value_text(item.substr(equals + 1));
+    Key* match = nullptr;
+    for (Key& k : keys) {
+      if (k.name == key) match = &k;
+    }
+    if (match == nullptr) {
+      std::string allowed;
+      for (const Key& k : keys) {
+        allowed += (allowed.empty() ? "" : ", ") + std::string(k.name);
+      }
+      return Status::Error(where + ": unknown parameter of " +
+                           std::string(name) + " (one of " + allowed + ")");
+    }
+    char* end = nullptr;
+    const double value = std::strtod(value_text.c_str(), &end);
+    const bool in_range = match->range == kAnyFinite ||
+                          (match->range == kPositive && value > 0) ||
+                          (match->range == kNonNegative && value >= 0);
+    if (value_text.empty() || *end != '\0' || !std::isfinite(value) ||
+        !in_range) {
+      static constexpr const char* kRangeText[] = {" > 0", " >= 0", ""};
+      return Status::Error(where + ": must be a finite number" +
+                           kRangeText[match->range]);
+    }
+    *match->value = value;
+  }
+  *EnabledFlag(name, &parsed) = true;
+  *effects = parsed;
+  return Status::Ok();
+}
+
+std::vector<std::string> DescribeEffects(const PlantEffects& effects) {
+  PlantEffects copy = effects;
+  std::vector<std::string> out;
+  for (std::string_view name : kEffectNames) {
+    if (!*EnabledFlag(name, &copy)) continue;
+    std::string text(name);
+    char separator = ':';
+    for (const Key& k : KeysOf(name, &copy)) {
+      char value[32];
+      std::snprintf(value, sizeof(value), "%.6g", *k.value);
+      text += separator + std::string(k.name) + "=" + value;
+      separator = ',';
+    }
+    out.push_back(text);
+  }
+  return out;
+}
+
+}  // namespace kcrig

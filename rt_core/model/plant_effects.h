@@ -1,0 +1,125 @@
+// The unmodelled effects of DESIGN.md: physical augmentations of the nominal
+// model that a real rig has and the estimator's model lacks. They are the
+// software rig's truth (`kcrig emulate --effect`, `kcrig simulate --effect`)
+// and the diagnosis' candidates. Each is a documented physical model with its
+// parameters in SI units. The defaults are plausible for a rubber-bushed
+// five-link axle on a servo-hydraulic rig; on the paper's slow 4 s ramp some
+// of them stay close to the sensor noise (a rate-dependent effect needs a
+// faster ramp or a hold to show).
+//
+//   bushing_damping        Kelvin-Voigt rubber: every bushing's axial force
+//                          gains d * dl/dt.             d [N s/m] = 3e5
+//   hysteresis             Dahl friction in every bushing: an extra axial
+//                          force h with dh/dl = sigma (1 - h/F sgn(dl/dt)),
+//                          solved exactly per step; rate-independent,
+//                          |h| < F.                     force F [N] = 400,
+//                                                       sigma [N/m] = 4e7
+//   progressive_stiffness  cubic rubber stiffening: every bushing's axial
+//                          force gains c3 (l - l0)^3.   c3 [N/m^3] = 4e11
+//   actuator_lag           the force acting on the wheel follows the logged
+//                          (load-cell) force through a dead time and a
+//                          first-order lag (load cell at the actuator, fixture
+//                          dynamics between it and the wheel).
+//                                                       tau [s] = 0.05,
+//                                                       dead_time [s] = 0.01
+//   rig_compliance         the clamped body's mounts give: the measured
+//                          wheel-centre position includes F / k per axis.
+//                                                       k [N/m] = 5e7
+//   sensor_offset          per-channel offset and a common scale error of the
+//                          position and angle sensors: m = scale * y + offset.
+//                          x, y, z [m] = 1e-4, -1e-4, 5e-5;
+//                          toe, camber, caster [rad] = 2e-4, -2e-4, 1e-4;
+//                          scale [-] = 1.03
+#ifndef KCRIG_RT_CORE_MODEL_PLANT_EFFECTS_H_
+#define KCRIG_RT_CORE_MODEL_PLANT_EFFECTS_H_
+
+#include <array>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "base/status.h"
+#include "rt_core/model/rotation.h"
+
+namespace kcrig {
+
+inline constexpr std::array<std::string_view, 6> kEffectNames = {
+    "bushing_damping", "hysteresis",     "progressive_stiffness",
+    "actuator_lag",    "rig_compliance", "sensor_offset"};
+
+// Which effects the plant has and their parameters (SI). Defaults as in the
+// table above; `enabled` false means the nominal model. Templated on the
+// scalar so that the diagnosis can fit the parameters with exact
+// sensitivities (ceres::Jet); the rig and `simulate` use PlantEffects.
+template <typename T>
+struct BasicPlantEffects {
+  struct BushingDamping {
+    bool enabled = false;
+    T d = T(3e5);  // [N s/m], replaces the model's bushing damping
+  } bushing_damping;
+  struct Hysteresis {
+    bool enabled = false;
+    T force = T(400);  // Dahl saturation force F [N]
+    T sigma = T(4e7);  // Dahl rest stiffness [N/m]
+  } hysteresis;
+  struct ProgressiveStiffness {
+    bool enabled = false;
+    T c3 = T(4e11);  // [N/m^3]; negative: softening
+  } progressive_stiffness;
+  struct ActuatorLag {
+    bool enabled = false;
+    T tau = T(0.05);        // first-order time constant [s]
+    T dead_time = T(0.01);  // [s]
+  } actuator_lag;
+  struct RigCompliance {
+    bool enabled = false;
+    T k = T(5e7);  // mount stiffness per axis [N/m]
+  } rig_compliance;
+  struct SensorOffset {
+    bool enabled = false;
+    Vec6<T> offset =
+        (Vec6<T>() << T(1e-4), T(-1e-4), T(5e-5), T(2e-4), T(-2e-4), T(1e-4))
+            .finished();
+    T scale = T(1.03);
+  } sensor_offset;
+
+  bool any() const {
+    return bushing_damping.enabled || hysteresis.enabled ||
+           progressive_stiffness.enabled || actuator_lag.enabled ||
+           rig_compliance.enabled || sensor_offset.enabled;
+  }
+
+  template <typename U>
+  BasicPlantEffects<U> Cast() const {
+    BasicPlantEffects<U> out;
+    out.bushing_damping = {bushing_damping.enabled, U(bushing_damping.d)};
+    out.hysteresis = {hysteresis.enabled, U(hysteresis.force),
+                      U(hysteresis.sigma)};
+    out.progressive_stiffness = {progressive_stiffness.enabled,
+                                 U(progressive_stiffness.c3)};
+    out.actuator_lag = {actuator_lag.enabled, U(actuator_lag.tau),
+                        U(actuator_lag.dead_time)};
+    out.rig_compliance = {rig_compliance.enabled, U(rig_compliance.k)};
+    out.sensor_offset.enabled = sensor_offset.enabled;
+    for (int k = 0; k < 6; ++k) {
+      out.sensor_offset.offset(k) = U(sensor_offset.offset(k));
+    }
+    out.sensor_offset.scale = U(sensor_offset.scale);
+    return out;
+  }
+};
+
+using PlantEffects = BasicPlantEffects<double>;
+
+// Turns on one effect from "NAME" or "NAME:key=value,key=value" (keys as in
+// the table above: d; force, sigma; c3; tau, dead_time; k; x, y, z, toe,
+// camber, caster, scale). Errors are one line naming the offending part.
+Status ParseEffect(std::string_view text, PlantEffects* effects);
+
+// The enabled effects with all their parameters, in the --effect syntax
+// ("hysteresis:force=150,sigma=4e+07"), for sidecars and messages.
+std::vector<std::string> DescribeEffects(const PlantEffects& effects);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_RT_CORE_MODEL_PLANT_EFFECTS_H_

@@ -1,0 +1,7 @@
+#include "rt_core/model/rig_plant.h"
+
+namespace kcrig {
+
+template class BasicRigPlant<double>;
+
+}  // namespace kcrig

@@ -1,0 +1,215 @@
+// The true plant of the software rig: the suspension model with its "true"
+// parameters plus the unmodelled effects of plant_effects.h, stepped with the
+// paper's semi-implicit Euler. The emulator runs it in real time at a fine
+// step; `kcrig simulate` runs it offline; the diagnosis fits its parameters
+// (templated on the scalar: with ceres::Jet it carries exact sensitivities
+// of the discrete solution). One implementation of each effect.
+// Construction allocates (the dead-time line); Settle and Step do not.
+#ifndef KCRIG_RT_CORE_MODEL_RIG_PLANT_H_
+#define KCRIG_RT_CORE_MODEL_RIG_PLANT_H_
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <vector>
+
+#include "base/status.h"
+#include "rt_core/model/plant_effects.h"
+#include "rt_core/model/semi_implicit_euler.h"
+#include "rt_core/model/simulation.h"
+#include "rt_core/model/suspension_model.h"
+
+namespace kcrig {
+
+template <typename T>
+class BasicRigPlant {
+ public:
+  // `step` is the integration step h [s] (> 0). The dead-time line holds up
+  // to max(max_dead_time, the effect's dead time) [s]: a fit that moves the
+  // dead time needs room for its largest value.
+  BasicRigPlant(const SuspensionParameters<T>& parameters,
+                const BasicPlantEffects<T>& effects, double step,
+                double max_dead_time = 0);
+
+  // At rest in static equilibrium under `force` [N] acting at height z_a [m]
+  // above the wheel centre, every effect state at rest (no hysteresis force,
+  // the lagged force equal to `force`).
+  Status Settle(const Vec3<T>& force, const T& z_a);
+
+  // Advances one step h; `force` is the force the rig applies at the end of
+  // the step as its load cell reads it.
+  void Step(const Vec3<T>& force);
+
+  // Moves the force's acting point (the rig's fixture) [m].
+  void set_z_a(const T& z_a) { z_a_ = z_a; }
+
+  double step() const { return step_; }
+  // True pose: x, y, z [m], toe, camber, caster [rad].
+  const Vec6<T>& pose() const { return state_.y; }
+  // The force acting on the wheel (differs from the load cell's only with
+  // actuator_lag).
+  const Vec3<T>& wheel_force() const { return wheel_force_; }
+  // What the position and angle sensors read, before noise: the pose with
+  // rig_compliance and sensor_offset applied.
+  Vec6<T> Sensed() const;
+  // Whether the state is finite and within `limit` (m or rad).
+  bool Finite(double limit) const;
+
+ private:
+  void UpdateHysteresis();
+  // The load-cell force `back` steps ago (0: this step's).
+  const Vec3<T>& Past(size_t back) const {
+    return delay_line_[(delay_head_ + delay_line_.size() - back) %
+                       delay_line_.size()];
+  }
+
+  BasicPlantEffects<T> effects_;
+  SuspensionModel<T> model_;
+  double step_;
+  T z_a_ = T(0);
+  ModelState<T> state_;
+  Vec3<T> wheel_force_ = Vec3<T>::Zero();
+  // actuator_lag: the recent load-cell forces; the delayed force is
+  // interpolated between the two entries around dead_time (a fractional
+  // delay, differentiable in dead_time).
+  std::vector<Vec3<T>> delay_line_;
+  size_t delay_head_ = 0;
+  T lag_gain_ = T(1);  // 1 - exp(-h / tau)
+  // hysteresis: Dahl force per bushing at the deflection it last saw, and
+  // its tangent stiffness there.
+  typename SuspensionModel<T>::ExtraBushingForce hysteresis_;
+};
+
+using RigPlant = BasicRigPlant<double>;
+
+namespace rig_plant_internal {
+
+template <typename T>
+SuspensionParameters<T> WithBushingDamping(
+    SuspensionParameters<T> parameters, const BasicPlantEffects<T>& effects) {
+  if (effects.bushing_damping.enabled) {
+    for (AxialElement<T>& bushing : parameters.bushings) {
+      bushing.damping = effects.bushing_damping.d;
+    }
+  }
+  return parameters;
+}
+
+}  // namespace rig_plant_internal
+
+template <typename T>
+BasicRigPlant<T>::BasicRigPlant(const SuspensionParameters<T>& parameters,
+                                const BasicPlantEffects<T>& effects,
+                                double step, double max_dead_time)
+    : effects_(effects),
+      model_(rig_plant_internal::WithBushingDamping(parameters, effects)),
+      step_(step) {
+  using std::expm1;
+  if (effects_.progressive_stiffness.enabled) {
+    model_.SetProgressiveStiffness(effects_.progressive_stiffness.c3);
+  }
+  size_t delay_steps = 0;
+  if (effects_.actuator_lag.enabled) {
+    const double longest =
+        std::max(max_dead_time, ValueOf(effects_.actuator_lag.dead_time));
+    delay_steps = static_cast<size_t>(std::ceil(longest / step_ - 1e-9));
+    lag_gain_ = -expm1(-step_ / effects_.actuator_lag.tau);
+  }
+  delay_line_.assign(delay_steps + 2, Vec3<T>::Zero());
+}
+
+template <typename T>
+Status BasicRigPlant<T>::Settle(const Vec3<T>& force, const T& z_a) {
+  z_a_ = z_a;
+  hysteresis_ = {};
+  model_.SetExtraBushingForce(hysteresis_);
+  std::fill(delay_line_.begin(), delay_line_.end(), force);
+  wheel_force_ = force;
+  state_ = ModelState<T>();
+  RigLoad<T> load;
+  load.force = force;
+  load.point << T(0), T(0), z_a_;
+  const Status status = SolveStaticEquilibrium(model_, load, 50, &state_.y);
+  if (effects_.hysteresis.enabled) {
+    hysteresis_.reference = model_.BushingDeflections(state_.y);
+    hysteresis_.stiffness.fill(effects_.hysteresis.sigma);
+    model_.SetExtraBushingForce(hysteresis_);
+  }
+  return status;
+}
+
+template <typename T>
+void BasicRigPlant<T>::Step(const Vec3<T>& force) {
+  delay_head_ = (delay_head_ + 1) % delay_line_.size();
+  delay_line_[delay_head_] = force;
+  if (effects_.actuator_lag.enabled) {
+    const T delay = effects_.actuator_lag.dead_time / step_;
+    const size_t whole =
+        std::min(static_cast<size_t>(std::max(0.0, ValueOf(delay))),
+                 delay_line_.size() - 2);
+    const T fraction = delay - static_cast<double>(whole);
+    const Vec3<T> delayed =
+        Past(whole) + (Past(whole + 1) - Past(whole)) * fraction;
+    wheel_force_ += (delayed - wheel_force_) * lag_gain_;
+  } else {
+    wheel_force_ = force;
+  }
+  RigLoad<T> load;
+  load.force = wheel_force_;
+  load.point << T(0), T(0), z_a_;
+  SemiImplicitEulerStep(model_, load, step_, &state_);
+  if (effects_.hysteresis.enabled) UpdateHysteresis();
+}
+
+// Dahl's model over the step's deflection change (it depends on the path,
+// not on time): dh/dl = sigma (1 - h/F s), s = sgn(dl), solved exactly along
+// the step, h' = sF - (sF - h) exp(-sigma |dl| / F), so |h| < F for any step.
+// The tangent for the next step assumes the motion goes on the same way.
+template <typename T>
+void BasicRigPlant<T>::UpdateHysteresis() {
+  using std::abs;
+  using std::exp;
+  const std::array<T, kNumBushings> deflection =
+      model_.BushingDeflections(state_.y);
+  const T& f = effects_.hysteresis.force;
+  const T& sigma = effects_.hysteresis.sigma;
+  for (int i = 0; i < kNumBushings; ++i) {
+    const T change = deflection[i] - hysteresis_.reference[i];
+    T& h = hysteresis_.force[i];
+    if (ValueOf(change) != 0.0) {
+      const double s = ValueOf(change) > 0 ? 1.0 : -1.0;
+      h = s * f - (s * f - h) * exp(-sigma * (s * change) / f);
+      hysteresis_.stiffness[i] = sigma * (T(1.0) - h / f * s);
+    }
+    hysteresis_.reference[i] = deflection[i];
+  }
+  model_.SetExtraBushingForce(hysteresis_);
+}
+
+template <typename T>
+Vec6<T> BasicRigPlant<T>::Sensed() const {
+  Vec6<T> sensed = state_.y;
+  if (effects_.rig_compliance.enabled) {
+    sensed.template head<3>() += wheel_force_ / effects_.rig_compliance.k;
+  }
+  if (effects_.sensor_offset.enabled) {
+    sensed =
+        sensed * effects_.sensor_offset.scale + effects_.sensor_offset.offset;
+  }
+  return sensed;
+}
+
+template <typename T>
+bool BasicRigPlant<T>::Finite(double limit) const {
+  for (int k = 0; k < 6; ++k) {
+    const double value = ValueOf(state_.y(k));
+    if (!std::isfinite(value) || std::abs(value) > limit) return false;
+  }
+  return true;
+}
+
+extern template class BasicRigPlant<double>;
+
+}  // namespace kcrig
+
+#endif  // KCRIG_RT_CORE_MODEL_RIG_PLANT_H_

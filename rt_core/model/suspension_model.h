@@ -1,0 +1,272 @@
+// The wheel carrier as one rigid body on five elastic links and a suspension
+// spring-damper, loaded by the K&C rig: equations (1)-(2) of Butz, Simeon,
+// Stadler,
+//   dy/dt = V(y) z,   M dz/dt = Q(y, z),
+// with y = (wheel-centre displacement r [m], toe, camber, caster [rad]) and
+// z = (dr/dt [m/s], body-frame angular velocity omega [rad/s]).
+//
+// Everything is templated on the scalar so the same code runs with double in
+// the real-time loop and with ceres::Jet for exact discrete sensitivities.
+// dQ/dy and dQ/dz are analytic (the chain rule through each element's length
+// and direction, see Evaluate) and are themselves differentiable by Jet, which
+// is what exact sensitivities of the semi-implicit step need. Nothing here
+// allocates.
+#ifndef KCRIG_RT_CORE_MODEL_SUSPENSION_MODEL_H_
+#define KCRIG_RT_CORE_MODEL_SUSPENSION_MODEL_H_
+
+#include <array>
+#include <cmath>
+#include <type_traits>
+
+#include "rt_core/model/rotation.h"
+#include "rt_core/model/suspension_parameters.h"
+
+namespace kcrig {
+
+// The plain double value of a scalar (a double, or the value part of a Jet,
+// nested or not).
+template <typename T>
+double ValueOf(const T& x) {
+  if constexpr (std::is_arithmetic_v<T>) {
+    return static_cast<double>(x);
+  } else {
+    return ValueOf(x.a);
+  }
+}
+
+// The force the rig applies to the wheel.
+template <typename T>
+struct RigLoad {
+  Vec3<T> force = Vec3<T>::Zero();  // rig frame [N]
+  Vec3<T> point = Vec3<T>::Zero();  // carrier frame, from the wheel centre [m]
+};
+
+template <typename T>
+struct ModelState {
+  Vec6<T> y = Vec6<T>::Zero();  // x, y, z [m], toe, camber, caster [rad]
+  Vec6<T> z = Vec6<T>::Zero();  // dr/dt [m/s], body omega [rad/s]
+};
+
+// Q and, when asked for, its partial derivatives.
+template <typename T>
+struct GeneralizedForce {
+  Vec6<T> q;      // rig-frame force [N], carrier-frame moment [N m]
+  Mat6<T> dq_dy;  // with respect to (r, Cardan angles)
+  Mat6<T> dq_dz;  // with respect to (dr/dt, omega)
+};
+
+template <typename T>
+class SuspensionModel {
+ public:
+  // Element lengths at the design position (y = 0) become the free lengths,
+  // so the design position is the equilibrium under zero rig force.
+  explicit SuspensionModel(const SuspensionParameters<T>& parameters)
+      : parameters_(parameters) {
+    for (int i = 0; i < kNumElements; ++i) {
+      const AxialElement<T>& e = Element(i);
+      free_length_[i] = (e.chassis_point - e.carrier_point).norm();
+      skew_carrier_point_[i] = Skew<T>(e.carrier_point);
+    }
+    mass_matrix_.setZero();
+    mass_matrix_.template topLeftCorner<3, 3>() =
+        Mat3<T>::Identity() * parameters_.mass;
+    mass_matrix_.template bottomRightCorner<3, 3>() =
+        parameters_.inertia.asDiagonal();
+  }
+
+  const SuspensionParameters<T>& parameters() const { return parameters_; }
+  const Mat6<T>& mass_matrix() const { return mass_matrix_; }
+
+  // V(y): dy/dt = V(y) z.
+  Mat6<T> KinematicMatrix(const Vec6<T>& y) const {
+    Mat6<T> v = Mat6<T>::Identity();
+    v.template bottomRightCorner<3, 3>() =
+        InverseAngularRateMatrix<T>(y.template tail<3>());
+    return v;
+  }
+
+  // Q(y, z) under `load`; with `with_jacobians` also dQ/dy and dQ/dz.
+  //
+  // Derivatives are first taken with respect to q = (r, small body-frame
+  // rotation theta) and mapped to Cardan angles through G at the end. For an
+  // element with carrier point b, l = |c - r - R b|, u = (c - r - R b) / l
+  // and u_b = R^T u, the generalized direction a = [u; b x u_b] gives
+  //   dl = -a^T dq,  dl/dt = -a^T z,  Q_e = m a,  m = k (l - l0) + d dl/dt,
+  // so dQ_e/dz = -d a a^T and dQ_e/dq = a (d g - k a)^T + m H with
+  //   g = [e; b x e_b - w x u_b],  e = (I - u u^T) pdot / l,  e_b = R^T e,
+  //   H = [ -W/l       R W_b B/l           ]   W = I - u u^T, B = [b]x,
+  //       [ (.)^T      B W_b B/l + B[u_b]x ]   W_b = I - u_b u_b^T.
+  void Evaluate(const RigLoad<T>& load, const Vec6<T>& y, const Vec6<T>& z,
+                bool with_jacobians, GeneralizedForce<T>* out) const {
+    const Vec3<T> r = y.template head<3>();
+    const Vec3<T> angles = y.template tail<3>();
+    const Vec3<T> v = z.template head<3>();
+    const Vec3<T> omega = z.template tail<3>();
+    const CardanAngles<T> cardan(angles);
+    const Mat3<T> rot = cardan.Rotation();
+    const Mat3<T> rot_t = rot.transpose();
+
+    Mat6<T> dq_dq;  // with respect to (r, theta)
+    if (with_jacobians) {
+      dq_dq.setZero();
+      out->dq_dz.setZero();
+    }
+    const Vec3<T> load_body = rot_t * load.force;
+    out->q.template head<3>() = load.force;
+    out->q.template tail<3>() = load.point.cross(load_body);
+    if (with_jacobians) {
+      dq_dq.template block<3, 3>(3, 3) =
+          SkewTimes<T>(load.point, Skew<T>(load_body));
+    }
+
+    for (int i = 0; i < kNumElements; ++i) {
+      const AxialElement<T>& e = Element(i);
+      const Vec3<T>& b = e.carrier_point;
+      const ElementState element = StateOf(i, r, rot, rot_t, z);
+      const T& length = element.length;
+      const Vec3<T>& u = element.u;
+      const Vec3<T>& u_body = element.u_body;
+      const Vec6<T>& a = element.a;
+      const T& magnitude = element.magnitude;
+      const Vec3<T> w = omega.cross(b);  // carrier-point velocity, body frame
+      out->q += magnitude * a;
+      if (!with_jacobians) continue;
+
+      const Vec3<T> point_velocity = v + rot * w;
+      const Vec3<T> e_world =
+          (point_velocity - u * u.dot(point_velocity)) / length;
+      Vec6<T> g;
+      g << e_world, b.cross(rot_t * e_world) - w.cross(u_body);
+      const Vec6<T> dmagnitude_dq =
+          e.damping * g - element.tangent_stiffness * a;
+      const Vec6<T> damped_a = e.damping * a;
+      // Rank-one updates as plain loops: Eigen's generic outer product costs
+      // several times more per Jet multiply.
+      for (int col = 0; col < 6; ++col) {
+        for (int row = 0; row < 6; ++row) {
+          dq_dq(row, col) += a(row) * dmagnitude_dq(col);
+          out->dq_dz(row, col) -= damped_a(row) * a(col);
+        }
+      }
+
+      const Mat3<T>& skew_b = skew_carrier_point_[i];
+      const T m_over_l = magnitude / length;
+      // W_b B = B - u_b (u_b^T B), and u_b^T B = (u_b x b)^T.
+      const Mat3<T> w_body_b = skew_b - u_body * u_body.cross(b).transpose();
+      const Mat3<T> h12 = (rot * w_body_b) * m_over_l;
+      dq_dq.template block<3, 3>(0, 0) -=
+          m_over_l * (Mat3<T>::Identity() - u * u.transpose());
+      dq_dq.template block<3, 3>(0, 3) += h12;
+      dq_dq.template block<3, 3>(3, 0) += h12.transpose();
+      dq_dq.template block<3, 3>(3, 3) +=
+          SkewTimes<T>(b, m_over_l * w_body_b + magnitude * Skew<T>(u_body));
+    }
+
+    // Gyroscopic moment of the body-frame Euler equations.
+    const Vec3<T> angular_momentum = parameters_.inertia.cwiseProduct(omega);
+    out->q.template tail<3>() -= omega.cross(angular_momentum);
+    if (!with_jacobians) return;
+    out->dq_dz.template block<3, 3>(3, 3) -=
+        Skew<T>(omega) * Mat3<T>(parameters_.inertia.asDiagonal()) -
+        Skew<T>(angular_momentum);
+    out->dq_dy.template leftCols<3>() = dq_dq.template leftCols<3>();
+    out->dq_dy.template rightCols<3>() =
+        dq_dq.template rightCols<3>() * cardan.RateMatrix();
+  }
+
+  // Unmodelled-effect hooks of the plant (rt_core/rig_plant.h); both zero in
+  // the nominal model. A cubic term c3 (l - l0)^3 on every bushing's axial
+  // force (progressive rubber stiffness; in Q and its Jacobian), and an extra
+  // axial force per bushing, linearised about a reference deflection
+  // (hysteresis, whose state the plant updates after each step; the tangent
+  // keeps the semi-implicit step stable when it is stiff).
+  struct ExtraBushingForce {
+    std::array<T, kNumBushings> force{};      // at the reference [N]
+    std::array<T, kNumBushings> stiffness{};  // tangent [N/m]
+    std::array<T, kNumBushings> reference{};  // deflection l - l0 [m]
+  };
+  void SetProgressiveStiffness(const T& cubic_stiffness) {
+    cubic_stiffness_ = cubic_stiffness;
+  }
+  void SetExtraBushingForce(const ExtraBushingForce& extra) { extra_ = extra; }
+
+  // Length change l - l0 of each bushing's link at pose y [m].
+  std::array<T, kNumBushings> BushingDeflections(const Vec6<T>& y) const {
+    const Mat3<T> rot = CardanAngles<T>(y.template tail<3>()).Rotation();
+    std::array<T, kNumBushings> deflections;
+    for (int i = 0; i < kNumBushings; ++i) {
+      const AxialElement<T>& e = Element(i);
+      deflections[i] =
+          (e.chassis_point - y.template head<3>() - rot * e.carrier_point)
+              .norm() -
+          free_length_[i];
+    }
+    return deflections;
+  }
+
+  // Axial force of each element (the five bushings in BushingIndex order,
+  // then the spring-damper), positive in tension [N].
+  Vec6<T> ElementForces(const Vec6<T>& y, const Vec6<T>& z) const {
+    const Mat3<T> rot = CardanAngles<T>(y.template tail<3>()).Rotation();
+    const Mat3<T> rot_t = rot.transpose();
+    Vec6<T> forces;
+    for (int i = 0; i < kNumElements; ++i) {
+      forces(i) = StateOf(i, y.template head<3>(), rot, rot_t, z).magnitude;
+    }
+    return forces;
+  }
+
+ private:
+  static constexpr int kNumElements = kNumBushings + 1;  // + spring-damper
+
+  const AxialElement<T>& Element(int i) const {
+    return i < kNumBushings ? parameters_.bushings[i] : parameters_.spring;
+  }
+
+  // One element at the pose (r, R): length l, unit vector u from the carrier
+  // point to the chassis point (rig frame) and u_b = R^T u, the generalized
+  // direction a = [u; b x u_b] (dl/dt = -a^T z) and the axial force
+  // m = c (l - l0) + d dl/dt (+ the effect hooks), positive in tension, and
+  // its tangent stiffness dm/dl.
+  struct ElementState {
+    T length;
+    Vec3<T> u;
+    Vec3<T> u_body;
+    Vec6<T> a;
+    T magnitude;
+    T tangent_stiffness;
+  };
+
+  ElementState StateOf(int i, const Vec3<T>& r, const Mat3<T>& rot,
+                       const Mat3<T>& rot_t, const Vec6<T>& z) const {
+    const AxialElement<T>& e = Element(i);
+    ElementState s;
+    const Vec3<T> d = e.chassis_point - r - rot * e.carrier_point;
+    s.length = d.norm();
+    s.u = d / s.length;
+    s.u_body = rot_t * s.u;
+    s.a << s.u, e.carrier_point.cross(s.u_body);
+    const T deflection = s.length - free_length_[i];
+    s.magnitude = e.stiffness * deflection - e.damping * s.a.dot(z);
+    s.tangent_stiffness = e.stiffness;
+    if (i < kNumBushings) {
+      const T squared = deflection * deflection;
+      s.magnitude += cubic_stiffness_ * squared * deflection + extra_.force[i] +
+                     extra_.stiffness[i] * (deflection - extra_.reference[i]);
+      s.tangent_stiffness +=
+          T(3) * cubic_stiffness_ * squared + extra_.stiffness[i];
+    }
+    return s;
+  }
+
+  SuspensionParameters<T> parameters_;
+  std::array<T, kNumElements> free_length_;
+  std::array<Mat3<T>, kNumElements> skew_carrier_point_;
+  Mat6<T> mass_matrix_;
+  T cubic_stiffness_ = T(0);
+  ExtraBushingForce extra_;
+};
+
+}  // namespace kcrig
+
+#endif  // KCRIG_RT_CORE_MODEL_SUSPENSION_MODEL_H_

@@ -1,0 +1,199 @@
+#include "rt_core/runtime/control_loop.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "rt_core/model/semi_implicit_euler.h"
+
+namespace kcrig {
+
+ControlLoop::ControlLoop(const SuspensionParameters<double>& model,
+                         const LoopOptions& options, RigInterface* rig,
+                         SpscRing<CycleRecord>* ring,
+                         const std::atomic<int>* stop_signal)
+    : model_(model),
+      options_(options),
+      rig_(rig),
+      ring_(ring),
+      stop_signal_(stop_signal),
+      profile_(options.profile, options.tf, options.hold,
+               options.return_duration),
+      safety_(options.safety, options.period) {
+  direction_ << std::cos(options.phi), std::sin(options.phi), 0.0;
+  const double duration =
+      options.max_duration > 0 ? options.max_duration : profile_.duration();
+  end_cycle_ = std::llround(duration / options.period);
+}
+
+LoopResult ControlLoop::Run() {
+  CycleTimer timer(std::llround(options_.period * 1e9));
+  timer.Start();
+  for (;;) {
+    const CycleTimer::Wake wake = timer.WaitForNextCycle();
+    cycle_start_ = wake.deadline + wake.latency;
+    timing_.wakeup.Record(wake.latency);
+    const bool go_on = Cycle(wake.cycle, wake.skipped);
+    timing_.cycle.Record(MonotonicNanoseconds() - cycle_start_);
+    if (!go_on) break;
+  }
+  result_.overruns = timer.overruns();
+  result_.skipped_cycles = timer.skipped_cycles();
+  result_.dropped_records = ring_ ? ring_->dropped() : 0;
+  return result_;
+}
+
+bool ControlLoop::Valid(const RigMeasurement& m) const {
+  return m.force.allFinite() && m.y.allFinite();
+}
+
+bool ControlLoop::Cycle(std::int64_t cycle, std::int64_t skipped) {
+  ++result_.cycles;
+  const std::int64_t t0 = MonotonicNanoseconds();
+  bool fresh = false;
+  if (rig_ != nullptr) {
+    const std::uint32_t previous = measurement_.sample;
+    const IoResult read = rig_->Read(&measurement_);
+    fresh = read == IoResult::kFresh;
+    if (read == IoResult::kStale) ++result_.stale;
+    if (read == IoResult::kError) ++result_.read_errors;
+    if (read == IoResult::kFault) {
+      ++result_.read_errors;
+      transport_fault_ = true;
+    }
+    if (fresh && !Valid(measurement_)) {
+      // Never let a NaN reach the model or the log: keep the last good
+      // sample and trip (in Compute).
+      measurement_ = last_good_;
+      invalid_sample_ = true;
+      fresh = false;
+    }
+    if (fresh) {
+      ++result_.fresh;
+      // A counter that went backwards is a restarted rig, not a loss.
+      const std::uint32_t step = measurement_.sample - previous;
+      if (have_sample_ && step > 1 && step < (1u << 31)) {
+        result_.lost_rig_samples += step - 1;
+      }
+      have_sample_ = true;
+      last_good_ = measurement_;
+    }
+  }
+  const std::int64_t t1 = MonotonicNanoseconds();
+  timing_.read.Record(t1 - t0);
+
+  CycleRecord record;
+  Compute(cycle, skipped, fresh, &record);
+  const std::int64_t t2 = MonotonicNanoseconds();
+  timing_.compute.Record(t2 - t1);
+
+  if (rig_ != nullptr) {
+    if (rig_->Write(command_) == IoResult::kError) ++result_.write_errors;
+  }
+  timing_.write.Record(MonotonicNanoseconds() - t2);
+  if (ring_ != nullptr) ring_->Push(record);
+
+  const bool disabled = safety_.state() == SafetyState::kDisabled;
+  const bool finished =
+      safety_.state() == SafetyState::kNormal && cycle + 1 >= end_cycle_;
+  return !(disabled || finished);
+}
+
+void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
+                          CycleRecord* record) {
+  const double t = cycle * options_.period;
+  const RunPhase phase = profile_.Phase(t);
+
+  // Safety on what was measured.
+  if (rig_ != nullptr) {
+    if (fresh) {
+      safety_.FreshSample();
+      if (phase == RunPhase::kTare) {
+        tare_sum_ += measurement_.y;
+        ++tare_count_;
+      }
+      const Vec6<double> rest = tare_count_ > 0
+                                    ? Vec6<double>(tare_sum_ / tare_count_)
+                                    : measurement_.y;
+      // Travel and angle limits on the absolute pose; the error detector on
+      // the pose relative to the rest pose (the sensors' zero is the rig's),
+      // once the rest pose is known.
+      int channel = -1;
+      TripCause cause = safety_.CheckMeasurement(
+          measurement_.y, rest, state_.y, phase != RunPhase::kTare, &channel);
+      // The rig faulted, or stopped being enabled (local mode, e-stop).
+      if ((measurement_.status & kRigFault) ||
+          !(measurement_.status & kRigEnabled)) {
+        cause = TripCause::kRigFault;
+      }
+      if (cause != TripCause::kNone &&
+          safety_.state() == SafetyState::kNormal) {
+        result_.trip_channel = channel;
+        safety_.Trip(cause, cycle);
+      }
+    } else if (safety_.MissedSamples(static_cast<int>(
+                   std::min<std::int64_t>(skipped + 1, 1 << 20)))) {
+      safety_.Trip(TripCause::kWatchdog, cycle);
+    }
+    if (invalid_sample_) {
+      invalid_sample_ = false;
+      safety_.Trip(TripCause::kInvalidMeasurement, cycle);
+    }
+    if (transport_fault_) {
+      transport_fault_ = false;
+      safety_.Trip(TripCause::kTransportFault, cycle);
+    }
+  }
+  if (stop_signal_ != nullptr) {
+    const int signal = stop_signal_->load(std::memory_order_relaxed);
+    if (signal != 0 && safety_.state() == SafetyState::kNormal) {
+      result_.signal = signal;
+      safety_.Trip(TripCause::kSignal, cycle);
+    }
+  }
+  if (safety_.state() != SafetyState::kNormal &&
+      result_.cause == TripCause::kNone) {
+    result_.cause = safety_.cause();
+    result_.trip_cycle = safety_.trip_cycle();
+  }
+
+  // Excitation through the safety limits.
+  const Vec3<double> wanted =
+      options_.fmax * profile_.Level(t + options_.period) * direction_;
+  const Vec3<double> command = safety_.Limit(wanted);
+  result_.limited_commands = safety_.limited_commands();
+  command_.force = command;
+  command_.z_a = options_.z_a;
+  command_.enable = safety_.state() != SafetyState::kDisabled;
+  command_.sequence = static_cast<std::uint16_t>(cycle);
+  command_.phase = static_cast<std::uint8_t>(1 + static_cast<int>(phase));
+  command_.safety = static_cast<std::uint8_t>(safety_.state());
+
+  // Logged with the measurement it was checked against (time t).
+  for (int k = 0; k < 6; ++k) record->predicted[k] = state_.y(k);
+
+  // The live prediction: the model under the measured force (the command
+  // when no sample arrived), over the cycles skipped too (bounded).
+  RigLoad<double> load;
+  load.force = fresh ? measurement_.force : command;
+  load.point << 0.0, 0.0, options_.z_a;
+  const std::int64_t steps = 1 + std::min<std::int64_t>(skipped, 50);
+  for (std::int64_t s = 0; s < steps; ++s) {
+    SemiImplicitEulerStep(model_, load, options_.period, &state_);
+  }
+
+  record->cycle = cycle;
+  record->rig_sample = measurement_.sample;
+  record->rig_status = measurement_.status;
+  record->rig_fault = measurement_.fault_code;
+  record->fresh = fresh;
+  record->phase = phase;
+  record->safety = safety_.state();
+  for (int k = 0; k < 3; ++k) {
+    record->force[k] = measurement_.force(k);
+    record->commanded[k] = command(k);
+  }
+  for (int k = 0; k < 6; ++k) record->y[k] = measurement_.y(k);
+  if (tare_count_ > 0) result_.rest_pose = tare_sum_ / tare_count_;
+}
+
+}  // namespace kcrig

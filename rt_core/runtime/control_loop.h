@@ -1,0 +1,126 @@
+// The fixed-step real-time loop. Every period: read the rig's newest sample,
+// compute the excitation and one semi-implicit Euler step of the model (a live
+// prediction driven by the measured force), check safety, write the command,
+// push a CycleRecord into the log ring. Everything the cycle needs is
+// allocated in the constructor; Cycle() allocates nothing, takes no lock and
+// blocks only inside the transport's bounded read()/write().
+#ifndef KCRIG_RT_CORE_RUNTIME_CONTROL_LOOP_H_
+#define KCRIG_RT_CORE_RUNTIME_CONTROL_LOOP_H_
+
+#include <atomic>
+#include <cstdint>
+
+#include "rt_core/model/excitation.h"
+#include "rt_core/model/suspension_model.h"
+#include "rt_core/runtime/cycle_timer.h"
+#include "rt_core/runtime/rig_interface.h"
+#include "rt_core/runtime/safety.h"
+#include "rt_core/runtime/spsc_ring.h"
+#include "rt_core/runtime/timing_statistics.h"
+
+namespace kcrig {
+
+// What the logger receives per cycle. Plain arrays: trivially copyable.
+struct CycleRecord {
+  std::int64_t cycle = 0;
+  std::uint32_t rig_sample = 0;
+  std::uint16_t rig_status = 0;
+  std::uint16_t rig_fault = 0;
+  bool fresh = false;  // a new sample arrived this cycle
+  RunPhase phase = RunPhase::kTare;
+  SafetyState safety = SafetyState::kNormal;
+  double force[3] = {};      // load cell [N]
+  double y[6] = {};          // measured [m, rad]
+  double commanded[3] = {};  // set-points sent [N]
+  double predicted[6] = {};  // model, relative to the rest pose [m, rad]
+};
+
+struct LoopOptions {
+  double period = 1e-3;  // [s]
+  // The experiment: direction [rad], acting height [m], Fmax [N], tf [s]
+  // and the phases around the paper's ramp.
+  double phi = 0, z_a = 0, fmax = 0, tf = 0;
+  // Hold at +Fmax and return ramp to -Fmax after the ramp [s] (0: none).
+  double hold = 0, return_duration = 0;
+  RunProfileTimes profile;
+  SafetyLimits safety;
+  // Stop after this long [s] even if the profile goes on (0: the profile's
+  // own duration). For timing checks.
+  double max_duration = 0;
+};
+
+struct LoopResult {
+  std::int64_t cycles = 0;       // cycles run
+  std::int64_t fresh = 0;        // with a new sample
+  std::int64_t stale = 0;        // the rig answered, no new sample
+  std::int64_t read_errors = 0;  // timeout, exception, disconnect
+  std::int64_t write_errors = 0;
+  std::int64_t lost_rig_samples = 0;  // gaps in the rig's sample counter
+  std::int64_t overruns = 0;          // cycles that ran past a deadline
+  std::int64_t skipped_cycles = 0;
+  std::uint64_t dropped_records = 0;  // ring full (logger behind)
+  std::int64_t limited_commands = 0;
+  TripCause cause = TripCause::kNone;
+  std::int64_t trip_cycle = -1;
+  int trip_channel = -1;  // for limit and error-detector trips
+  int signal = 0;         // for kSignal
+  Vec6<double> rest_pose = Vec6<double>::Zero();
+};
+
+// Per-phase timing of the cycles, in ns.
+struct LoopTiming {
+  TimingStatistics wakeup, read, compute, write, cycle;
+};
+
+class ControlLoop {
+ public:
+  // `model` is the prediction model (nominal parameters); `rig` may be null
+  // (timing checks without a transport: the model runs on the command).
+  ControlLoop(const SuspensionParameters<double>& model,
+              const LoopOptions& options, RigInterface* rig,
+              SpscRing<CycleRecord>* ring, const std::atomic<int>* stop_signal);
+
+  // Runs the experiment to its end or to a trip with its ramp-down, sleeping
+  // on absolute deadlines. The rig must be activated.
+  LoopResult Run();
+
+  // The cycle body, for Run() and for tests that step without sleeping;
+  // `skipped` cycles were lost to an overrun just before this one. Returns
+  // false once the run is over (profile done, or disabled after a trip).
+  bool Cycle(std::int64_t cycle, std::int64_t skipped = 0);
+
+  const LoopResult& result() const { return result_; }
+  const LoopTiming& timing() const { return timing_; }
+
+ private:
+  void Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
+               CycleRecord* record);
+  // A sample with a non-finite value: replaced by the last good one.
+  bool Valid(const RigMeasurement& m) const;
+
+  SuspensionModel<double> model_;
+  LoopOptions options_;
+  RigInterface* rig_;
+  SpscRing<CycleRecord>* ring_;
+  const std::atomic<int>* stop_signal_;
+  RunProfile profile_;
+  SafetyMonitor safety_;
+  ModelState<double> state_;
+  RigMeasurement measurement_;
+  RigMeasurement last_good_;
+  bool invalid_sample_ = false;
+  bool transport_fault_ = false;  // the rig transport reported kFault
+  RigCommand command_;
+  Vec3<double> direction_;
+  Vec6<double> tare_sum_ = Vec6<double>::Zero();
+  int tare_count_ = 0;
+  bool have_sample_ = false;
+  std::int64_t end_cycle_ = 0;
+  LoopResult result_;
+  LoopTiming timing_;
+  std::int64_t cycle_start_ = 0;
+};
+
+}  // namespace kcrig
+
+#endif  // KCRIG_RT_CORE_RUNTIME_CONTROL_LOOP_H_

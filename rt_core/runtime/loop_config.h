@@ -1,0 +1,32 @@
+// The loop's settings in rig.yaml (loop, realtime, run_profile, safety),
+// loaded and range-checked here, where they are used.
+#ifndef KCRIG_RT_CORE_RUNTIME_LOOP_CONFIG_H_
+#define KCRIG_RT_CORE_RUNTIME_LOOP_CONFIG_H_
+
+#include "base/status.h"
+#include "rt_core/model/excitation.h"
+#include "rt_core/runtime/realtime.h"
+#include "rt_core/runtime/safety.h"
+
+namespace YAML {
+class Node;
+}
+
+namespace kcrig {
+
+class YamlReader;
+
+struct LoopConfig {
+  double period = 1e-3;  // [s]
+  RealtimeOptions realtime;
+  RunProfileTimes profile;
+  SafetyLimits safety;
+};
+
+// Reads the sections loop, realtime, run_profile and safety of `root`.
+Status LoadLoopConfig(const YamlReader& reader, const YAML::Node& root,
+                      LoopConfig* loop_config);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_RT_CORE_RUNTIME_LOOP_CONFIG_H_

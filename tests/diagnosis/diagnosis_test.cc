@@ -1,0 +1,143 @@
+// The diagnosis library on short logs (fast enough for the sanitizers): the
+// chi-square tail, the three ways of scoring (hold-out, cross-validation
+// over logs, information criteria alone), pairs, and input errors.
+#include "diagnosis/diagnosis.h"
+
+#include <cmath>
+#include <numbers>
+
+#include "gtest/gtest.h"
+#include "tests/support/synthetic.h"
+#include "tests/support/test_config.h"
+
+namespace kcrig {
+namespace {
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+TEST(ChiSquareTest, UpperTailMatchesTables) {
+  // 95 % quantiles: chi2(1) 3.841, chi2(10) 18.307, chi2(100) 124.342.
+  EXPECT_NEAR(ChiSquareUpperTail(3.841459, 1), 0.05, 1e-6);
+  EXPECT_NEAR(ChiSquareUpperTail(18.307038, 10), 0.05, 1e-6);
+  EXPECT_NEAR(ChiSquareUpperTail(124.342113, 100), 0.05, 1e-6);
+  EXPECT_NEAR(ChiSquareUpperTail(2.0, 2), std::exp(-1.0), 1e-12);
+  // Large dof: the median is close to dof (1 - 2/(9 dof))^3.
+  const double dof = 24000;
+  EXPECT_NEAR(ChiSquareUpperTail(dof * std::pow(1 - 2 / (9 * dof), 3), dof),
+              0.5, 1e-3);
+  EXPECT_EQ(ChiSquareUpperTail(0, 5), 1.0);
+  EXPECT_LT(ChiSquareUpperTail(2 * dof, dof), 1e-300);
+}
+
+class DiagnosisTest : public ::testing::Test {
+ protected:
+  void SetUp() override { config_ = SourceConfig(); }
+  // 0.5 s up, 0.1 s hold, 0.5 s back: 1101 samples.
+  Experiment Log(const char* effect, double phi_deg, double z_a,
+                 std::uint64_t seed) {
+    return PlantExperiment(config_, config_.model,
+                           effect == nullptr ? "" : effect,
+                           {phi_deg * kDegree, z_a, 4000, 0.5, 0.1, 0.5}, seed);
+  }
+  KcrigConfig config_;
+};
+
+TEST_F(DiagnosisTest, HoldoutScoringAttributesAStrongEffect) {
+  const char* effect = "rig_compliance:k=1e7";
+  DiagnosisResult r;
+  const Status status = Diagnose(
+      config_.model, {Log(effect, 80, -0.4, 1), Log(effect, 20, -0.1, 2)},
+      {Log(effect, 50, -0.3, 3)}, DiagnosisOptions(), config_.experiment.step,
+      &r);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_TRUE(r.gap);
+  EXPECT_EQ(r.scoring, "holdout");
+  EXPECT_EQ(r.verdict, "rig_compliance") << r.reason;
+  ASSERT_EQ(r.ranking.size(), 6u);
+  EXPECT_EQ(r.ranking[0].model, "rig_compliance");
+  EXPECT_GT(r.ranking[0].gap_closed, 0.9);
+  // Rig compliance shows in the positions, not the angles.
+  EXPECT_GT(r.channels[0].score + r.channels[1].score + r.channels[2].score,
+            r.channels[3].score + r.channels[4].score + r.channels[5].score);
+  ASSERT_EQ(r.drift.size(), 5u);
+  EXPECT_EQ(r.bands.size(), 5u);
+  double shares = 0;
+  for (const FrequencyBand& b : r.bands) shares += b.energy_share;
+  EXPECT_NEAR(shares, 1.0, 1e-9);
+}
+
+TEST_F(DiagnosisTest, CrossValidationAndPairsWithoutHoldout) {
+  // Two effects at once: no single candidate suffices.
+  DiagnosisOptions options;
+  options.candidates = {"rig_compliance", "sensor_offset"};
+  std::vector<Experiment> logs;
+  for (int i = 0; i < 2; ++i) {
+    Experiment e =
+        Log("rig_compliance:k=1e7", 20 + 50 * i, -0.1 - 0.3 * i, 10 + i);
+    // A constant toe offset of 0.05 deg on top (sensor_offset's form).
+    for (Vec6<double>& m : e.measured) m(3) += 0.05 * kDegree;
+    logs.push_back(e);
+  }
+  DiagnosisResult r;
+  const Status status =
+      Diagnose(config_.model, logs, {}, options, config_.experiment.step, &r);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(r.scoring, "cross_validation");
+  EXPECT_TRUE(r.verdict == "rig_compliance+sensor_offset" ||
+              r.verdict == "sensor_offset+rig_compliance")
+      << r.verdict << ": " << r.reason << [&] {
+           std::string ranking;
+           for (const CandidateScore& c : r.ranking) {
+             ranking += "\n  " + c.model + " score " + std::to_string(c.score) +
+                        " bic " + std::to_string(c.bic) + " " + c.error;
+           }
+           return ranking;
+         }();
+}
+
+TEST_F(DiagnosisTest, OneLogIsScoredByInformationCriteria) {
+  DiagnosisOptions options;
+  options.candidates = {"bushing_damping", "rig_compliance"};
+  DiagnosisResult r;
+  const Status status =
+      Diagnose(config_.model, {Log("rig_compliance:k=1e7", 60, -0.2, 5)}, {},
+               options, config_.experiment.step, &r);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(r.scoring, "information_criterion");
+  EXPECT_TRUE(r.drift.empty());
+  EXPECT_EQ(r.verdict, "rig_compliance") << r.reason;
+}
+
+TEST_F(DiagnosisTest, InputErrors) {
+  DiagnosisResult r;
+  EXPECT_FALSE(Diagnose(config_.model, {}, {}, DiagnosisOptions(),
+                        config_.experiment.step, &r)
+                   .ok());
+  DiagnosisOptions options;
+  options.candidates = {"backlash"};
+  const Status unknown = Diagnose(config_.model, {Log(nullptr, 60, -0.2, 6)},
+                                  {}, options, config_.experiment.step, &r);
+  EXPECT_NE(unknown.message().find("backlash"), std::string::npos);
+  options.candidates = {};
+  EXPECT_NE(Diagnose(config_.model, {Log(nullptr, 60, -0.2, 6)}, {}, options,
+                     config_.experiment.step, &r)
+                .message()
+                .find("no candidate"),
+            std::string::npos);
+  options.candidates = {"hysteresis", "hysteresis"};
+  EXPECT_NE(Diagnose(config_.model, {Log(nullptr, 60, -0.2, 6)}, {}, options,
+                     config_.experiment.step, &r)
+                .message()
+                .find("given twice"),
+            std::string::npos);
+  options = DiagnosisOptions();
+  options.min_samples = 5000;
+  const Status short_log = Diagnose(config_.model, {Log(nullptr, 60, -0.2, 6)},
+                                    {}, options, config_.experiment.step, &r);
+  EXPECT_NE(short_log.message().find("1101 observed samples"),
+            std::string::npos)
+      << short_log.message();
+}
+
+}  // namespace
+}  // namespace kcrig

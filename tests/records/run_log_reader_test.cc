@@ -1,0 +1,153 @@
+// Acceptance 5 of the estimator issue at the reader: every kind of bad log
+// is one line naming the file (and the line where there is one).
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "gtest/gtest.h"
+#include "records/run_log.h"
+#include "tests/support/temp_dir_test.h"
+
+namespace kcrig {
+namespace {
+
+namespace fs = std::filesystem;
+
+class RunLogReaderTest : public TempDirTest {
+ protected:
+  void SetUp() override {
+    TempDirTest::SetUp();
+    RunLog log;
+    for (int j = 0; j < 5; ++j) {
+      LogSample s;
+      s.t = 1e-3 * j;
+      s.force << 10.0 * j, -5.0, 0;
+      s.y << 1e-6 * j, 2e-6, 3e-6, 1e-5, 2e-5, 3e-5;
+      log.samples.push_back(s);
+    }
+    log.metadata.rate = 1000;
+    log.metadata.sigma_position = 2e-5;
+    log.metadata.sigma_angle = 1.7e-4;
+    log.metadata.duration = 0.004;
+    log.metadata.transport = "simulation";
+    ASSERT_TRUE(WriteRunLog(Csv(), log).ok());
+    std::ifstream in(Csv());
+    std::stringstream text;
+    text << in.rdbuf();
+    csv_ = text.str();
+  }
+
+  std::string Csv() const { return (dir_ / "run.csv").string(); }
+  void WriteCsv(const std::string& text) { std::ofstream(Csv()) << text; }
+  std::string Error() {
+    RunLog log;
+    const Status status = ReadRunLog(Csv(), &log);
+    EXPECT_FALSE(status.ok());
+    EXPECT_EQ(status.message().find('\n'), std::string::npos);
+    // Names the CSV or, for sidecar problems, the sidecar.
+    EXPECT_EQ(status.message().rfind((dir_ / "run.").string(), 0), 0u)
+        << status.message();
+    return status.message();
+  }
+  // Replaces the n-th line (1-based) of the CSV.
+  void ReplaceLine(int n, const std::string& line) {
+    std::istringstream in(csv_);
+    std::string out, current;
+    for (int i = 1; std::getline(in, current); ++i) {
+      out += (i == n ? line : current) + "\n";
+    }
+    WriteCsv(out);
+  }
+
+  std::string csv_;
+};
+
+TEST_F(RunLogReaderTest, ReadsWhatWasWritten) {
+  RunLog log;
+  const Status status = ReadRunLog(Csv(), &log);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(log.samples.size(), 5u);
+  EXPECT_EQ(log.samples[3].force(0), 30.0);
+  EXPECT_EQ(log.samples[4].y(0), 4e-6);
+  EXPECT_EQ(log.metadata.rate, 1000.0);
+}
+
+TEST_F(RunLogReaderTest, MissingColumn) {
+  ReplaceLine(1, "t,Fx,Fy,Fz,x,y,z,toe,camber");
+  EXPECT_NE(Error().find(":1: missing column 'caster'"), std::string::npos);
+}
+
+TEST_F(RunLogReaderTest, PartialForceColumns) {
+  ReplaceLine(1, "t,Fx,Fy,x,y,z,toe,camber,caster,Fz_extra");
+  EXPECT_NE(Error().find(":1: Fx, Fy, Fz must appear together"),
+            std::string::npos);
+}
+
+TEST_F(RunLogReaderTest, NonMonotonicTime) {
+  ReplaceLine(4, "0.001,20,-5,0,2e-06,2e-06,3e-06,1e-05,2e-05,3e-05");
+  EXPECT_NE(Error().find(":4: time 0.001 s does not increase"),
+            std::string::npos);
+}
+
+TEST_F(RunLogReaderTest, NanRow) {
+  ReplaceLine(3, "0.001,10,-5,0,nan,2e-06,3e-06,1e-05,2e-05,3e-05");
+  EXPECT_NE(Error().find(":3: column 'x': not a finite number ('nan')"),
+            std::string::npos);
+}
+
+TEST_F(RunLogReaderTest, TruncatedFile) {
+  WriteCsv(csv_.substr(0, csv_.size() - 7));
+  EXPECT_NE(Error().find(":6: truncated"), std::string::npos);
+}
+
+TEST_F(RunLogReaderTest, ShortRow) {
+  ReplaceLine(5, "0.003,30,-5");
+  EXPECT_NE(Error().find(":5: expected 10 fields, got 3"), std::string::npos);
+}
+
+TEST_F(RunLogReaderTest, EmptyFile) {
+  WriteCsv("");
+  EXPECT_NE(Error().find(": empty file"), std::string::npos);
+}
+
+TEST_F(RunLogReaderTest, HeaderOnly) {
+  WriteCsv("t,Fx,Fy,Fz,x,y,z,toe,camber,caster\n");
+  EXPECT_NE(Error().find(": fewer than 2 samples"), std::string::npos);
+}
+
+TEST_F(RunLogReaderTest, MissingSidecar) {
+  fs::remove(dir_ / "run.json");
+  EXPECT_NE(Error().find("run.json: cannot open the sidecar"),
+            std::string::npos);
+}
+
+TEST_F(RunLogReaderTest, SidecarWithOtherSampleCount) {
+  std::ifstream in(dir_ / "run.json");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string json = text.str();
+  json.replace(json.find("\"samples\": 5"), 12, "\"samples\": 7");
+  std::ofstream(dir_ / "run.json") << json;
+  EXPECT_NE(Error().find("says 7 samples, the CSV has 5 (mismatched sidecar)"),
+            std::string::npos);
+}
+
+TEST_F(RunLogReaderTest, SidecarWithOtherRate) {
+  std::ifstream in(dir_ / "run.json");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string json = text.str();
+  json.replace(json.find("\"rate_hz\": 1000.0"), 17, "\"rate_hz\": 500.0");
+  std::ofstream(dir_ / "run.json") << json;
+  EXPECT_NE(Error().find("does not match the CSV's time column"),
+            std::string::npos);
+}
+
+TEST_F(RunLogReaderTest, MalformedSidecar) {
+  std::ofstream(dir_ / "run.json") << "{\"rate_hz\": 10";
+  EXPECT_NE(Error().find("run.json: malformed JSON"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace kcrig

@@ -1,0 +1,215 @@
+// Each unmodelled effect changes the plant's response in the direction its
+// physics says (rt_core/plant_effects.h), against the nominal plant under the
+// same load history; and --effect parsing.
+#include "rt_core/model/plant_effects.h"
+
+#include <cmath>
+#include <functional>
+#include <vector>
+
+#include "gtest/gtest.h"
+#include "rt_core/model/rig_plant.h"
+#include "tests/support/test_config.h"
+
+namespace kcrig {
+namespace {
+
+constexpr double kStep = 1e-3;
+
+struct Response {
+  std::vector<Vec6<double>> pose, sensed;
+  std::vector<Vec3<double>> wheel_force;
+};
+
+// The plant from rest under load(0), stepped over [0, duration]; one sample
+// per step, sample k at t = k * kStep.
+Response Respond(const PlantEffects& effects,
+                 const std::function<Vec3<double>(double)>& load,
+                 double duration) {
+  const KcrigConfig config = SourceConfig();
+  RigPlant plant(config.model, effects, kStep);
+  const Status status = plant.Settle(load(0), config.experiment.z_a);
+  EXPECT_TRUE(status.ok()) << status.message();
+  Response r;
+  const int steps = static_cast<int>(std::lround(duration / kStep));
+  for (int k = 0; k <= steps; ++k) {
+    if (k > 0) plant.Step(load(k * kStep));
+    r.pose.push_back(plant.pose());
+    r.sensed.push_back(plant.Sensed());
+    r.wheel_force.push_back(plant.wheel_force());
+  }
+  return r;
+}
+
+// Lateral ramp -F..+F over `tf`, then a hold (the paper's phi = 85 deg).
+std::function<Vec3<double>(double)> Ramp(double tf, double fmax = 4000) {
+  return [tf, fmax](double t) {
+    const double level = std::clamp((2 * t - tf) / tf, -1.0, 1.0) * fmax;
+    const double phi = 85.0 * M_PI / 180.0;
+    return Vec3<double>(level * std::cos(phi), level * std::sin(phi), 0);
+  };
+}
+
+PlantEffects With(const char* effect) {
+  PlantEffects effects;
+  const Status status = ParseEffect(effect, &effects);
+  EXPECT_TRUE(status.ok()) << status.message();
+  return effects;
+}
+
+constexpr int kLateral = 1;  // y: the channel the 85 deg ramp drives most
+constexpr double kSigmaPosition = 2e-5;
+
+TEST(PlantEffectsTest, NominalPlantIsTheModel) {
+  const Response a = Respond(PlantEffects(), Ramp(4), 4);
+  // Rising lateral force: the wheel centre moves towards +y.
+  EXPECT_GT(a.pose.back()(kLateral), a.pose.front()(kLateral) + 1e-4);
+  for (size_t k = 0; k < a.pose.size(); k += 500) {
+    EXPECT_EQ(a.pose[k], a.sensed[k]);
+  }
+}
+
+TEST(PlantEffectsTest, BushingDampingLagsBehindTheRampAndVanishesAtRest) {
+  const auto load = Ramp(4);
+  const Response nominal = Respond(PlantEffects(), load, 6);
+  const Response damped = Respond(With("bushing_damping"), load, 6);
+  // Mid-ramp, rising: the damped deflection lags (is smaller) by well over
+  // the noise; after 2 s at the held force the lag has relaxed.
+  const double lag = nominal.pose[2000](kLateral) - damped.pose[2000](kLateral);
+  EXPECT_GT(lag, kSigmaPosition / 2);
+  EXPECT_LT(
+      std::abs(nominal.pose[6000](kLateral) - damped.pose[6000](kLateral)),
+      0.05 * lag);
+  // Viscous: a twice slower ramp lags about half as much.
+  const Response slow_nominal = Respond(PlantEffects(), Ramp(8), 4);
+  const Response slow_damped = Respond(With("bushing_damping"), Ramp(8), 4);
+  const double slow_lag =
+      slow_nominal.pose[4000](kLateral) - slow_damped.pose[4000](kLateral);
+  EXPECT_NEAR(slow_lag / lag, 0.5, 0.1);
+}
+
+TEST(PlantEffectsTest, HysteresisLagsIndependentlyOfRateAndLeavesRemanence) {
+  const Response nominal = Respond(PlantEffects(), Ramp(4), 4);
+  const Response dahl = Respond(With("hysteresis"), Ramp(4), 4);
+  const double lag = nominal.pose[2000](kLateral) - dahl.pose[2000](kLateral);
+  EXPECT_GT(lag, kSigmaPosition / 2);
+  // Rate-independent: a twice slower ramp lags the same.
+  const Response slow_nominal = Respond(PlantEffects(), Ramp(8), 8);
+  const Response slow_dahl = Respond(With("hysteresis"), Ramp(8), 8);
+  const double slow_lag =
+      slow_nominal.pose[4000](kLateral) - slow_dahl.pose[4000](kLateral);
+  EXPECT_NEAR(slow_lag / lag, 1.0, 0.1);
+  // Load to +F and back to zero: the nominal plant returns to its design
+  // position, the hysteretic one stays deflected towards the last load.
+  auto there_and_back = [](double t) {
+    const double level = t < 1 ? 4000 * t : std::max(0.0, 4000 * (2 - t));
+    return Vec3<double>(0, level, 0);
+  };
+  const Response n = Respond(PlantEffects(), there_and_back, 3);
+  const Response h = Respond(With("hysteresis"), there_and_back, 3);
+  EXPECT_LT(std::abs(n.pose.back()(kLateral)), 1e-7);
+  EXPECT_GT(h.pose.back()(kLateral), 0.1 * lag);
+}
+
+TEST(PlantEffectsTest, ProgressiveStiffnessStiffensMoreAtLargerLoad) {
+  const Response nominal = Respond(PlantEffects(), Ramp(4), 4);
+  const Response cubic = Respond(With("progressive_stiffness"), Ramp(4), 4);
+  auto deflection = [](const Response& r, int k) {
+    return r.pose[k](kLateral) - r.pose[2000](kLateral);  // from zero force
+  };
+  const double half = deflection(cubic, 3000) / deflection(nominal, 3000);
+  const double full = deflection(cubic, 4000) / deflection(nominal, 4000);
+  EXPECT_LT(full, half);
+  EXPECT_LT(full, 1.0);
+  EXPECT_GT(std::abs(deflection(nominal, 4000) - deflection(cubic, 4000)),
+            3 * kSigmaPosition);
+}
+
+TEST(PlantEffectsTest, ActuatorLagDelaysTheWheelForceByTauPlusDeadTime) {
+  const PlantEffects lagged = With("actuator_lag:tau=0.02,dead_time=0.005");
+  EXPECT_EQ(With("actuator_lag").actuator_lag.tau, 0.05);
+  const auto load = Ramp(4);
+  const Response r = Respond(lagged, load, 4);
+  // On a ramp a first-order lag plus dead time trails by tau + dead time.
+  const double rate = 2 * 4000 * std::sin(85.0 * M_PI / 180.0) / 4;  // N/s
+  const double trail = load(2.0)(kLateral) - r.wheel_force[2000](kLateral);
+  EXPECT_NEAR(trail / rate, 0.025, 0.001);
+  // ... and so does the response: the lagged plant is where the nominal one
+  // was 25 ms earlier (quasi-static ramp).
+  const Response nominal = Respond(PlantEffects(), load, 4);
+  const double shifted = nominal.pose[1975](kLateral);
+  EXPECT_NEAR(r.pose[2000](kLateral), shifted,
+              0.05 * (nominal.pose[2000](kLateral) - shifted));
+}
+
+TEST(PlantEffectsTest, RigComplianceAddsForceOverStiffnessToThePosition) {
+  const Response r = Respond(With("rig_compliance:k=5e7"), Ramp(4), 4);
+  const Vec3<double> expected = r.wheel_force[4000] / 5e7;
+  EXPECT_NEAR((r.sensed[4000] - r.pose[4000]).head<3>().norm(), expected.norm(),
+              1e-12);
+  EXPECT_GT(expected(kLateral), 3 * kSigmaPosition);
+  EXPECT_EQ((r.sensed[4000] - r.pose[4000]).tail<3>(), Vec3<double>::Zero());
+}
+
+TEST(PlantEffectsTest, SensorOffsetScalesAndShiftsEveryChannel) {
+  const Response r = Respond(
+      With("sensor_offset:x=1e-4,y=-2e-4,z=0,toe=3e-4,camber=0,caster=0,"
+           "scale=1.05"),
+      Ramp(4), 4);
+  Vec6<double> offset;
+  offset << 1e-4, -2e-4, 0, 3e-4, 0, 0;
+  for (int k : {0, 2000, 4000}) {
+    EXPECT_LT((r.sensed[k] - (1.05 * r.pose[k] + offset)).norm(), 1e-15);
+  }
+}
+
+TEST(PlantEffectsTest, ParsesDefaultsOverridesAndDescribesThem) {
+  PlantEffects effects;
+  ASSERT_TRUE(ParseEffect("hysteresis", &effects).ok());
+  ASSERT_TRUE(ParseEffect("actuator_lag:tau=0.01", &effects).ok());
+  EXPECT_TRUE(effects.hysteresis.enabled);
+  EXPECT_EQ(effects.hysteresis.force, 400);
+  EXPECT_EQ(effects.actuator_lag.tau, 0.01);
+  EXPECT_EQ(effects.actuator_lag.dead_time, 0.01);
+  EXPECT_FALSE(effects.rig_compliance.enabled);
+  const std::vector<std::string> described = DescribeEffects(effects);
+  ASSERT_EQ(described.size(), 2u);
+  EXPECT_EQ(described[0], "hysteresis:force=400,sigma=4e+07");
+  EXPECT_EQ(described[1], "actuator_lag:tau=0.01,dead_time=0.01");
+  // The description parses back to the same effects.
+  PlantEffects again;
+  for (const std::string& text : described) {
+    ASSERT_TRUE(ParseEffect(text, &again).ok());
+  }
+  EXPECT_EQ(DescribeEffects(again), described);
+}
+
+TEST(PlantEffectsTest, BadEffectTextIsAOneLineErrorAndChangesNothing) {
+  PlantEffects effects;
+  const struct {
+    const char* text;
+    const char* message;
+  } cases[] = {
+      {"wobble", "unknown effect 'wobble'"},
+      {"hysteresis:force", "'force': expected key=value"},
+      {"hysteresis:mass=3",
+       "unknown parameter of hysteresis (one of force, "
+       "sigma)"},
+      {"hysteresis:force=-1", "must be a finite number > 0"},
+      {"actuator_lag:dead_time=-0.1", "must be a finite number >= 0"},
+      {"rig_compliance:k=nan", "must be a finite number > 0"},
+      {"rig_compliance:k=5e7x", "must be a finite number > 0"},
+      {"sensor_offset:x=", "must be a finite number"},
+  };
+  for (const auto& c : cases) {
+    const Status status = ParseEffect(c.text, &effects);
+    ASSERT_FALSE(status.ok()) << c.text;
+    EXPECT_NE(status.message().find(c.message), std::string::npos)
+        << status.message();
+    EXPECT_EQ(status.message().find('\n'), std::string::npos);
+  }
+  EXPECT_FALSE(effects.any());
+}
+
+}  // namespace
+}  // namespace kcrig
