@@ -20,12 +20,11 @@
 #include "hil/rig_session.h"
 #include "records/run_log.h"
 #include "report/report.h"
+#include "rt_core/model/channels.h"
 #include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 struct CampaignArgs {
   std::string config_dir;

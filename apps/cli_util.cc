@@ -7,6 +7,7 @@
 
 #include "hil/rig_config.h"
 #include "records/read_log.h"
+#include "rt_core/model/channels.h"
 
 namespace kcrig {
 
@@ -52,13 +53,11 @@ std::vector<std::string> SplitList(const std::string& text, char separator) {
 }
 
 Status ParseChannels(const std::string& text, std::vector<int>* channels) {
-  static constexpr const char* kNames[6] = {"x",   "y",      "z",
-                                            "toe", "camber", "caster"};
   channels->clear();
   for (const std::string& name : SplitList(text)) {
     int found = -1;
     for (int k = 0; k < 6; ++k) {
-      if (name == kNames[k]) found = k;
+      if (name == kChannelNames[k]) found = k;
     }
     if (found < 0) {
       return Status::Error("--channels: unknown channel '" + name +
@@ -92,7 +91,6 @@ void AddExcitationOptions(CLI::App* cmd, ExcitationArgs* args) {
 
 RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
                                    const ExperimentConfig& experiment) {
-  constexpr double kDegree = std::numbers::pi / 180.0;
   return {args.phi_deg ? *args.phi_deg * kDegree : experiment.phi,
           args.z_a.value_or(experiment.z_a),
           args.fmax.value_or(experiment.fmax),

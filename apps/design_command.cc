@@ -14,12 +14,11 @@
 #include "designer/information.h"
 #include "estimator/estimate_io.h"
 #include "records/run_log.h"
+#include "rt_core/model/channels.h"
 #include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 struct DesignArgs {
   std::string config_dir;

@@ -14,6 +14,7 @@
 #include "hil/rig_config.h"
 #include "hil/rig_factory.h"
 #include "io_drivers/modbus_map.h"
+#include "io_drivers/transport_config.h"
 #include "rt_core/model/model_config.h"
 #include "rt_core/model/plant_effects.h"
 #include "rt_core/runtime/realtime.h"
@@ -29,22 +30,6 @@ struct EmulateArgs {
   std::optional<std::uint64_t> seed;
 };
 
-Status ParseHostPort(const std::string& text, std::string* host, int* port) {
-  const size_t colon = text.rfind(':');
-  char* end = nullptr;
-  const std::string port_text =
-      colon == std::string::npos ? "" : text.substr(colon + 1);
-  const long value = std::strtol(port_text.c_str(), &end, 10);
-  if (colon == std::string::npos || colon == 0 || port_text.empty() ||
-      *end != '\0' || value < 0 || value > 65535) {
-    return Status::Error("--modbus-tcp " + text +
-                         ": expected HOST:PORT (PORT 0 = any free port)");
-  }
-  *host = text.substr(0, colon);
-  *port = static_cast<int>(value);
-  return Status::Ok();
-}
-
 int RunEmulate(const EmulateArgs& args) {
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig emulate: %s\n", status.message().c_str());
@@ -59,8 +44,12 @@ int RunEmulate(const EmulateArgs& args) {
   int port = 0;
   Status status = Status::Ok();
   if (!args.modbus_tcp.empty()) {
-    status = ParseHostPort(args.modbus_tcp, &host, &port);
-    if (!status.ok()) return fail(status);
+    status = ParseHostPort(args.modbus_tcp, 0, &host, &port);
+    if (!status.ok()) {
+      return fail(Status::Error("--modbus-tcp " + args.modbus_tcp + ": " +
+                                status.message() +
+                                " (PORT 0 = any free port)"));
+    }
   }
   KcrigConfig config;
   status = LoadConfig(args.config_dir, &config);

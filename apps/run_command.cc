@@ -13,12 +13,12 @@
 #include "hil/rig_config.h"
 #include "hil/rig_factory.h"
 #include "hil/rig_session.h"
+#include "rt_core/model/channels.h"
 #include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {
 
-constexpr double kDegree = std::numbers::pi / 180.0;
 // Exit status of a run that tripped (0: completed, 1: bad input or I/O).
 constexpr int kTripped = 3;
 

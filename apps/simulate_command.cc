@@ -10,12 +10,11 @@
 #include "apps/cli_util.h"
 #include "emulator/simulated_run.h"
 #include "records/run_log.h"
+#include "rt_core/model/channels.h"
 #include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 struct SimulateArgs {
   std::string config_dir;
@@ -93,7 +92,6 @@ void PrintSummary(const SimulateArgs& args, const RunLog& log,
       excitation.phi / kDegree, excitation.z_a, excitation.fmax / 1e3,
       excitation.duration, log.samples.size(), log.metadata.rate,
       args.noise ? ", with sensor noise" : "");
-  const char* names[6] = {"x", "y", "z", "toe", "camber", "caster"};
   const double magnitude_span =
       excitation.fmax * (excitation.Profile(last.t) - excitation.Profile(0.0));
   std::printf("  %-8s %12s %12s %14s\n", "channel", "at start", "at +Fmax",
@@ -104,7 +102,7 @@ void PrintSummary(const SimulateArgs& args, const RunLog& log,
     const double span = (last.y(k) - first.y(k)) * scale;
     const double per_kn =
         magnitude_span > 0 ? span / (magnitude_span / 1e3) : 0;
-    std::printf("  %-8s %9.4f %-3s%9.4f %-3s%9.4f %s/kN\n", names[k],
+    std::printf("  %-8s %9.4f %-3s%9.4f %-3s%9.4f %s/kN\n", kChannelNames[k],
                 first.y(k) * scale, angle ? "deg" : "mm", last.y(k) * scale,
                 angle ? "deg" : "mm", per_kn, angle ? "deg" : "mm");
   }

@@ -18,12 +18,11 @@
 #include "designer/optimizers.h"
 #include "emulator/plant_config.h"
 #include "emulator/simulated_run.h"
+#include "rt_core/model/channels.h"
 #include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 struct Setup {
   KcrigConfig config;

@@ -16,6 +16,7 @@
 #include "benchmark/benchmark.h"
 #include "diagnosis/diagnosis.h"
 #include "emulator/simulated_run.h"
+#include "rt_core/model/channels.h"
 #include "rt_core/model/model_config.h"
 
 namespace kcrig {
@@ -26,7 +27,6 @@ struct Setup {
   std::vector<Experiment> logs;
   explicit Setup(double half) {
     if (!LoadConfig(KCRIG_BENCH_CONFIG_DIR, &config).ok()) std::abort();
-    constexpr double kDegree = std::numbers::pi / 180.0;
     const double phis[2] = {85 * kDegree, 30 * kDegree};
     const double heights[2] = {-0.45, -0.15};
     for (int i = 0; i < 2; ++i) {

@@ -12,11 +12,10 @@
 #include "estimator/experiment.h"
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"
+#include "rt_core/model/channels.h"
 
 namespace kcrig {
 namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 bool WithinTarget(const EstimationResult& estimate, double target) {
   if (!(target > 0)) return false;

@@ -5,11 +5,10 @@
 #include <numbers>
 
 #include "nlohmann/json.hpp"
+#include "rt_core/model/channels.h"
 
 namespace kcrig {
 namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 nlohmann::ordered_json Point(const Design& d, double value) {
   return {{"phi_deg", d.phi / kDegree}, {"z_a", d.z_a}, {"value", value}};

@@ -7,14 +7,11 @@
 
 #include "nlohmann/json.hpp"
 #include "nlopt.hpp"
+#include "rt_core/model/channels.h"
 #include "rt_core/model/excitation.h"
 
 namespace kcrig {
-namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
-
-}  // namespace
+namespace {}  // namespace
 
 Status DesignDiscriminatingExperiment(const EffectModel& a,
                                       const std::vector<double>& values_a,

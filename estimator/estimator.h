@@ -12,21 +12,10 @@
 #include "Eigen/Core"
 #include "base/status.h"
 #include "estimator/experiment.h"
+#include "rt_core/model/channels.h"
 #include "rt_core/model/suspension_parameters.h"
 
 namespace kcrig {
-
-inline constexpr const char* kChannelNames[6] = {"x",   "y",      "z",
-                                                 "toe", "camber", "caster"};
-
-// A channel's value as engineers read it (mm for x, y, z; deg for the
-// angles) from SI (m, rad), and that unit.
-inline double ChannelDisplayValue(int channel, double si) {
-  return channel < 3 ? si * 1e3 : si / (std::numbers::pi / 180.0);
-}
-inline const char* ChannelDisplayUnit(int channel) {
-  return channel < 3 ? "mm" : "deg";
-}
 
 struct EstimatorOptions {
   // Parameters to estimate, by name (see ListParameters); the others keep

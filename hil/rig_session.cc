@@ -11,6 +11,7 @@
 
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"
+#include "rt_core/model/channels.h"
 
 namespace kcrig {
 namespace {
@@ -49,8 +50,7 @@ nlohmann::ordered_json PhaseJson(const TimingStatistics& s) {
 }
 
 std::string Channel(int k) {
-  static const char* kNames[] = {"x", "y", "z", "toe", "camber", "caster"};
-  return k >= 0 && k < 6 ? kNames[k] : "?";
+  return k >= 0 && k < kNumChannels ? kChannelNames[k] : "?";
 }
 
 // `transport_fault`: what the transport reported, for kTransportFault.

@@ -1,6 +1,5 @@
 #include "io_drivers/modbus_rig.h"
 
-#include <arpa/inet.h>
 #include <modbus/modbus.h>
 
 #include <cerrno>
@@ -42,26 +41,12 @@ Status ParseModbusUri(const std::string& uri, ModbusEndpoint* endpoint) {
                          ": expected modbus-tcp://HOST:PORT or "
                          "modbus-rtu://DEVICE");
   }
-  const std::string rest = uri.substr(tcp.size());
-  const size_t colon = rest.rfind(':');
-  if (colon == std::string::npos || colon == 0) {
-    return Status::Error("--rig " + uri + ": expected modbus-tcp://HOST:PORT");
-  }
-  char* end = nullptr;
-  const std::string port_text = rest.substr(colon + 1);
-  const long port = std::strtol(port_text.c_str(), &end, 10);
-  if (port_text.empty() || *end != '\0' || port < 1 || port > 65535) {
-    return Status::Error("--rig " + uri + ": port '" + port_text +
-                         "' is not in 1..65535");
-  }
   endpoint->rtu = false;
-  endpoint->host = rest.substr(0, colon);
-  in_addr address;
-  if (inet_pton(AF_INET, endpoint->host.c_str(), &address) != 1) {
-    return Status::Error("--rig " + uri + ": host '" + endpoint->host +
-                         "' must be an IPv4 address (e.g. 127.0.0.1)");
+  const Status status = ParseHostPort(uri.substr(tcp.size()), 1,
+                                      &endpoint->host, &endpoint->port);
+  if (!status.ok()) {
+    return Status::Error("--rig " + uri + ": " + status.message());
   }
-  endpoint->port = static_cast<int>(port);
   return Status::Ok();
 }
 

@@ -1,5 +1,8 @@
 #include "io_drivers/transport_config.h"
 
+#include <arpa/inet.h>
+
+#include <cstdlib>
 #include <filesystem>
 
 #include "base/yaml_reader.h"
@@ -72,6 +75,29 @@ Status LoadCanSettings(const YamlReader& reader, const YAML::Node& root,
     return reader.Error(can["connect_timeout"], "can.connect_timeout",
                         "must be <= 60 s");
   }
+  return Status::Ok();
+}
+
+Status ParseHostPort(const std::string& text, int min_port, std::string* host,
+                     int* port) {
+  const size_t colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0) {
+    return Status::Error("expected HOST:PORT");
+  }
+  const std::string port_text = text.substr(colon + 1);
+  char* end = nullptr;
+  const long value = std::strtol(port_text.c_str(), &end, 10);
+  if (port_text.empty() || *end != '\0' || value < min_port || value > 65535) {
+    return Status::Error("port '" + port_text + "' is not in " +
+                         std::to_string(min_port) + "..65535");
+  }
+  *host = text.substr(0, colon);
+  in_addr address;
+  if (inet_pton(AF_INET, host->c_str(), &address) != 1) {
+    return Status::Error("host '" + *host +
+                         "' must be an IPv4 address (e.g. 127.0.0.1)");
+  }
+  *port = static_cast<int>(value);
   return Status::Ok();
 }
 

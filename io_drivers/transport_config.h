@@ -47,6 +47,12 @@ Status LoadCanSettings(const YamlReader& reader, const YAML::Node& root,
                        const std::string& directory, double period,
                        CanSettings* settings);
 
+// "HOST:PORT" with an IPv4 HOST and a PORT in [min_port, 65535] (0 lets a
+// server take any free port). The error says what is wrong; the caller
+// names the option.
+Status ParseHostPort(const std::string& text, int min_port, std::string* host,
+                     int* port);
+
 }  // namespace kcrig
 
 #endif  // KCRIG_IO_DRIVERS_TRANSPORT_CONFIG_H_

@@ -12,9 +12,9 @@
 #include <string>
 #include <thread>
 
+#include "base/spsc_ring.h"
 #include "base/status.h"
 #include "io_drivers/can_frame.h"
-#include "rt_core/runtime/spsc_ring.h"
 
 namespace kcrig {
 

@@ -24,6 +24,7 @@
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"
 #include "report/report_page.h"
+#include "rt_core/model/channels.h"
 #include "rt_core/model/plant_effects.h"
 
 namespace kcrig {
@@ -31,8 +32,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 Status ReadJsonFile(const fs::path& path, Json* doc) {
   std::ifstream in(path);

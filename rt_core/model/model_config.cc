@@ -8,11 +8,10 @@
 #include <vector>
 
 #include "base/yaml_reader.h"
+#include "rt_core/model/channels.h"
 
 namespace kcrig {
 namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 Status LoadElement(const YamlReader& reader, const YAML::Node& parent,
                    const std::string& parent_key, const std::string& name,

@@ -10,12 +10,12 @@
 #include <atomic>
 #include <cstdint>
 
+#include "base/spsc_ring.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/suspension_model.h"
 #include "rt_core/runtime/cycle_timer.h"
 #include "rt_core/runtime/rig_interface.h"
 #include "rt_core/runtime/safety.h"
-#include "rt_core/runtime/spsc_ring.h"
 #include "rt_core/runtime/timing_statistics.h"
 
 namespace kcrig {

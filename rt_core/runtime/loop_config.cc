@@ -3,12 +3,12 @@
 #include <numbers>
 
 #include "base/yaml_reader.h"
+#include "rt_core/model/channels.h"
 
 namespace kcrig {
 
 Status LoadLoopConfig(const YamlReader& reader, const YAML::Node& root,
                       LoopConfig* config) {
-  constexpr double kDegree = std::numbers::pi / 180.0;
   YAML::Node loop, realtime, profile, safety;
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "loop", &loop));
   KCRIG_RETURN_IF_ERROR(

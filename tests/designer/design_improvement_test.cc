@@ -13,12 +13,12 @@
 #include "emulator/simulated_run.h"
 #include "estimator/estimator.h"
 #include "gtest/gtest.h"
+#include "rt_core/model/channels.h"
 #include "tests/support/test_config.h"
 
 namespace kcrig {
 namespace {
 
-constexpr double kDegree = std::numbers::pi / 180.0;
 constexpr int kSeeds = 100;
 const std::vector<std::string> kBushings = {"c_O1", "c_O2", "c_V1", "c_V2",
                                             "c_P"};

@@ -13,12 +13,12 @@
 
 #include "designer/optimizers.h"
 #include "gtest/gtest.h"
+#include "rt_core/model/channels.h"
 #include "tests/support/test_config.h"
 
 namespace kcrig {
 namespace {
 
-constexpr double kDegree = std::numbers::pi / 180.0;
 constexpr int kBudget = 100;
 
 class DesignOptimumTest : public ::testing::Test {

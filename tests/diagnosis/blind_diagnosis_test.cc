@@ -33,6 +33,7 @@
 #include "emulator/simulated_run.h"
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
+#include "rt_core/model/channels.h"
 #include "tests/support/cli_runner.h"
 #include "tests/support/temp_dir_test.h"
 #include "tests/support/test_config.h"
@@ -40,7 +41,6 @@
 namespace kcrig {
 namespace {
 
-constexpr double kDegree = std::numbers::pi / 180.0;
 const std::vector<std::string> kClasses = {"bushing_damping",
                                            "hysteresis",
                                            "progressive_stiffness",

@@ -7,13 +7,12 @@
 #include <numbers>
 
 #include "gtest/gtest.h"
+#include "rt_core/model/channels.h"
 #include "tests/support/synthetic.h"
 #include "tests/support/test_config.h"
 
 namespace kcrig {
 namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 TEST(ChiSquareTest, UpperTailMatchesTables) {
   // 95 % quantiles: chi2(1) 3.841, chi2(10) 18.307, chi2(100) 124.342.

@@ -7,13 +7,12 @@
 #include <numbers>
 
 #include "gtest/gtest.h"
+#include "rt_core/model/channels.h"
 #include "tests/support/synthetic.h"
 #include "tests/support/test_config.h"
 
 namespace kcrig {
 namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 class EffectModelTest : public ::testing::Test {
  protected:

@@ -6,13 +6,12 @@
 #include <numbers>
 
 #include "gtest/gtest.h"
+#include "rt_core/model/channels.h"
 #include "rt_core/model/simulation.h"
 #include "tests/support/test_config.h"
 
 namespace kcrig {
 namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 Vec6<double> StaticResponse(const SuspensionModel<double>& model,
                             const Vec3<double>& force, double z_a) {

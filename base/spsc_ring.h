@@ -2,8 +2,8 @@
 // records: the real-time cycle pushes, the logger thread pops. Push never
 // blocks or allocates; when the ring is full the record is dropped and
 // counted (the logger fell more than `capacity` cycles behind).
-#ifndef KCRIG_RT_CORE_RUNTIME_SPSC_RING_H_
-#define KCRIG_RT_CORE_RUNTIME_SPSC_RING_H_
+#ifndef KCRIG_BASE_SPSC_RING_H_
+#define KCRIG_BASE_SPSC_RING_H_
 
 #include <atomic>
 #include <cstddef>
@@ -63,4 +63,4 @@ class SpscRing {
 
 }  // namespace kcrig
 
-#endif  // KCRIG_RT_CORE_RUNTIME_SPSC_RING_H_
+#endif  // KCRIG_BASE_SPSC_RING_H_

@@ -1,0 +1,82 @@
+#!/usr/bin/env python3
+"""Fails when a library includes a header of a folder it may not depend on.
+
+The table is DESIGN.md section 2's, as the README's layout section states
+it: a folder lists the folders it may include from directly. Tests,
+benchmarks and fuzzers may include anything.
+"""
+import pathlib
+import re
+import sys
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+MAY_INCLUDE = {
+    "base": [],
+    "rt_core/model": ["base"],
+    "rt_core/runtime": ["base", "rt_core/model"],
+    "io_drivers": ["base", "rt_core/model", "rt_core/runtime"],
+    "records": ["base", "rt_core/model", "io_drivers"],
+    "hil": ["base", "rt_core/model", "rt_core/runtime", "io_drivers",
+            "records"],
+    "emulator": ["base", "rt_core/model", "rt_core/runtime", "io_drivers",
+                 "records"],
+    "estimator": ["base", "rt_core/model", "records"],
+    "diagnosis": ["base", "rt_core/model", "records", "estimator"],
+    "designer": ["base", "rt_core/model", "records", "estimator",
+                 "diagnosis"],
+    "report": ["base", "rt_core/model", "records", "estimator", "diagnosis",
+               "designer"],
+    "apps": ["base", "rt_core/model", "rt_core/runtime", "io_drivers",
+             "records", "hil", "emulator", "estimator", "diagnosis",
+             "designer", "report"],
+}
+# records decodes logs with the DBC codec, never with a transport.
+ONLY = {("records", "io_drivers"): {"can_frame.h", "dbc.h",
+                                    "kc_rig_protocol.h"}}
+
+INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
+
+
+def folder_of(path):
+    """The table's folder holding `path` (relative), or None."""
+    for folder in sorted(MAY_INCLUDE, key=len, reverse=True):
+        if path == folder or path.startswith(folder + "/"):
+            return folder
+    return None
+
+
+def main():
+    errors = []
+    checked = 0
+    for folder in MAY_INCLUDE:
+        for source in sorted((ROOT / folder).glob("*")):
+            if source.suffix not in (".h", ".cc", ".in"):
+                continue
+            checked += 1
+            rel = source.relative_to(ROOT).as_posix()
+            text = source.read_text(encoding="utf-8")
+            for match in INCLUDE.finditer(text):
+                target = match.group(1)
+                to = folder_of(target)
+                if to is None or to == folder:
+                    continue
+                line = text.count("\n", 0, match.start()) + 1
+                allowed = to in MAY_INCLUDE[folder]
+                only = ONLY.get((folder, to))
+                if allowed and only and pathlib.PurePath(target).name not in only:
+                    allowed = False
+                if not allowed:
+                    errors.append(f"{rel}:{line}: {folder} may not include "
+                                  f"{target} ({to})")
+    for error in errors:
+        print(error)
+    if errors:
+        print(f"layers: {len(errors)} include(s) cross the dependency table")
+        return 1
+    print(f"layers: {checked} sources within the dependency table")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
