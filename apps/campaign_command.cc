@@ -4,11 +4,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "apps/cli_util.h"
 #include "apps/design_command.h"
 #include "apps/progress.h"
 #include "designer/campaign.h"
@@ -204,6 +204,7 @@ int RunCampaignCommand(const CampaignArgs& args) {
     const std::string html =
         (std::filesystem::path(args.out) / "report.html").string();
     ReportOptions report_options;
+    ConfiguredDbc(config, &report_options.dbc_file);
     report_options.on_progress = [&](const std::string& text, double fraction) {
       progress.Show("report: " + text, fraction);
     };

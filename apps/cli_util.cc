@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <numbers>
 
 #include "hil/rig_config.h"
 #include "records/read_log.h"
@@ -99,15 +98,20 @@ RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
           args.return_duration.value_or(0.0)};
 }
 
+Status ConfiguredDbc(const KcrigConfig& config, std::string* dbc_file) {
+  RigConfig rig;
+  const Status status = LoadRigConfig(config.directory, &rig);
+  if (status.ok()) *dbc_file = rig.can.dbc_file;
+  return status;
+}
+
 Status LoadLogs(const std::vector<std::string>& paths,
                 const KcrigConfig& config,
                 std::vector<Experiment>* experiments) {
   std::string dbc_file;
   if (std::any_of(paths.begin(), paths.end(), IsCanBusLog)) {
-    RigConfig rig;
-    const Status status = LoadRigConfig(config.directory, &rig);
+    const Status status = ConfiguredDbc(config, &dbc_file);
     if (!status.ok()) return status;
-    dbc_file = rig.can.dbc_file;
   }
   return LoadExperiments(paths, config, dbc_file, experiments);
 }

@@ -40,6 +40,9 @@ void AddExcitationOptions(CLI::App* cmd, ExcitationArgs* args);
 RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
                                    const ExperimentConfig& experiment);
 
+// The DBC of the config's rig.yaml (can.dbc), which decodes CAN bus logs.
+Status ConfiguredDbc(const KcrigConfig& config, std::string* dbc_file);
+
 // The logs as experiments (estimator's LoadExperiments); a CAN bus log is
 // decoded with the DBC of the config's rig.yaml.
 Status LoadLogs(const std::vector<std::string>& paths,

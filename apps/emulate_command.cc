@@ -44,7 +44,7 @@ int RunEmulate(const EmulateArgs& args) {
   int port = 0;
   Status status = Status::Ok();
   if (!args.modbus_tcp.empty()) {
-    status = ParseHostPort(args.modbus_tcp, 0, &host, &port);
+    status = ParseHostPort(args.modbus_tcp, "HOST:PORT", 0, &host, &port);
     if (!status.ok()) {
       return fail(Status::Error("--modbus-tcp " + args.modbus_tcp + ": " +
                                 status.message() +

@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "apps/cli_util.h"
 #include "apps/progress.h"
 #include "report/report.h"
 #include "rt_core/model/model_config.h"
@@ -34,6 +35,8 @@ int RunReport(const ReportArgs& args) {
           ? (std::filesystem::path(args.from) / "report.html").string()
           : args.out;
   ReportOptions options;
+  // Without a readable rig.yaml a CAN log's overlay is left out with a note.
+  ConfiguredDbc(config, &options.dbc_file);
   const char* begin = args.grid.data();
   const char* end = begin + args.grid.size();
   const auto phi = std::from_chars(begin, end, options.surface_phi_points);

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
@@ -173,11 +172,12 @@ void AddSimulateCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_flag("--noise", args->noise,
                 "Add Gaussian sensor noise (config sigmas)");
   cmd->add_option("--seed", args->seed, "Noise seed");
-  cmd->add_option("--effect", args->effects,
-                  "Unmodelled effect of the true plant, NAME[:k=v,...] "
-                  "(repeatable; bushing_damping, hysteresis, "
-                  "progressive_stiffness, actuator_lag, rig_compliance, "
-                  "sensor_offset; parameters in rt_core/plant_effects.h)");
+  cmd->add_option(
+      "--effect", args->effects,
+      "Unmodelled effect of the true plant, NAME[:k=v,...] "
+      "(repeatable; bushing_damping, hysteresis, "
+      "progressive_stiffness, actuator_lag, rig_compliance, "
+      "sensor_offset; parameters in rt_core/model/plant_effects.h)");
   cmd->add_option("--out", args->out,
                   "Run log to write (run.csv; the sidecar run.json beside it)");
   cmd->callback([args, run] { *run = [args] { return RunSimulate(*args); }; });

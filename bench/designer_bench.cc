@@ -10,7 +10,6 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
-#include <numbers>
 
 #include "benchmark/benchmark.h"
 #include "designer/campaign.h"

@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <numbers>
 
 #include "designer/information.h"
 #include "estimator/estimate_io.h"

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 
 #include "nlohmann/json.hpp"
 #include "rt_core/model/channels.h"

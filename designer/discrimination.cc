@@ -3,7 +3,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 
 #include "nlohmann/json.hpp"
 #include "nlopt.hpp"
@@ -11,8 +10,6 @@
 #include "rt_core/model/excitation.h"
 
 namespace kcrig {
-namespace {}  // namespace
-
 Status DesignDiscriminatingExperiment(const EffectModel& a,
                                       const std::vector<double>& values_a,
                                       const EffectModel& b,

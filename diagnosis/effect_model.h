@@ -1,7 +1,7 @@
 // A candidate model of the sim-to-real diagnosis: the nominal suspension
 // model plus zero, one or two of the unmodelled effects of
-// rt_core/plant_effects.h, with the five bushing stiffnesses and the effects'
-// parameters fitted jointly to logged experiments. The model is the
+// rt_core/model/plant_effects.h, with the five bushing stiffnesses and the
+// effects' parameters fitted jointly to logged experiments. The model is the
 // emulator's own plant (BasicRigPlant) driven by the logged load-cell
 // force, so a candidate is exactly the physics the software rig runs; the
 // sensitivities are exact (ceres::Jet through the whole trajectory).

@@ -1,7 +1,7 @@
 // The software rig: what `kcrig emulate` serves. A force-controlled
 // hydraulic actuator (set-point clamp, dead time, first-order lag), the true
-// plant with its unmodelled effects (rt_core/rig_plant.h) integrated at the
-// plant's fine step in real time, sensors with offset, noise and
+// plant with its unmodelled effects (rt_core/model/rig_plant.h) integrated at
+// the plant's fine step in real time, sensors with offset, noise and
 // quantization, a load cell, and the rig's own protection: a travel limit
 // and a command watchdog that fault the rig and ramp its force to zero.
 // Transport-free: front ends (Modbus here) call AdvanceTo, ApplyCommand and

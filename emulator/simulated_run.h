@@ -25,11 +25,11 @@ struct SimulatedRunOptions {
   std::string geometry;
 };
 
-// Simulates `plant` with options.effects (rt_core/rig_plant.h) under `ramp`
-// (from the static equilibrium under its first load) and fills `log`: forces
-// exact (the load cell's), channels as the sensors read them with noise when
-// asked, sidecar metadata from `experiment` (sigmas, step) and the plant and
-// its effects as truth.
+// Simulates `plant` with options.effects (rt_core/model/rig_plant.h) under
+// `ramp` (from the static equilibrium under its first load) and fills `log`:
+// forces exact (the load cell's), channels as the sensors read them with noise
+// when asked, sidecar metadata from `experiment` (sigmas, step) and the plant
+// and its effects as truth.
 Status SimulateRun(const SuspensionParameters<double>& plant,
                    const RampExcitation<double>& ramp,
                    const ExperimentConfig& experiment,

@@ -5,7 +5,6 @@
 #ifndef KCRIG_ESTIMATOR_ESTIMATOR_H_
 #define KCRIG_ESTIMATOR_ESTIMATOR_H_
 
-#include <numbers>
 #include <string>
 #include <vector>
 

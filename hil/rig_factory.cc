@@ -27,11 +27,8 @@ Status MakeRig(const std::string& uri, const RigConfig& rig_config,
     options.settings = rig_config.can;
     options.period = rig_config.period;
     if (!log_dir.empty()) {
-      auto log = std::make_unique<CanBusLog>();
-      status = log->Open((std::filesystem::path(log_dir) / "can.log").string(),
-                         options.interface);
-      if (!status.ok()) return status;
-      options.bus_log = std::move(log);
+      options.bus_log = std::make_unique<CanBusLog>(
+          (std::filesystem::path(log_dir) / "can.log").string());
     }
     *rig = std::make_unique<CanRig>(std::move(options));
     return Status::Ok();

@@ -5,6 +5,7 @@
 #define KCRIG_IO_DRIVERS_CAN_FRAME_H_
 
 #include <cstdint>
+#include <string>
 
 #include "base/status.h"
 
@@ -31,6 +32,9 @@ struct TimedCanFrame {
 class CanFrameSink {
  public:
   virtual ~CanFrameSink() = default;
+  // Before the first frame, once the rig's transport is up (Configure);
+  // `interface` names the frames' bus.
+  virtual Status Start(const std::string& interface) = 0;
   // From the cycle's thread: no allocation, no I/O.
   virtual void Push(const TimedCanFrame& frame) = 0;
   // Keeps what was pushed (an experiment ran).

@@ -74,6 +74,10 @@ Status CanRig::Configure() {
   socket_options.error_frames = true;
   status = socket_.Open(socket_options);
   if (!status.ok()) return status;
+  if (options_.bus_log) {
+    status = options_.bus_log->Start(options_.interface);
+    if (!status.ok()) return status;
+  }
   // The rig must be there and speak this protocol before anything starts.
   const auto deadline = std::chrono::steady_clock::now() +
                         std::chrono::microseconds(static_cast<long>(

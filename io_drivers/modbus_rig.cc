@@ -42,8 +42,9 @@ Status ParseModbusUri(const std::string& uri, ModbusEndpoint* endpoint) {
                          "modbus-rtu://DEVICE");
   }
   endpoint->rtu = false;
-  const Status status = ParseHostPort(uri.substr(tcp.size()), 1,
-                                      &endpoint->host, &endpoint->port);
+  const Status status =
+      ParseHostPort(uri.substr(tcp.size()), "modbus-tcp://HOST:PORT", 1,
+                    &endpoint->host, &endpoint->port);
   if (!status.ok()) {
     return Status::Error("--rig " + uri + ": " + status.message());
   }

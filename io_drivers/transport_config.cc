@@ -78,11 +78,11 @@ Status LoadCanSettings(const YamlReader& reader, const YAML::Node& root,
   return Status::Ok();
 }
 
-Status ParseHostPort(const std::string& text, int min_port, std::string* host,
-                     int* port) {
+Status ParseHostPort(const std::string& text, const std::string& form,
+                     int min_port, std::string* host, int* port) {
   const size_t colon = text.rfind(':');
   if (colon == std::string::npos || colon == 0) {
-    return Status::Error("expected HOST:PORT");
+    return Status::Error("expected " + form);
   }
   const std::string port_text = text.substr(colon + 1);
   char* end = nullptr;

@@ -48,10 +48,10 @@ Status LoadCanSettings(const YamlReader& reader, const YAML::Node& root,
                        CanSettings* settings);
 
 // "HOST:PORT" with an IPv4 HOST and a PORT in [min_port, 65535] (0 lets a
-// server take any free port). The error says what is wrong; the caller
-// names the option.
-Status ParseHostPort(const std::string& text, int min_port, std::string* host,
-                     int* port);
+// server take any free port). The error says what is wrong ("expected
+// `form`" when there is no HOST:PORT at all); the caller names the option.
+Status ParseHostPort(const std::string& text, const std::string& form,
+                     int min_port, std::string* host, int* port);
 
 }  // namespace kcrig
 

@@ -1,5 +1,5 @@
 // The raw bus log of a CAN run: every frame kcrig sent or took in, in the
-// order it did so, as `candump -l` lines (io_drivers/candump_log.h). The
+// order it did so, as `candump -l` lines (records/candump_log.h). The
 // producer (the control loop's thread) only pushes into a lock-free ring;
 // a writer thread formats and writes. The file is FILE.partial until
 // Close() renames it, so a crash never leaves a can.log that looks whole.
@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include "base/spsc_ring.h"
 #include "base/status.h"
@@ -21,6 +22,9 @@ namespace kcrig {
 class CanBusLog : public CanFrameSink {
  public:
   CanBusLog() : ring_(kCapacity) {}
+  // A sink for a CAN rig: Start opens `path`.
+  explicit CanBusLog(std::string path)
+      : ring_(kCapacity), path_(std::move(path)) {}
   ~CanBusLog() override;
   CanBusLog(const CanBusLog&) = delete;
   CanBusLog& operator=(const CanBusLog&) = delete;
@@ -28,6 +32,9 @@ class CanBusLog : public CanFrameSink {
   // Starts writing `path`.partial, naming frames' interface `interface`.
   Status Open(const std::string& path, const std::string& interface);
   bool is_open() const { return file_ != nullptr; }
+  Status Start(const std::string& interface) override {
+    return Open(path_, interface);
+  }
 
   // From one producer thread; no allocation, no I/O. A full ring drops the
   // frame (counted).

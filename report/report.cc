@@ -10,7 +10,6 @@
 #include <limits>
 #include <memory>
 #include <mutex>
-#include <numbers>
 #include <sstream>
 
 #include "base/parallel_for.h"
@@ -587,7 +586,7 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
   }
   const fs::path log = LogPath(file, logs[0]);
   Experiment e;
-  status = LoadExperiment(log.string(), config, "", &e);
+  status = LoadExperiment(log.string(), config, options.dbc_file, &e);
   if (!status.ok()) {
     // The diagnosis stands without its overlay: say why it is missing.
     result["overlay_missing"] = status.message();

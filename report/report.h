@@ -35,6 +35,9 @@ struct ReportOptions {
   // a 4 s log at 1 kHz reads as well at 1000 points and keeps the page
   // small.
   int max_plot_samples = 1000;
+  // The protocol's DBC (rig.yaml can.dbc), to decode a diagnosis' CAN bus
+  // log for its overlay; "" leaves such an overlay out with a note.
+  std::string dbc_file;
   // Threads for the surface evaluations.
   int num_threads = 2;
   // The plotly.js bundle inlined into the page (Debian: python3-plotly).

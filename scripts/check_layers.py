@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """Fails when a library includes a header of a folder it may not depend on.
 
-The table is DESIGN.md section 2's, as the README's layout section states
-it: a folder lists the folders it may include from directly. Tests,
-benchmarks and fuzzers may include anything.
+The table is the README's layout section (DESIGN.md section 2 as built, with
+the amendments the README states): a folder lists the folders it may include
+from directly. Tests, benchmarks and fuzzers may include anything; no
+library may include from them or from any other folder of the tree.
 """
 import pathlib
 import re
@@ -35,7 +36,7 @@ MAY_INCLUDE = {
 ONLY = {("records", "io_drivers"): {"can_frame.h", "dbc.h",
                                     "kc_rig_protocol.h"}}
 
-INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
+INCLUDE = re.compile(r'^\s*#\s*include\s+["<]([^">]+)[">]', re.M)
 
 
 def folder_of(path):
@@ -50,15 +51,22 @@ def main():
     errors = []
     checked = 0
     for folder in MAY_INCLUDE:
-        for source in sorted((ROOT / folder).glob("*")):
+        for source in sorted((ROOT / folder).rglob("*")):
+            rel = source.relative_to(ROOT).as_posix()
+            if not source.is_file() or folder_of(rel) != folder:
+                continue
             if source.suffix not in (".h", ".cc", ".in"):
                 continue
             checked += 1
-            rel = source.relative_to(ROOT).as_posix()
             text = source.read_text(encoding="utf-8")
             for match in INCLUDE.finditer(text):
                 target = match.group(1)
                 to = folder_of(target)
+                if to is None and (ROOT / target).is_file():
+                    line = text.count("\n", 0, match.start()) + 1
+                    errors.append(f"{rel}:{line}: {folder} may not include "
+                                  f"{target} (not a library folder)")
+                    continue
                 if to is None or to == folder:
                     continue
                 line = text.count("\n", 0, match.start()) + 1

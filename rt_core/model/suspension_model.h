@@ -174,8 +174,8 @@ class SuspensionModel {
         dq_dq.template rightCols<3>() * cardan.RateMatrix();
   }
 
-  // Unmodelled-effect hooks of the plant (rt_core/rig_plant.h); both zero in
-  // the nominal model. A cubic term c3 (l - l0)^3 on every bushing's axial
+  // Unmodelled-effect hooks of the plant (rt_core/model/rig_plant.h); both zero
+  // in the nominal model. A cubic term c3 (l - l0)^3 on every bushing's axial
   // force (progressive rubber stiffness; in Q and its Jacobian), and an extra
   // axial force per bushing, linearised about a reference deflection
   // (hysteresis, whose state the plant updates after each step; the tangent

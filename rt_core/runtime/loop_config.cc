@@ -1,7 +1,5 @@
 #include "rt_core/runtime/loop_config.h"
 
-#include <numbers>
-
 #include "base/yaml_reader.h"
 #include "rt_core/model/channels.h"
 

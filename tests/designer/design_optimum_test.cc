@@ -9,7 +9,6 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
-#include <numbers>
 
 #include "designer/optimizers.h"
 #include "gtest/gtest.h"

@@ -4,7 +4,6 @@
 #include "diagnosis/effect_model.h"
 
 #include <cmath>
-#include <numbers>
 
 #include "gtest/gtest.h"
 #include "rt_core/model/channels.h"

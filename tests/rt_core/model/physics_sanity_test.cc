@@ -3,7 +3,6 @@
 // linearity for small forces, quasi-static response to the default ramp.
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 
 #include "gtest/gtest.h"
 #include "rt_core/model/channels.h"

@@ -1,6 +1,6 @@
 // Each unmodelled effect changes the plant's response in the direction its
-// physics says (rt_core/plant_effects.h), against the nominal plant under the
-// same load history; and --effect parsing.
+// physics says (rt_core/model/plant_effects.h), against the nominal plant under
+// the same load history; and --effect parsing.
 #include "rt_core/model/plant_effects.h"
 
 #include <cmath>

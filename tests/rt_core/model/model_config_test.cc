@@ -1,3 +1,5 @@
+#include "rt_core/model/model_config.h"
+
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -6,7 +8,6 @@
 #include <string>
 
 #include "gtest/gtest.h"
-#include "rt_core/model/model_config.h"
 #include "tests/support/temp_dir_test.h"
 
 namespace kcrig {
