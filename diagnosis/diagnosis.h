@@ -175,10 +175,6 @@ Status Diagnose(const SuspensionParameters<double>& nominal,
                 const DiagnosisOptions& options, double integrator_step,
                 DiagnosisResult* result);
 
-// The upper tail probability of the chi-square distribution with `dof`
-// degrees of freedom at `x` (regularized incomplete gamma).
-double ChiSquareUpperTail(double x, double dof);
-
 }  // namespace kcrig
 
 #endif  // KCRIG_DIAGNOSIS_DIAGNOSIS_H_

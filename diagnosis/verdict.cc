@@ -1,0 +1,99 @@
+#include "diagnosis/verdict.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "diagnosis/residual_statistics.h"
+
+namespace kcrig {
+
+bool VerdictRules::ClearlyBetter(const CandidateScore& best,
+                                 const CandidateScore& other) const {
+  if (!other.ok) return true;
+  const bool closes_more =
+      best.gap_closed - other.gap_closed >= min_gap_margin ||
+      other.score - 1 >= 3 * std::max(best.score - 1, score_noise);
+  return closes_more && other.bic - best.bic >= min_bic_difference;
+}
+
+bool VerdictRules::Decides(const std::vector<CandidateScore>& ranked) const {
+  if (ranked.empty() || !ranked[0].ok) return false;
+  if (ranked[0].gap_closed < min_gap_closed) return false;
+  return ranked.size() < 2 || ClearlyBetter(ranked[0], ranked[1]);
+}
+
+bool VerdictRules::AtNoise(const CandidateScore& s) const {
+  const double p =
+      !holdout ? ChiSquareUpperTail(s.train_chi2,
+                                    training_residuals - s.num_parameters)
+               : ChiSquareUpperTail(s.score * scored_residuals,
+                                    static_cast<double>(scored_residuals));
+  return p >= significance && s.ljung_box_p >= significance;
+}
+
+VerdictRules MakeVerdictRules(const DiagnosisOptions& options, bool holdout,
+                              int training_residuals, long scored_residuals) {
+  VerdictRules rules;
+  rules.min_gap_closed = options.min_gap_closed;
+  rules.min_gap_margin = options.min_gap_margin;
+  rules.min_bic_difference = options.min_bic_difference;
+  rules.significance = options.significance;
+  rules.score_noise = 5 * std::sqrt(2.0 / scored_residuals);
+  rules.holdout = holdout;
+  rules.training_residuals = training_residuals;
+  rules.scored_residuals = scored_residuals;
+  return rules;
+}
+
+void RankCandidates(std::vector<CandidateScore>* list) {
+  std::stable_sort(list->begin(), list->end(),
+                   [](const CandidateScore& a, const CandidateScore& b) {
+                     if (a.ok != b.ok) return a.ok;
+                     if (a.score != b.score) return a.score < b.score;
+                     return a.bic < b.bic;
+                   });
+}
+
+void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
+                  DiagnosisResult* result) {
+  char text[300];
+  if (chosen != nullptr) {
+    result->verdict = chosen->model;
+    result->confidence = rules.AtNoise(*chosen) ? "high" : "low";
+    std::snprintf(text, sizeof(text),
+                  "%s closes %.0f %% of the gap (score %.3g -> %.3g, noise "
+                  "floor 1)%s",
+                  chosen->model.c_str(), 100 * chosen->gap_closed,
+                  result->nominal.score, chosen->score,
+                  result->confidence == "high"
+                      ? "; what is left is noise"
+                      : "; some structure is left beyond the noise");
+    result->reason = text;
+    return;
+  }
+  result->verdict = "unexplained";
+  const CandidateScore& best = result->ranking.front();
+  const CandidateScore* second =
+      result->ranking.size() > 1 ? &result->ranking[1] : nullptr;
+  if (best.gap_closed >= rules.min_gap_closed && second != nullptr &&
+      second->gap_closed >= rules.min_gap_closed) {
+    result->ambiguous_a = best.model;
+    result->ambiguous_b = second->model;
+    std::snprintf(text, sizeof(text),
+                  "%s and %s both explain the data (%.0f %% and %.0f %% of "
+                  "the gap closed): an experiment that tells them apart is "
+                  "needed",
+                  best.model.c_str(), second->model.c_str(),
+                  100 * best.gap_closed, 100 * second->gap_closed);
+  } else {
+    std::snprintf(text, sizeof(text),
+                  "no candidate closes %.0f %% of the gap (best: %s, "
+                  "%.0f %%); see the localisation",
+                  100 * rules.min_gap_closed, best.model.c_str(),
+                  100 * best.gap_closed);
+  }
+  result->reason = text;
+}
+
+}  // namespace kcrig

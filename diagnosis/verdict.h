@@ -1,0 +1,56 @@
+// The verdict policy of the diagnosis: when a scored candidate is clearly
+// the best, when it leaves nothing but noise, and the sentence that says so.
+// Apart from the fitting so that it can be tested on its own.
+#ifndef KCRIG_DIAGNOSIS_VERDICT_H_
+#define KCRIG_DIAGNOSIS_VERDICT_H_
+
+#include <vector>
+
+#include "diagnosis/diagnosis.h"
+
+namespace kcrig {
+
+struct VerdictRules {
+  double min_gap_closed = 0.8;  // DiagnosisOptions
+  double min_gap_margin = 0.2;
+  double min_bic_difference = 10;
+  double significance = 1e-3;
+  // Five standard deviations of a score at the noise floor.
+  double score_noise = 0;
+  // Whether the scores are on hold-out logs (else cross-validation or the
+  // training chi-square), and the residual counts of training and scoring.
+  bool holdout = false;
+  int training_residuals = 0;
+  long scored_residuals = 0;
+
+  // `best` closes min_gap_margin more of the gap than `other`, or leaves a
+  // third of the other's remaining gap (not less than score_noise), and the
+  // BIC prefers it by min_bic_difference.
+  bool ClearlyBetter(const CandidateScore& best,
+                     const CandidateScore& other) const;
+  // Whether ranked[0] closes min_gap_closed of the gap and is clearly
+  // better than ranked[1].
+  bool Decides(const std::vector<CandidateScore>& ranked) const;
+  // Whether a model leaves nothing but noise on the data it was scored on:
+  // the hold-out's chi-square, else (a cross-validation fold extrapolates
+  // with a larger uncertainty) the full fit's training chi-square; and a
+  // white residual there (a model that mimics an effect it does not contain
+  // can reach the chi-square of the noise and leave a correlated residual).
+  bool AtNoise(const CandidateScore& s) const;
+};
+
+// The rules of `options` for `nominal` (scored) on `scored_residuals`.
+VerdictRules MakeVerdictRules(const DiagnosisOptions& options, bool holdout,
+                              int training_residuals, long scored_residuals);
+
+// Successful fits first, then by score, then by BIC.
+void RankCandidates(std::vector<CandidateScore>* list);
+
+// Sets verdict, confidence, reason and the ambiguous pair of `result` from
+// the chosen candidate (nullptr: none qualified) and the ranking.
+void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
+                  DiagnosisResult* result);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_DIAGNOSIS_VERDICT_H_
