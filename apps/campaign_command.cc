@@ -3,7 +3,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -15,9 +14,8 @@
 #include "emulator/plant_config.h"
 #include "emulator/simulated_run.h"
 #include "estimator/estimate_io.h"
-#include "hil/rig_config.h"
+#include "hil/campaign_rig.h"
 #include "hil/rig_factory.h"
-#include "hil/rig_session.h"
 #include "records/run_log.h"
 #include "report/report.h"
 #include "rt_core/model/channels.h"
@@ -94,59 +92,13 @@ int RunCampaignCommand(const CampaignArgs& args) {
     rig_text = "embedded emulated rig (plant.yaml)";
   } else if (args.rig.rfind("modbus-", 0) == 0 ||
              args.rig.rfind("can:", 0) == 0) {
-    RigConfig rig_config;
-    status = LoadRigConfig(config.directory, &rig_config);
-    if (!status.ok()) return fail(status);
-    // The URI, the map or DBC, and the rig itself are checked before any
-    // output exists.
-    std::unique_ptr<RigInterface> probe;
-    status = MakeRig(args.rig, rig_config, "", &probe);
-    if (status.ok()) status = probe->Configure();
-    if (!status.ok()) return fail(status);
-    probe.reset();
-    RigSessionOptions check;  // the campaign's excitations, at their limits
-    check.phi = 0;
-    check.z_a = config.experiment.z_a_bounds.lower;
-    check.fmax = config.experiment.fmax;
-    check.tf = config.experiment.duration;
-    status = ValidateRunRequest(rig_config, check);
+    CampaignRig hil;
+    status = CampaignRig::Open(args.rig, config, &hil);
     if (!status.ok()) return fail(status);
     const std::atomic<int>* stop = &InstallStopSignalHandlers();
-    const std::string uri = args.rig;
-    rig = [config, rig_config, uri, stop](const Design& design, int run,
-                                          const std::string& csv_path) {
-      namespace fs = std::filesystem;
-      if (fs::path(csv_path).filename() != "run.csv") {
-        return Status::Error(csv_path + ": a rig run writes run.csv");
-      }
-      if (stop->load() != 0) {
-        return Status::Error("interrupted by a signal before run " +
-                             std::to_string(run));
-      }
-      std::unique_ptr<RigInterface> transport;
-      Status made =
-          MakeRig(uri, rig_config, fs::path(csv_path).parent_path().string(),
-                  &transport);
-      if (!made.ok()) return made;
-      made = transport->Configure();
-      if (!made.ok()) return made;
-      RigSessionOptions options;
-      options.phi = design.phi;
-      options.z_a = design.z_a;
-      options.fmax = config.experiment.fmax;
-      options.tf = config.experiment.duration;
-      options.log_dir = fs::path(csv_path).parent_path().string();
-      options.stop_signal = stop;
-      RigSessionResult result;
-      const Status ran =
-          RunRigSession(config, rig_config, transport.get(), options, &result);
-      if (!ran.ok()) return ran;
-      if (!result.completed) {
-        return Status::Error("run " + std::to_string(run) + " on " + uri + " " +
-                             result.trip_message + " (log in " +
-                             options.log_dir + ")");
-      }
-      return Status::Ok();
+    rig = [hil, stop](const Design& design, int run,
+                      const std::string& csv_path) {
+      return hil.Run(design.phi, design.z_a, run, csv_path, stop);
     };
     rig_text = "rig at " + args.rig;
   } else {
