@@ -25,12 +25,15 @@ const char* RunPhaseName(RunPhase phase) {
 }
 
 RunProfile::RunProfile(const RunProfileTimes& times, double tf, double hold,
-                       double return_duration) {
+                       double return_duration)
+    : excitation_{0.0, 0.0, 1.0, tf, hold, return_duration} {
   const double durations[kNumPhases] = {
       times.tare, times.lead_in,   times.settle,   tf,
       hold,       return_duration, times.ramp_down};
+  // The levels at the ends of the phases around the excitation's.
   const double levels[kNumPhases] = {
-      0.0, -1.0, -1.0, 1.0, 1.0, return_duration > 0 ? -1.0 : 1.0, 0.0};
+      0.0, -1.0, -1.0, 1.0, 1.0, excitation_.Profile(excitation_.EndTime()),
+      0.0};
   double end = 0;
   for (int k = 0; k < kNumPhases; ++k) {
     end += durations[k];
@@ -47,6 +50,12 @@ RunPhase RunProfile::Phase(double t) const {
 }
 
 double RunProfile::Level(double t) const {
+  // The ramp, hold and return are the excitation's own segments.
+  const int first = static_cast<int>(RunPhase::kRamp);
+  const int last = static_cast<int>(RunPhase::kReturn);
+  if (t >= end_[first - 1] && t < end_[last]) {
+    return excitation_.Profile(t - ramp_start());
+  }
   double start = 0, start_level = 0;
   for (int k = 0; k < kNumPhases; ++k) {
     if (t < end_[k]) {

@@ -89,7 +89,9 @@ struct SampledLoad {
 // is piecewise linear over consecutive phases: the rig starts at rest at zero
 // force, the sensors are tared, the force leads in to -Fmax and settles, the
 // paper's ramp runs -Fmax -> +Fmax over tf, optionally holds and returns to
-// -Fmax (RampExcitation's segments), and the force ramps back to zero.
+// -Fmax, and the force ramps back to zero. The ramp, hold and return are
+// RampExcitation::Profile itself, so that the loop and the offline model
+// ask for the same force.
 // Allocation-free; the real-time loop evaluates it every cycle.
 enum class RunPhase : std::uint8_t {
   kTare = 0,  // at rest, zero force: the rest pose is measured
@@ -131,6 +133,7 @@ class RunProfile {
   static constexpr int kNumPhases = 7;
   std::array<double, kNumPhases> end_{};    // end time of each phase
   std::array<double, kNumPhases> level_{};  // level at the end of each phase
+  RampExcitation<double> excitation_;       // unit amplitude
 };
 
 }  // namespace kcrig
