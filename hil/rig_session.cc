@@ -1,14 +1,11 @@
 #include "hil/rig_session.h"
 
 #include <algorithm>
-#include <cerrno>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
-#include <thread>
 
+#include "hil/run_logger.h"
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"
 #include "rt_core/model/channels.h"
@@ -17,22 +14,6 @@ namespace kcrig {
 namespace {
 
 constexpr std::size_t kRingCapacity = 1 << 16;  // 65 s at 1 kHz
-
-LogSample ToSample(const CycleRecord& r, double period) {
-  LogSample s;
-  s.t = static_cast<double>(r.cycle) * period;
-  s.force << r.force[0], r.force[1], r.force[2];
-  s.y << r.y[0], r.y[1], r.y[2], r.y[3], r.y[4], r.y[5];
-  s.commanded << r.commanded[0], r.commanded[1], r.commanded[2];
-  s.fresh = r.fresh;
-  s.phase = RunPhaseName(r.phase);
-  s.safety = static_cast<int>(r.safety);
-  s.rig_sample = r.rig_sample;
-  s.rig_status = r.rig_status;
-  s.predicted << r.predicted[0], r.predicted[1], r.predicted[2], r.predicted[3],
-      r.predicted[4], r.predicted[5];
-  return s;
-}
 
 nlohmann::ordered_json PhaseJson(const TimingStatistics& s) {
   nlohmann::ordered_json histogram = nlohmann::ordered_json::array();
@@ -228,90 +209,21 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   const RunProfile profile(rig_config.profile, options.tf, options.hold,
                            options.return_duration);
 
-  RunLog log;
-  log.has_measured_force = true;
-  log.has_commanded_force = true;
-  log.has_loop_columns = true;
-  const bool keep_log = !options.log_dir.empty();
-  // The logger streams rows to run.csv.partial as they come (a crash of
-  // this process keeps every row up to it); the end renames it to run.csv
-  // beside its sidecar.
-  const std::string csv_path =
-      keep_log ? (fs::path(options.log_dir) / "run.csv").string() : "";
-  const std::string partial_path = csv_path + ".partial";
-  std::FILE* partial = nullptr;
-  if (keep_log) {
-    // Up to 10 minutes up front; a longer run grows the log in the logger
-    // thread.
-    log.samples.reserve(
-        static_cast<size_t>(std::min(profile.duration(), 600.0) / period) + 16);
-    partial = std::fopen(partial_path.c_str(), "wb");
-    if (partial == nullptr) {
-      return Status::Error(partial_path + ": cannot write (" +
-                           std::strerror(errno) + ")");
-    }
-    const std::string header = RunLogCsvHeader(log);
-    std::fwrite(header.data(), 1, header.size(), partial);
+  RunLogger::Options logger_options;
+  logger_options.period = period;
+  if (!options.log_dir.empty()) {
+    logger_options.csv_path = (fs::path(options.log_dir) / "run.csv").string();
   }
-  bool stream_failed = false;
-
-  std::atomic<bool> loop_done{false};
-  std::thread logger([&] {
-    CycleRecord record;
-    std::int64_t next_cycle = 0;
-    auto last_progress = std::chrono::steady_clock::now();
-    auto last_warning = last_progress;
-    std::int64_t skipped_since_warning = 0;
-    std::string rows;
-    size_t streamed = 0;  // samples already in `rows` or on disk
-    for (;;) {
-      const bool done = loop_done.load(std::memory_order_acquire);
-      while (ring.Pop(&record)) {
-        if (!keep_log) {
-          next_cycle = record.cycle + 1;
-          continue;
-        }
-        // Cycles skipped by an overrun get a row without a fresh sample, so
-        // that the log's time column stays uniform.
-        while (next_cycle < record.cycle && !log.samples.empty()) {
-          LogSample filler = log.samples.back();
-          filler.t = static_cast<double>(next_cycle++) * period;
-          filler.fresh = false;
-          log.samples.push_back(filler);
-          ++result->filled_rows;
-          ++skipped_since_warning;
-        }
-        log.samples.push_back(ToSample(record, period));
-        next_cycle = record.cycle + 1;
-      }
-      if (keep_log && streamed < log.samples.size()) {
-        for (; streamed < log.samples.size(); ++streamed) {
-          AppendRunLogCsvRow(log, log.samples[streamed], &rows);
-        }
-        stream_failed |=
-            std::fwrite(rows.data(), 1, rows.size(), partial) != rows.size() ||
-            std::fflush(partial) != 0;
-        rows.clear();
-      }
-      if (done) break;
-      const auto now = std::chrono::steady_clock::now();
-      if (options.on_warning && skipped_since_warning > 0 &&
-          now - last_warning >= std::chrono::seconds(1)) {
-        options.on_warning(
-            "overrun: " + std::to_string(skipped_since_warning) +
-            " cycle(s) skipped since the last warning (see timing.json)");
-        skipped_since_warning = 0;
-        last_warning = now;
-      }
-      if (options.on_progress &&
-          now - last_progress > std::chrono::milliseconds(250)) {
-        last_progress = now;
-        const double t = static_cast<double>(next_cycle) * period;
-        options.on_progress(t, profile.Phase(t));
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-  });
+  logger_options.expected_duration = profile.duration();
+  logger_options.on_warning = options.on_warning;
+  if (options.on_progress) {
+    logger_options.on_progress = [&options, &profile](double t) {
+      options.on_progress(t, profile.Phase(t));
+    };
+  }
+  RunLogger logger(logger_options);
+  KCRIG_RETURN_IF_ERROR(logger.Open());
+  logger.Start(&ring);
 
   // Real-time set-up first (mlockall faults every page in, which takes
   // time), then enable the rig, whose command watchdog is running from then.
@@ -320,18 +232,14 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   if (rig != nullptr) activated = rig->Activate();
   if (activated.ok()) result->loop = loop.Run();
   LeaveRealtime();
-  loop_done.store(true, std::memory_order_release);
-  logger.join();
+  logger.Stop();
   if (rig != nullptr) {
     // Zero force and disabled, whatever ended the loop (best effort when
     // the link is gone: the rig's own watchdog then does it).
     if (!rig->Deactivate().ok()) rig->OnError();
   }
   if (!activated.ok()) {
-    if (partial != nullptr) {
-      std::fclose(partial);
-      std::remove(partial_path.c_str());
-    }
+    logger.Discard();
     return activated;
   }
 
@@ -348,6 +256,8 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
                   transport.contains("fault") && transport["fault"].is_string()
                       ? transport["fault"].get<std::string>()
                       : "the transport failed");
+  RunLog& log = logger.log();
+  result->filled_rows = logger.filled_rows();
   result->logged_rows = static_cast<std::int64_t>(log.samples.size());
   result->timing_json = TimingJson(loop.timing(), lr, result->realtime, period,
                                    rig_config.budget, rig != nullptr);
@@ -397,20 +307,7 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   hil["realtime_warnings"] = result->realtime.warnings;
   hil["transport"] = transport;
   m.hil_json = hil.dump();
-  if (log.samples.size() < 2) {
-    std::fclose(partial);
-    std::remove(partial_path.c_str());
-    return Status::Error(options.log_dir +
-                         ": the run ended before two cycles were logged");
-  }
-  if (std::fclose(partial) != 0 || stream_failed) {
-    return Status::Error(partial_path +
-                         ": writing the log failed (disk "
-                         "full?); the rows written so far are "
-                         "in this file");
-  }
-  Status status = FinishStreamedRunLog(partial_path, csv_path, log);
-  if (!status.ok()) return status;
+  KCRIG_RETURN_IF_ERROR(logger.Finish(options.log_dir));
   return WriteFilesAtomically(
       {{(fs::path(options.log_dir) / "timing.json").string(),
         result->timing_json}});
