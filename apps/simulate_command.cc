@@ -33,11 +33,10 @@ Status ApplySet(const std::string& assignment,
   double value = 0;
   const Status status = ParseAssignment("--set", assignment, &name, &value);
   if (!status.ok()) return status;
-  for (const NamedParameter<double>& p : ListParameters(model)) {
-    if (p.name == name) {
-      *p.value = value;
-      return Status::Ok();
-    }
+  double* parameter = FindParameter(model, name);
+  if (parameter != nullptr) {
+    *parameter = value;
+    return Status::Ok();
   }
   return Status::Error("--set " + assignment + ": unknown parameter '" + name +
                        "' (e.g. c_O1, d_P, k_spring, mass, O1.x)");

@@ -1,6 +1,5 @@
 #include "emulator/plant_config.h"
 
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <vector>
@@ -25,19 +24,15 @@ Status LoadPlantConfig(const std::string& directory,
     return reader.Error(truth, "true_parameters",
                         "expected a mapping NAME: VALUE");
   }
-  const std::vector<NamedParameter<double>> list =
-      ListParameters(&plant->model);
   for (const auto& entry : truth) {
     const std::string name = entry.first.as<std::string>();
-    const auto match = std::find_if(
-        list.begin(), list.end(),
-        [&name](const NamedParameter<double>& p) { return p.name == name; });
-    if (match == list.end()) {
+    double* parameter = FindParameter(&plant->model, name);
+    if (parameter == nullptr) {
       return reader.Error(entry.first, "true_parameters." + name,
                           "unknown parameter (e.g. c_O1, d_P, k_spring)");
     }
     KCRIG_RETURN_IF_ERROR(
-        reader.Number(truth, "true_parameters", name, match->value));
+        reader.Number(truth, "true_parameters", name, parameter));
   }
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "sensors", &sensors));
   KCRIG_RETURN_IF_ERROR(

@@ -108,14 +108,12 @@ Status ModelWith(const SuspensionParameters<double>& nominal,
                  const std::vector<std::pair<std::string, double>>& values,
                  SuspensionParameters<double>* model) {
   *model = nominal;
-  std::vector<NamedParameter<double>> list = ListParameters(model);
   for (const auto& [name, value] : values) {
-    auto it = std::find_if(list.begin(), list.end(),
-                           [&](const auto& p) { return p.name == name; });
-    if (it == list.end()) {
+    double* parameter = FindParameter(model, name);
+    if (parameter == nullptr) {
       return Status::Error("unknown parameter '" + name + "'");
     }
-    *it->value = value;
+    *parameter = value;
   }
   return Status::Ok();
 }

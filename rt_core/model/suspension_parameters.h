@@ -110,6 +110,21 @@ std::vector<NamedParameter<T>> ListParameters(SuspensionParameters<T>* p) {
   return list;
 }
 
+// The parameter called `name` (ListParameters' names) in `p`, or nullptr.
+template <typename T>
+T* FindParameter(SuspensionParameters<T>* p, const std::string& name) {
+  for (const NamedParameter<T>& named : ListParameters(p)) {
+    if (named.name == name) return named.value;
+  }
+  return nullptr;
+}
+template <typename T>
+const T* FindParameter(const SuspensionParameters<T>& p,
+                       const std::string& name) {
+  // ListParameters hands out pointers for writing; none is written here.
+  return FindParameter(const_cast<SuspensionParameters<T>*>(&p), name);
+}
+
 // Index of the bushing whose stiffness is called `name` ("c_O1"), or -1.
 int BushingStiffnessIndex(std::string_view name);
 
