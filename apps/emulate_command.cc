@@ -76,6 +76,7 @@ int RunEmulate(const EmulateArgs& args) {
   // controller sees more late replies. Refusal is a warning, not an error.
   RealtimeOptions realtime;
   realtime.priority = plant.priority;
+  realtime.cpu = plant.cpu;
   for (const std::string& warning : SetUpRealtime(realtime).warnings) {
     std::fprintf(stderr, "kcrig emulate: warning: %s\n", warning.c_str());
   }

@@ -36,12 +36,13 @@ void PrintOutcome(const char* who, const RigSessionResult& r,
               r.completed ? "completed" : r.trip_message.c_str());
   std::printf(
       "  cycles %lld, fresh samples %lld, rows without a fresh sample %lld "
-      "(read errors %lld, stale %lld, cycles skipped by overruns %lld), lost "
-      "rig samples %lld, overruns %lld\n",
+      "(read errors %lld, stale %lld, cycles skipped by overruns %lld, of "
+      "them %lld by late wake-ups), lost rig samples %lld, overruns %lld\n",
       static_cast<long long>(l.cycles), static_cast<long long>(l.fresh),
       static_cast<long long>(r.logged_rows - l.fresh),
       static_cast<long long>(l.read_errors), static_cast<long long>(l.stale),
       static_cast<long long>(r.filled_rows),
+      static_cast<long long>(l.skipped_by_late_wakeup),
       static_cast<long long>(l.lost_rig_samples),
       static_cast<long long>(l.overruns));
   if (!log_dir.empty()) {

@@ -155,9 +155,11 @@ int RunTimingCheck(const TimingCheckArgs& args) {
         {"max_us", baseline.max() * 1e-3},
         {"kcrig_to_baseline_p99", ratio}};
   }
-  std::printf("  overruns %lld (cycles skipped %lld)\n",
-              static_cast<long long>(result.loop.overruns),
-              static_cast<long long>(result.loop.skipped_cycles));
+  std::printf(
+      "  overruns %lld (cycles skipped %lld, of them %lld by late wake-ups)\n",
+      static_cast<long long>(result.loop.overruns),
+      static_cast<long long>(result.loop.skipped_cycles),
+      static_cast<long long>(result.loop.skipped_by_late_wakeup));
   const bool within = doc["budget"]["within"].get<bool>();
   for (const auto& violation : doc["budget"]["violations"]) {
     std::printf("  over budget: %s\n", violation.get<std::string>().c_str());

@@ -64,6 +64,10 @@ Status LoadPlantConfig(const std::string& directory,
   KCRIG_RETURN_IF_ERROR(reader.Positive(rig, "rig", "step", &plant->step));
   KCRIG_RETURN_IF_ERROR(
       reader.Integer(rig, "rig", "priority", 0, 99, &plant->priority));
+  if (rig["cpu"]) {  // optional: older plant.yaml files have no rig.cpu
+    KCRIG_RETURN_IF_ERROR(
+        reader.Integer(rig, "rig", "cpu", -1, 1023, &plant->cpu));
+  }
   KCRIG_RETURN_IF_ERROR(
       reader.Positive(rig, "rig", "travel_max", &plant->travel_max));
   KCRIG_RETURN_IF_ERROR(

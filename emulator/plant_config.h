@@ -23,6 +23,7 @@ struct PlantConfig {
   double actuator_force_max = 6000;   // the rig's own set-point clamp [N]
   double step = 1e-4;                 // true plant's integration step [s]
   int priority = 70;                  // emulator's SCHED_FIFO priority, 0 none
+  int cpu = -1;  // CPU to pin the emulator to (rig.cpu, optional), -1 none
   // Own protection: beyond the travel, or no command for command_timeout
   // while enabled, the rig faults and ramps its force to zero.
   double travel_max = 0.03;                           // [m]

@@ -90,6 +90,7 @@ std::string TimingJson(const LoopTiming& timing, const LoopResult& loop,
   doc["cycles"] = loop.cycles;
   doc["overruns"] = loop.overruns;
   doc["skipped_cycles"] = loop.skipped_cycles;
+  doc["skipped_by_late_wakeup"] = loop.skipped_by_late_wakeup;
   doc["dropped_log_records"] = loop.dropped_records;
   doc["realtime"] = {{"sched_fifo", realtime.fifo},
                      {"cpu_affinity", realtime.affinity},
@@ -298,6 +299,7 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   hil["lost_rig_samples"] = lr.lost_rig_samples;
   hil["overruns"] = lr.overruns;
   hil["skipped_cycles"] = lr.skipped_cycles;
+  hil["skipped_by_late_wakeup"] = lr.skipped_by_late_wakeup;
   hil["rows_without_fresh_sample"] = static_cast<std::int64_t>(
       std::count_if(log.samples.begin(), log.samples.end(),
                     [](const LogSample& s) { return !s.fresh; }));

@@ -38,6 +38,7 @@ LoopResult ControlLoop::Run() {
   }
   result_.overruns = timer.overruns();
   result_.skipped_cycles = timer.skipped_cycles();
+  result_.skipped_by_late_wakeup = timer.skipped_by_late_wakeup();
   result_.dropped_records = ring_ ? ring_->dropped() : 0;
   return result_;
 }

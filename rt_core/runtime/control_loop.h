@@ -58,6 +58,9 @@ struct LoopResult {
   std::int64_t lost_rig_samples = 0;  // gaps in the rig's sample counter
   std::int64_t overruns = 0;          // cycles that ran past a deadline
   std::int64_t skipped_cycles = 0;
+  // Of skipped_cycles: the loop woke after them (the machine did not run
+  // it), not lost to the cycle's own work or transport.
+  std::int64_t skipped_by_late_wakeup = 0;
   std::uint64_t dropped_records = 0;  // ring full (logger behind)
   std::int64_t limited_commands = 0;
   TripCause cause = TripCause::kNone;

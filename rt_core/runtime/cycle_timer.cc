@@ -1,5 +1,6 @@
 #include "rt_core/runtime/cycle_timer.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <ctime>
 
@@ -36,6 +37,11 @@ CycleTimer::Wake CycleTimer::WaitForNextCycle() {
     // The last cycle ran past the next deadline: skip to the first deadline
     // still ahead rather than running late cycles back to back.
     const std::int64_t missed = (now - next_deadline_) / period_ + 1;
+    // The previous cycle started last_latency_ after its deadline, one
+    // period before next_deadline_: the deadlines already passed then.
+    const std::int64_t missed_waking =
+        last_latency_ > period_ ? (last_latency_ - period_) / period_ + 1 : 0;
+    skipped_late_ += std::min(missed, missed_waking);
     next_deadline_ += missed * period_;
     next_cycle_ += missed;
     wake.skipped = missed;
@@ -50,6 +56,7 @@ CycleTimer::Wake CycleTimer::WaitForNextCycle() {
   wake.cycle = next_cycle_;
   wake.deadline = next_deadline_;
   wake.latency = woke - next_deadline_;
+  last_latency_ = wake.latency;
   next_deadline_ += period_;
   ++next_cycle_;
   return wake;

@@ -2,7 +2,10 @@
 // with clock_nanosleep(TIMER_ABSTIME) so that the period never drifts with
 // the cycle's own duration. A cycle that ends after the next deadline is an
 // overrun: every deadline already passed is skipped (not caught up in a
-// burst) and counted, and the loop resumes on the next one ahead.
+// burst) and counted, and the loop resumes on the next one ahead. Skipped
+// deadlines that the wake-up itself was already past are counted apart: the
+// machine did not run the loop then (a host preemption, say), whatever the
+// cycle's own work.
 #ifndef KCRIG_RT_CORE_RUNTIME_CYCLE_TIMER_H_
 #define KCRIG_RT_CORE_RUNTIME_CYCLE_TIMER_H_
 
@@ -36,6 +39,8 @@ class CycleTimer {
   std::int64_t period() const { return period_; }
   std::int64_t overruns() const { return overruns_; }
   std::int64_t skipped_cycles() const { return skipped_; }
+  // Of skipped_cycles(): deadlines passed before the previous cycle woke.
+  std::int64_t skipped_by_late_wakeup() const { return skipped_late_; }
 
  private:
   std::int64_t period_;
@@ -43,6 +48,8 @@ class CycleTimer {
   std::int64_t next_cycle_ = 0;
   std::int64_t overruns_ = 0;
   std::int64_t skipped_ = 0;
+  std::int64_t skipped_late_ = 0;
+  std::int64_t last_latency_ = 0;  // of the previous wake-up [ns]
 };
 
 // The machine's own wake-up latency, measured the way cyclictest does it:

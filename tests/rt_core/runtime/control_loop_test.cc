@@ -270,8 +270,14 @@ TEST(CycleTimerTest, AnOverrunSkipsToTheNextDeadlineAhead) {
     while (MonotonicNanoseconds() < busy_until) {
     }
     const std::int64_t previous = wake.cycle;
+    const bool woke_in_time = wake.latency < kPeriod;
+    const std::int64_t late_before = timer.skipped_by_late_wakeup();
     wake = timer.WaitForNextCycle();
     EXPECT_GE(wake.skipped, round == 0 ? 2 : 1);
+    // Deadlines passed while working are the cycle's, not a late wake-up's.
+    if (woke_in_time) {
+      EXPECT_EQ(timer.skipped_by_late_wakeup(), late_before);
+    }
     EXPECT_EQ(wake.cycle, previous + wake.skipped + 1);
     EXPECT_GE(wake.deadline, busy_until);  // not a deadline already passed
     // Still on the grid of deadlines: cycle k starts at first + k periods.
@@ -280,6 +286,7 @@ TEST(CycleTimerTest, AnOverrunSkipsToTheNextDeadlineAhead) {
   }
   EXPECT_EQ(timer.overruns(), 2);
   EXPECT_EQ(timer.skipped_cycles(), skipped);
+  EXPECT_LE(timer.skipped_by_late_wakeup(), skipped);
 }
 
 TEST(TimingStatisticsTest, PercentilesFromTheHistogram) {
