@@ -8,7 +8,6 @@
 #include <vector>
 
 #include "apps/cli_util.h"
-#include "apps/design_command.h"
 #include "apps/progress.h"
 #include "designer/campaign.h"
 #include "emulator/plant_config.h"
@@ -70,6 +69,7 @@ std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
 }
 
 int RunCampaignCommand(const CampaignArgs& args) {
+  const StopSignal stop_signal;
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig campaign: %s\n", status.message().c_str());
     return 1;
@@ -84,10 +84,9 @@ int RunCampaignCommand(const CampaignArgs& args) {
     status = LoadPlantConfig(config.directory, config.model, &plant);
     if (!status.ok()) return fail(status);
     if (args.seed) plant.seed = *args.seed;
-    rig = [config, plant](const Design& design, int run,
+    rig = [config, plant](const RampExcitation<double>& excitation, int run,
                           const std::string& csv_path) {
-      return RunEmbeddedRig(config, plant, design.phi, design.z_a, run,
-                            csv_path);
+      return RunEmbeddedRig(config, plant, excitation, run, csv_path);
     };
     rig_text = "embedded emulated rig (plant.yaml)";
   } else if (args.rig.rfind("modbus-", 0) == 0 ||
@@ -96,9 +95,9 @@ int RunCampaignCommand(const CampaignArgs& args) {
     status = CampaignRig::Open(args.rig, config, &hil);
     if (!status.ok()) return fail(status);
     const std::atomic<int>* stop = &InstallStopSignalHandlers();
-    rig = [hil, stop](const Design& design, int run,
+    rig = [hil, stop](const RampExcitation<double>& excitation, int run,
                       const std::string& csv_path) {
-      return hil.Run(design.phi, design.z_a, run, csv_path, stop);
+      return hil.Run(excitation, run, csv_path, stop);
     };
     rig_text = "rig at " + args.rig;
   } else {
@@ -117,15 +116,8 @@ int RunCampaignCommand(const CampaignArgs& args) {
   status = ValidateCampaignOptions(config, options);
   if (!status.ok()) return fail(status);
   ProgressLine progress(args.quiet);
-  std::string stage;
-  options.on_stage = [&](const std::string& text) {
-    stage = text;
-    progress.Show(text);
-  };
-  options.objective.on_batch = [&](const DesignObjective& objective) {
-    progress.Show(stage + " | " +
-                  DesignProgressText(args.optimizer, objective));
-  };
+  options.callback = stop_signal.Callback(
+      [&progress](const IterationSummary& s) { progress.Show(s.stage); });
   options.on_iteration = [&](const CampaignIteration& it) {
     progress.Clear();
     std::printf("%s\n",
@@ -151,18 +143,32 @@ int RunCampaignCommand(const CampaignArgs& args) {
         FinalTable(iterations).c_str(), summary.c_str());
     std::fflush(stdout);
   }
+  // Every file written is complete; campaign.json lists the complete
+  // iterations.
+  if (stop_signal.received()) {
+    return stop_signal.Exit(
+        "campaign", iterations.empty()
+                        ? "no iteration complete"
+                        : "kept the " + std::to_string(iterations.size()) +
+                              " complete iteration(s)");
+  }
   if (!status.ok()) return fail(status);
   if (!args.no_report) {
     const std::string html =
         (std::filesystem::path(args.out) / "report.html").string();
     ReportOptions report_options;
     ConfiguredDbc(config, &report_options.dbc_file);
-    report_options.on_progress = [&](const std::string& text, double fraction) {
-      progress.Show("report: " + text, fraction);
-    };
+    report_options.callback =
+        stop_signal.Callback([&progress](const IterationSummary& s) {
+          progress.Show("report: " + s.stage, s.fraction);
+        });
     ReportSummary report;
     status = WriteReport(config, args.out, html, report_options, &report);
     progress.Clear();
+    if (!status.ok() && stop_signal.received()) {
+      return stop_signal.Exit("campaign",
+                              "kept all iterations, no report written");
+    }
     // The campaign's own outputs are complete: a report that cannot be
     // written is a warning (kcrig report can retry), not a failed campaign.
     if (status.ok()) {

@@ -10,7 +10,7 @@
 #include "apps/cli_util.h"
 #include "apps/progress.h"
 #include "designer/design_io.h"
-#include "designer/information.h"
+#include "designer/design_step.h"
 #include "estimator/estimate_io.h"
 #include "records/run_log.h"
 #include "rt_core/model/channels.h"
@@ -49,6 +49,7 @@ Status ParseGrid(const std::string& text, OptimizerOptions* options) {
 }
 
 int RunDesign(const DesignArgs& args) {
+  const StopSignal stop;
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig design: %s\n", status.message().c_str());
     return 1;
@@ -97,11 +98,12 @@ int RunDesign(const DesignArgs& args) {
     if (!status.ok()) return fail(status);
     estimate.values = ParameterValues(config.model, indices);
   }
-  std::unique_ptr<InformationEvaluator> evaluator;
-  status = InformationEvaluator::Create(
-      config.model, estimate.names, estimate.values, config.experiment,
-      args.augment ? estimate.information : Eigen::MatrixXd(), &evaluator);
-  if (!status.ok()) return fail(status);
+  DesignStepOptions step;
+  step.names = estimate.names;
+  step.values = estimate.values;
+  if (args.augment) step.prior_information = estimate.information;
+  step.criterion = criterion;
+  step.optimizer_options = optimizer_options;
 
   const DesignBounds bounds{config.experiment.phi_bounds,
                             config.experiment.z_a_bounds};
@@ -111,24 +113,22 @@ int RunDesign(const DesignArgs& args) {
   ProgressLine progress(args.quiet);
   std::vector<DesignRun> runs;
   for (const std::string& optimizer : optimizers) {
-    ObjectiveOptions objective_options;
     const int grid_points =
         optimizer_options.grid_phi_points * optimizer_options.grid_z_points + 1;
-    objective_options.budget =
+    step.optimizer = optimizer;
+    step.objective.budget =
         args.budget.value_or(optimizer == "grid" ? grid_points : 100);
-    objective_options.on_batch = [&progress,
-                                  &optimizer](const DesignObjective& o) {
-      progress.Show(DesignProgressText(optimizer, o));
-    };
-    status = DesignObjective::Validate(bounds, objective_options);
-    if (!status.ok()) return fail(status);
-    DesignObjective objective(evaluator.get(), criterion, bounds,
-                              objective_options);
+    step.objective.callback =
+        stop.Callback([&progress, &optimizer](const IterationSummary& s) {
+          progress.Show(optimizer + ": " + s.stage);
+        });
     DesignRun run;
-    status =
-        Optimize(optimizer, &objective, start, optimizer_options, &run.result);
+    status = DesignStep(config, step, start, &run);
+    if (stop.received()) {
+      progress.Clear();
+      return stop.Exit("design");
+    }
     if (!status.ok()) return fail(status);
-    run.record = objective.record();
     runs.push_back(std::move(run));
   }
   progress.Clear();
@@ -158,22 +158,6 @@ int RunDesign(const DesignArgs& args) {
 }
 
 }  // namespace
-
-std::string DesignProgressText(const std::string& optimizer,
-                               const DesignObjective& objective) {
-  const DesignEvaluation& best = objective.best();
-  const int used = static_cast<int>(objective.record().size());
-  const double seconds = objective.elapsed_seconds();
-  char text[200];
-  std::snprintf(text, sizeof(text),
-                "%s: %d/%d evaluations, best %s %.6g at %.1f deg, %.3f m, "
-                "%.1f s (at most %.0f s left)",
-                optimizer.c_str(), used, objective.budget(),
-                CriterionName(objective.criterion()), best.value,
-                best.design.phi / kDegree, best.design.z_a, seconds,
-                seconds / std::max(used, 1) * objective.remaining());
-  return text;
-}
 
 void AddDesignCommand(CLI::App* app, std::function<int()>* run) {
   auto args = std::make_shared<DesignArgs>();

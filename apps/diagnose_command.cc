@@ -28,33 +28,6 @@ struct DiagnoseArgs {
   std::string out;
 };
 
-// Logs diagnosed together must be comparable under one model: the same
-// force channels (load cell or commanded) and the configured geometry.
-Status CheckComparable(const std::vector<Experiment>& logs,
-                       const std::string& config_geometry,
-                       const std::string& config_dir) {
-  const Experiment& first = logs.front();
-  for (const Experiment& e : logs) {
-    if (e.measured_force != first.measured_force) {
-      const Experiment& with = e.measured_force ? e : first;
-      const Experiment& without = e.measured_force ? first : e;
-      return Status::Error(
-          without.source + " has no load-cell force columns (Fx,Fy,Fz) but " +
-          with.source +
-          " has: logs with different channel sets cannot be diagnosed "
-          "together");
-    }
-    if (!e.geometry.empty() && e.geometry != config_geometry) {
-      return Status::Error(
-          e.source + ": recorded with geometry " + e.geometry + ", but " +
-          config_dir + "/model.yaml is geometry " + config_geometry +
-          ": a log from a different geometry config cannot be diagnosed "
-          "with this model (use its --config)");
-    }
-  }
-  return Status::Ok();
-}
-
 // The two candidates the data could not tell apart, as models at their
 // fitted values, and the experiment that discriminates them.
 Status DesignForAmbiguity(const KcrigConfig& config,
@@ -79,6 +52,7 @@ Status DesignForAmbiguity(const KcrigConfig& config,
 }
 
 int RunDiagnose(const DiagnoseArgs& args) {
+  const StopSignal stop;
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig diagnose: %s\n", status.message().c_str());
     return 1;
@@ -108,22 +82,18 @@ int RunDiagnose(const DiagnoseArgs& args) {
   if (!status.ok()) return fail(status);
   status = LoadLogs(args.holdout, config, &holdout);
   if (!status.ok()) return fail(status);
-  std::vector<Experiment> all = training;
-  all.insert(all.end(), holdout.begin(), holdout.end());
-  status =
-      CheckComparable(all, GeometryFingerprint(config.model), config.directory);
-  if (!status.ok()) return fail(status);
 
   DiagnosisResult result;
   {
     ProgressLine line(args.quiet);
-    options.on_progress = [&line](const std::string& text, double fraction) {
-      line.Show("kcrig diagnose: " + text, fraction);
-    };
+    options.callback = stop.Callback([&line](const IterationSummary& s) {
+      line.Show("kcrig diagnose: " + s.stage, s.fraction);
+    });
     status = Diagnose(config.model, training, holdout, options,
                       config.experiment.step, &result);
     line.Clear();
   }
+  if (stop.received()) return stop.Exit("diagnose");
   if (!status.ok()) return fail(status);
   std::string design_json;
   DiscriminatingDesign design;
@@ -138,6 +108,7 @@ int RunDiagnose(const DiagnoseArgs& args) {
                    status.message().c_str());
     }
   }
+  if (stop.received()) return stop.Exit("diagnose");
   if (!args.out.empty()) {
     status = WriteFilesAtomically(
         {{args.out,
@@ -151,8 +122,9 @@ int RunDiagnose(const DiagnoseArgs& args) {
         "--hold %.2f --return %.2f (predictions differ by %.3g noise "
         "variances)\n",
         design.model_a.c_str(), design.model_b.c_str(),
-        design.phi * 180 / 3.14159265358979323846, design.z_a, design.tf,
-        design.hold, design.return_duration, design.divergence);
+        design.excitation.phi / kDegree, design.excitation.z_a,
+        design.excitation.duration, design.excitation.hold,
+        design.excitation.return_duration, design.divergence);
   }
   std::printf("  %.1f s", result.seconds);
   if (!args.out.empty()) std::printf(", wrote %s", args.out.c_str());

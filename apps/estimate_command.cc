@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "apps/cli_util.h"
+#include "apps/progress.h"
 #include "estimator/estimate_io.h"
 #include "estimator/estimator.h"
 #include "estimator/profile_likelihood.h"
@@ -27,6 +28,7 @@ struct EstimateArgs {
 };
 
 int RunEstimate(const EstimateArgs& args) {
+  const StopSignal stop;
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig estimate: %s\n", status.message().c_str());
     return 1;
@@ -36,6 +38,7 @@ int RunEstimate(const EstimateArgs& args) {
   if (!status.ok()) return fail(status);
 
   EstimatorOptions options;
+  options.callback = stop.Callback();
   if (!args.params.empty()) options.parameters = SplitList(args.params);
   if (!args.channels.empty()) {
     status = ParseChannels(args.channels, &options.channels);
@@ -73,12 +76,14 @@ int RunEstimate(const EstimateArgs& args) {
   EstimationResult result;
   status = Estimate(config.model, experiments, options, initial,
                     config.experiment.step, &result);
+  if (stop.received()) return stop.Exit("estimate");
   if (!status.ok()) return fail(status);
   std::vector<ParameterProfile> profiles;
   if (args.profile) {
     status =
         ProfileLikelihood(config.model, experiments, options, result,
                           config.experiment.step, ProfileOptions{}, &profiles);
+    if (stop.received()) return stop.Exit("estimate");
     if (!status.ok()) return fail(status);
   }
   if (!args.out.empty()) {

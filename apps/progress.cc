@@ -3,7 +3,11 @@
 #include <sys/ioctl.h>
 #include <unistd.h>
 
+#include <csignal>
 #include <cstdio>
+#include <utility>
+
+#include "hil/rig_factory.h"
 
 namespace kcrig {
 
@@ -28,7 +32,10 @@ void ProgressLine::Show(const std::string& text) {
 
 void ProgressLine::Show(const std::string& text, double fraction) {
   if (!enabled_) return;
-  if (fraction == 0) start_ = std::chrono::steady_clock::now();
+  if (fraction == 0 && last_fraction_ != 0) {
+    start_ = std::chrono::steady_clock::now();
+  }
+  last_fraction_ = fraction;
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_)
           .count();
@@ -47,6 +54,24 @@ void ProgressLine::Clear() {
   std::fprintf(stderr, "\r\033[K");
   std::fflush(stderr);
   shown_ = false;
+}
+
+StopSignal::StopSignal() : signal_(&InstallStopSignalHandlers()) {}
+
+IterationCallback StopSignal::Callback(
+    std::function<void(const IterationSummary&)> show) const {
+  return [this, show = std::move(show)](const IterationSummary& summary) {
+    if (show) show(summary);
+    return received() ? CallbackReturn::kAbort : CallbackReturn::kContinue;
+  };
+}
+
+int StopSignal::Exit(const std::string& command,
+                     const std::string& outcome) const {
+  const int signal = signal_->load();
+  std::fprintf(stderr, "kcrig %s: interrupted (%s); %s\n", command.c_str(),
+               signal == SIGTERM ? "SIGTERM" : "SIGINT", outcome.c_str());
+  return 128 + signal;
 }
 
 }  // namespace kcrig

@@ -1,11 +1,16 @@
-// A single progress line on stderr, rewritten in place, shown only when
+// The command line's side of a long computation's IterationCallback: a
+// single progress line on stderr, rewritten in place, shown only when
 // stderr is a terminal and the user did not ask for --quiet (logs and
-// pipes stay clean).
+// pipes stay clean); and SIGINT/SIGTERM, which stop the computation.
 #ifndef KCRIG_APPS_PROGRESS_H_
 #define KCRIG_APPS_PROGRESS_H_
 
+#include <atomic>
 #include <chrono>
+#include <functional>
 #include <string>
+
+#include "base/iteration_callback.h"
 
 namespace kcrig {
 
@@ -20,8 +25,8 @@ class ProgressLine {
   // With the `fraction` (0..1) of the work done: appends the time elapsed
   // and the time left at the average rate so far (an estimate, marked "~";
   // none before 2 % is done). Time counts from construction, or from the
-  // last call with a fraction of 0 (the start of a stage with its own
-  // fraction).
+  // start of a stage with its own fraction: the first of consecutive calls
+  // with a fraction of 0.
   void Show(const std::string& text, double fraction);
   // Erases the line (before printing results). Text longer than the
   // terminal is cut: a wrapped line could not be rewritten in place.
@@ -30,8 +35,33 @@ class ProgressLine {
  private:
   bool enabled_;
   bool shown_ = false;
+  double last_fraction_ = -1;
   std::chrono::steady_clock::time_point start_ =
       std::chrono::steady_clock::now();
+};
+
+// SIGINT and SIGTERM in a long offline command (estimate, screen,
+// diagnose, design, campaign, report), through the HIL commands' handlers
+// (InstallStopSignalHandlers): the signal makes the command's
+// IterationCallback ask its computation to stop; the command then writes
+// nothing, prints one line and exits with 128 + the signal (130 for
+// SIGINT). A second signal acts as usual.
+class StopSignal {
+ public:
+  StopSignal();  // installs the handlers
+
+  // Passes each summary to `show` (a progress display; may be empty) and
+  // asks to stop once a signal arrived.
+  IterationCallback Callback(
+      std::function<void(const IterationSummary&)> show = {}) const;
+  bool received() const { return signal_->load() != 0; }
+  // Prints "kcrig COMMAND: interrupted (SIGINT); OUTCOME" on stderr and
+  // returns the exit status.
+  int Exit(const std::string& command,
+           const std::string& outcome = "nothing written") const;
+
+ private:
+  const std::atomic<int>* signal_;
 };
 
 }  // namespace kcrig

@@ -23,6 +23,7 @@ struct ReportArgs {
 };
 
 int RunReport(const ReportArgs& args) {
+  const StopSignal stop;
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig report: %s\n", status.message().c_str());
     return 1;
@@ -54,12 +55,14 @@ int RunReport(const ReportArgs& args) {
   ReportSummary summary;
   {
     ProgressLine line(args.quiet);
-    options.on_progress = [&line](const std::string& text, double fraction) {
-      line.Show("kcrig report: " + text, fraction);
-    };
+    options.callback = stop.Callback([&line](const IterationSummary& s) {
+      line.Show("kcrig report: " + s.stage, s.fraction);
+    });
     status = WriteReport(config, args.from, out, options, &summary);
     line.Clear();
   }
+  // A report finished before the signal is complete and stays.
+  if (!status.ok() && stop.received()) return stop.Exit("report");
   if (!status.ok()) return fail(status);
   std::printf("kcrig report: %d figures (%d experiments%s%s%s), wrote %s\n",
               summary.figures, summary.experiments,

@@ -65,14 +65,7 @@ int RunRun(const RunArgs& args) {
   status = LoadRigConfig(config.directory, &rig_config);
   if (!status.ok()) return fail(status);
   RigSessionOptions options;
-  const RampExcitation<double> ramp =
-      ResolveRamp(args.excitation, config.experiment);
-  options.phi = ramp.phi;
-  options.z_a = ramp.z_a;
-  options.fmax = ramp.fmax;
-  options.tf = ramp.duration;
-  options.hold = ramp.hold;
-  options.return_duration = ramp.return_duration;
+  options.excitation = ResolveRamp(args.excitation, config.experiment);
   options.log_dir = args.log_dir;
   status = ValidateRunRequest(rig_config, options);
   if (!status.ok()) return fail(status);
@@ -85,8 +78,7 @@ int RunRun(const RunArgs& args) {
   if (!status.ok()) return fail(status);
   options.stop_signal = &InstallStopSignalHandlers();
   ProgressLine progress(args.quiet);
-  const RunProfile profile(rig_config.profile, options.tf, options.hold,
-                           options.return_duration);
+  const RunProfile profile(rig_config.profile, options.excitation);
   options.on_progress = [&](double t, RunPhase phase) {
     char text[128];
     std::snprintf(text, sizeof(text), "kcrig run: %-9s t = %5.2f / %.2f s",
@@ -100,9 +92,9 @@ int RunRun(const RunArgs& args) {
   std::printf(
       "kcrig run: %s, phi %.2f deg, z_a %.3f m, Fmax %.2f kN, ramp %.2f s "
       "(whole run %.2f s at %.0f Hz)\n",
-      rig->Describe().c_str(), options.phi / kDegree, options.z_a,
-      options.fmax * 1e-3, options.tf, profile.duration(),
-      1.0 / rig_config.period);
+      rig->Describe().c_str(), options.excitation.phi / kDegree,
+      options.excitation.z_a, options.excitation.fmax * 1e-3,
+      options.excitation.duration, profile.duration(), 1.0 / rig_config.period);
   std::fflush(stdout);
   RigSessionResult result;
   status = RunRigSession(config, rig_config, rig.get(), options, &result);

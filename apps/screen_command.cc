@@ -64,6 +64,7 @@ std::string ToJson(const ScreeningResult& r,
 }
 
 int RunScreen(const ScreenArgs& args) {
+  const StopSignal stop;
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig screen: %s\n", status.message().c_str());
     return 1;
@@ -89,14 +90,15 @@ int RunScreen(const ScreenArgs& args) {
   ScreeningResult result;
   {
     ProgressLine line(args.quiet);
-    options.on_progress = [&line](int done, int total) {
-      line.Show("kcrig screen: " + std::to_string(done) + "/" +
-                    std::to_string(total) + " model evaluations",
-                static_cast<double>(done) / total);
-    };
+    options.callback = stop.Callback([&line](const IterationSummary& s) {
+      line.Show("kcrig screen: " + std::to_string(s.done) + "/" +
+                    std::to_string(s.total) + " model evaluations",
+                s.fraction);
+    });
     status = Screen(config.model, experiments, estimator_options, options,
                     config.experiment.step, &result);
   }
+  if (stop.received()) return stop.Exit("screen");
   if (!status.ok()) return fail(status);
   if (!args.out.empty()) {
     status = WriteFilesAtomically({{args.out, ToJson(result, args.logs)}});

@@ -90,10 +90,8 @@ int RunTimingCheck(const TimingCheckArgs& args) {
 
   // The loop with zero force: a timing check never loads the rig.
   RigSessionOptions options;
-  options.phi = config.experiment.phi;
-  options.z_a = config.experiment.z_a;
-  options.fmax = 0;
-  options.tf = std::max(args.duration, 1.0);
+  options.excitation = {config.experiment.phi, config.experiment.z_a, 0.0,
+                        std::max(args.duration, 1.0)};
   options.max_duration = args.duration;
   options.stop_signal = &InstallStopSignalHandlers();
   options.on_progress = [&](double t, RunPhase) {

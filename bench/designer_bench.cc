@@ -147,9 +147,9 @@ void BM_Campaign3Iterations(benchmark::State& state) {
   const std::string dir =
       (std::filesystem::temp_directory_path() / "kcrig_campaign_bench")
           .string();
-  const RigRunner rig = [&](const Design& design, int run,
+  const RigRunner rig = [&](const RampExcitation<double>& excitation, int run,
                             const std::string& csv) {
-    return RunEmbeddedRig(s.config, plant, design.phi, design.z_a, run, csv);
+    return RunEmbeddedRig(s.config, plant, excitation, run, csv);
   };
   for (auto _ : state) {
     std::vector<CampaignIteration> iterations;

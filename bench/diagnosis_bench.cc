@@ -55,13 +55,15 @@ void BM_FullDiagnosis(benchmark::State& state) {
   DiagnosisOptions options;
   options.num_threads = static_cast<int>(state.range(0));
   const auto t0 = std::chrono::steady_clock::now();
-  options.on_progress = [t0](const std::string& text, double) {
-    if (std::getenv("KCRIG_BENCH_TRACE") == nullptr) return;
-    std::fprintf(
-        stderr, "%6.2f %s\n",
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
-            .count(),
-        text.c_str());
+  options.callback = [t0](const IterationSummary& summary) {
+    if (std::getenv("KCRIG_BENCH_TRACE") != nullptr) {
+      std::fprintf(
+          stderr, "%6.2f %s\n",
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
+              .count(),
+          summary.stage.c_str());
+    }
+    return CallbackReturn::kContinue;
   };
   DiagnosisResult result;
   for (auto _ : state) {

@@ -48,7 +48,7 @@ struct Setup {
                        SimulationOptions{}, &samples);
     RunLog log;
     log.metadata.rate = 1.0 / e.step;
-    log.metadata.z_a = e.z_a;
+    log.metadata.excitation.z_a = e.z_a;
     log.metadata.sigma_position = e.sigma_position;
     log.metadata.sigma_angle = e.sigma_angle;
     for (const auto& s : samples) {
@@ -214,9 +214,8 @@ void BM_CovarianceAndIdentifiability(benchmark::State& state) {
   FitProblem problem(s.config.model, s.experiments, options,
                      s.config.experiment.step, s.indices);
   Eigen::MatrixXd jacobian;
-  Eigen::VectorXd residuals;
-  problem.Evaluate(std::vector<double>(kNumBushings, 1.0), &jacobian,
-                   &residuals);
+  problem.Evaluate(std::vector<double>(kNumBushings, 1.0), nullptr, nullptr,
+                   &jacobian);
   EstimationResult result;
   for (int i = 0; i < kNumBushings; ++i) {
     ParameterEstimate p;

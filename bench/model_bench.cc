@@ -33,7 +33,7 @@ const KcrigConfig& Config() {
 
 RampExcitation<double> PaperRamp() {
   const ExperimentConfig& e = Config().experiment;
-  return {e.phi, e.z_a, e.fmax, e.duration};
+  return e.Excitation(e.phi, e.z_a);
 }
 
 void BM_SemiImplicitEulerStep(benchmark::State& state) {

@@ -102,10 +102,8 @@ class StaticRig : public RigInterface {
 LoopOptions PaperRun() {
   LoopOptions o;
   o.period = 1e-3;
-  o.phi = Config().experiment.phi;
-  o.z_a = Config().experiment.z_a;
-  o.fmax = Config().experiment.fmax;
-  o.tf = Config().experiment.duration;
+  o.excitation = Config().experiment.Excitation(Config().experiment.phi,
+                                                Config().experiment.z_a);
   o.profile = Rig().profile;
   o.safety = Rig().safety;
   o.safety.error_position_max = 1.0;  // the static rig is not the model
@@ -257,7 +255,7 @@ void BM_WakeupVsCyclictest(benchmark::State& state) {
   double cyclictest_p99 = 0;
   for (auto _ : state) {
     LoopOptions options = PaperRun();
-    options.fmax = 0;
+    options.excitation.fmax = 0;
     options.max_duration = seconds;
     SpscRing<CycleRecord> ring(1 << 15);
     ControlLoop loop(Config().model, options, nullptr, &ring, nullptr);

@@ -4,9 +4,11 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
 
-#include "designer/information.h"
+#include "designer/design_step.h"
+#include "designer/json_reader.h"
 #include "estimator/estimate_io.h"
 #include "estimator/experiment.h"
 #include "nlohmann/json.hpp"
@@ -24,6 +26,89 @@ bool WithinTarget(const EstimationResult& estimate, double target) {
     if (!(half <= target * std::abs(p.value))) return false;
   }
   return true;
+}
+
+// One parameter of campaign.json's iteration `where`: name and value
+// required; unit, interval and log10 diag((J^T J)^-1) as written (null for
+// what did not exist).
+Status ReadParameter(const nlohmann::json& node, const std::string& where,
+                     ParameterEstimate* p) {
+  for (Status s : {ReadField(node, "name", where, &p->name),
+                   ReadField(node, "value", where, &p->value)}) {
+    if (!s.ok()) return s;
+  }
+  p->unit = node.value("unit", "");
+  const nlohmann::json ci95 = node.value("ci95", nlohmann::json());
+  p->identifiable = ci95.is_array() && ci95.size() == 2 &&
+                    ci95[0].is_number() && ci95[1].is_number();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  p->ci95_low = p->identifiable ? ci95[0].get<double>() : nan;
+  p->ci95_high = p->identifiable ? ci95[1].get<double>() : nan;
+  const nlohmann::json log10 =
+      node.value("log10_diag_inv_jtj", nlohmann::json());
+  p->log10_inverse_information = log10.is_number() ? log10.get<double>() : nan;
+  return Status::Ok();
+}
+
+Status ReadIteration(const nlohmann::json& node, const std::string& where,
+                     CampaignIteration* it) {
+  nlohmann::json experiment;
+  std::vector<nlohmann::json> parameters;
+  double phi_deg = 0;
+  for (Status s :
+       {ReadField(node, "iteration", where, &it->index),
+        ReadField(node, "experiment", where, &experiment),
+        ReadField(node, "parameters", where, &parameters),
+        ReadField(experiment, "phi_deg", where + ".experiment", &phi_deg),
+        ReadField(experiment, "z_a", where + ".experiment",
+                  &it->experiment.z_a)}) {
+    if (!s.ok()) return s;
+  }
+  it->experiment.phi = phi_deg * kDegree;
+  it->logs = node.value("logs", std::vector<std::string>());
+  it->criterion_of_data = node.value("criterion_of_data", 0.0);
+  it->designed = node.contains("next_design");
+  for (size_t i = 0; i < parameters.size(); ++i) {
+    KCRIG_RETURN_IF_ERROR(ReadParameter(
+        parameters[i], where + ".parameters[" + std::to_string(i) + "]",
+        &it->estimate.parameters.emplace_back()));
+  }
+  return Status::Ok();
+}
+
+Status ReadCampaignJson(const std::string& out_dir, Criterion* criterion,
+                        std::vector<CampaignIteration>* iterations) {
+  const std::string file =
+      (std::filesystem::path(out_dir) / "campaign.json").string();
+  nlohmann::json doc;
+  KCRIG_RETURN_IF_ERROR(ReadJsonFile(file, &doc));
+  std::string name;
+  std::vector<nlohmann::json> list;
+  for (Status s : {ReadField(doc, "criterion", file, &name),
+                   ReadField(doc, "iterations", file, &list)}) {
+    if (!s.ok()) return s;
+  }
+  const Status parsed = ParseCriterion(name, criterion);
+  if (!parsed.ok()) return Status::Error(file + ": " + parsed.message());
+  if (list.empty()) return Status::Error(file + ": iterations: no iteration");
+  iterations->clear();
+  for (size_t k = 0; k < list.size(); ++k) {
+    CampaignIteration& it = iterations->emplace_back();
+    KCRIG_RETURN_IF_ERROR(ReadIteration(
+        list[k], file + ": iterations[" + std::to_string(k) + "]", &it));
+    if (!it.designed) continue;
+    // A campaign's design.json holds its one run.
+    const std::string design =
+        (std::filesystem::path(CampaignIterationDir(out_dir, it.index)) /
+         "design.json")
+            .string();
+    Criterion designed = Criterion::kD;
+    std::vector<DesignRun> runs;
+    KCRIG_RETURN_IF_ERROR(ReadDesign(design, &designed, &runs));
+    if (runs.empty()) return Status::Error(design + ": runs: no run");
+    it.design = runs[BestRun(runs)];
+  }
+  return Status::Ok();
 }
 
 }  // namespace
@@ -61,9 +146,12 @@ Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
   status =
       ResolveParameters(config.model, options.estimator.parameters, &indices);
   if (!status.ok()) return status;
-  auto stage = [&options](const std::string& text) {
-    if (options.on_stage) options.on_stage(text);
+  ProgressReporter progress(options.callback);
+  auto stage = [&progress](const std::string& text) {
+    return progress.Report({text}) ? Status::Ok() : Interrupted("campaign");
   };
+  EstimatorOptions estimator = options.estimator;
+  estimator.callback = progress.Nested();
 
   std::vector<double> current = ParameterValues(config.model, indices);
   Design design{config.experiment.phi, config.experiment.z_a};
@@ -73,7 +161,7 @@ Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
     CampaignIteration it;
     it.index = k;
     it.experiment = design;
-    const fs::path dir = fs::path(out_dir) / ("iteration_" + std::to_string(k));
+    const fs::path dir = CampaignIterationDir(out_dir, k);
     std::error_code error;
     fs::create_directories(dir, error);
     if (error) {
@@ -85,19 +173,19 @@ Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
     std::snprintf(text, sizeof(text),
                   "iteration %d: running the rig at phi %.2f deg, z_a %.3f m",
                   k, design.phi / kDegree, design.z_a);
-    stage(text);
-    status = rig(design, k, csv);
+    KCRIG_RETURN_IF_ERROR(stage(text));
+    status = rig(config.experiment.Excitation(design.phi, design.z_a), k, csv);
     if (!status.ok()) return status;
     logs.push_back(csv);
     it.logs = logs;
 
     std::snprintf(text, sizeof(text), "iteration %d: estimating from %zu log%s",
                   k, logs.size(), logs.size() == 1 ? "" : "s");
-    stage(text);
+    KCRIG_RETURN_IF_ERROR(stage(text));
     // Only the new log is read; the earlier ones are kept.
     status = LoadExperiment(csv, config, "", &experiments.emplace_back());
     if (!status.ok()) return status;
-    status = Estimate(config.model, experiments, options.estimator, current,
+    status = Estimate(config.model, experiments, estimator, current,
                       config.experiment.step, &it.estimate);
     if (!status.ok()) return status;
     status =
@@ -117,21 +205,28 @@ Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
       std::snprintf(text, sizeof(text), "iteration %d: designing (%s, %s)", k,
                     CriterionName(options.criterion),
                     options.optimizer.c_str());
-      stage(text);
-      std::unique_ptr<InformationEvaluator> evaluator;
-      status = InformationEvaluator::Create(
-          config.model, options.estimator.parameters, current,
-          config.experiment, it.estimate.information, &evaluator);
-      if (!status.ok()) return status;
-      DesignObjective objective(evaluator.get(), options.criterion, bounds,
-                                options.objective);
+      KCRIG_RETURN_IF_ERROR(stage(text));
+      DesignStepOptions step;
+      step.names = options.estimator.parameters;
+      step.values = current;
+      step.prior_information = it.estimate.information;
+      step.criterion = options.criterion;
+      step.optimizer = options.optimizer;
+      step.objective = options.objective;
+      const std::string designing = text;
+      step.objective.callback = [&](const IterationSummary& batch) {
+        return progress.Report(
+                   {designing + " | " + options.optimizer + ": " + batch.stage,
+                    batch.fraction, batch.done, batch.total})
+                   ? CallbackReturn::kContinue
+                   : CallbackReturn::kAbort;
+      };
+      step.optimizer_options = options.optimizer_options;
       const Design start{
           std::clamp(design.phi, bounds.phi.lower, bounds.phi.upper),
           std::clamp(design.z_a, bounds.z_a.lower, bounds.z_a.upper)};
-      status = Optimize(options.optimizer, &objective, start,
-                        options.optimizer_options, &it.design.result);
+      status = DesignStep(config, step, start, &it.design);
       if (!status.ok()) return status;
-      it.design.record = objective.record();
       it.designed = true;
       status = WriteFilesAtomically(
           {{(dir / "design.json").string(),
@@ -186,6 +281,20 @@ std::string CampaignToJson(Criterion criterion,
   }
   doc["iterations"] = list;
   return doc.dump(2) + "\n";
+}
+
+std::string CampaignIterationDir(const std::string& out_dir, int index) {
+  return (std::filesystem::path(out_dir) /
+          ("iteration_" + std::to_string(index)))
+      .string();
+}
+
+Status ReadCampaign(const std::string& out_dir, Criterion* criterion,
+                    std::vector<CampaignIteration>* iterations) {
+  const std::string file =
+      (std::filesystem::path(out_dir) / "campaign.json").string();
+  return GuardedRead(
+      file, [&] { return ReadCampaignJson(out_dir, criterion, iterations); });
 }
 
 std::string CampaignIterationSummary(const CampaignIteration& it,

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "base/iteration_callback.h"
 #include "designer/design_io.h"
 #include "designer/optimizers.h"
 #include "estimator/estimator.h"
@@ -18,10 +19,10 @@
 
 namespace kcrig {
 
-// Runs the ramp experiment `design` (Fmax, tf, rate from the config) as run
-// number `run` and writes its log (run.csv + sidecar) to `csv_path`.
-using RigRunner = std::function<Status(const Design& design, int run,
-                                       const std::string& csv_path)>;
+// Runs `excitation` (a design with the config's Fmax and tf) as run number
+// `run` and writes its log (run.csv + sidecar) to `csv_path`.
+using RigRunner = std::function<Status(const RampExcitation<double>& excitation,
+                                       int run, const std::string& csv_path)>;
 
 struct CampaignIteration;
 
@@ -34,12 +35,18 @@ struct CampaignOptions {
   double target_relative_halfwidth = 0.0;
   Criterion criterion = Criterion::kD;
   std::string optimizer = "kriging";
-  ObjectiveOptions objective;  // budget, threads, progress
+  // Budget and threads of each design, and the estimator's options; their
+  // callbacks are replaced by `callback`.
+  ObjectiveOptions objective;
   OptimizerOptions optimizer_options;
   EstimatorOptions estimator;
-  // Told what the campaign is doing (one line), e.g. for a progress line.
-  std::function<void(const std::string&)> on_stage;
-  // Called with each iteration as soon as it is complete.
+  // Asked at each stage ("iteration 1: designing (D, kriging)"), after each
+  // batch of a design ("<stage> | kriging: 24/100 evaluations, ...") and
+  // with the stage again during each estimate; kAbort stops the campaign
+  // with Interrupted(), the iterations completed so far kept. Optional.
+  IterationCallback callback;
+  // Called with each iteration as soon as it is complete (its results, not
+  // progress).
   std::function<void(const CampaignIteration&)> on_iteration;
 };
 
@@ -62,6 +69,18 @@ Status ValidateCampaignOptions(const KcrigConfig& config,
 // intervals and log10 diag((J^T J)^-1), the criterion and the next design.
 std::string CampaignToJson(Criterion criterion,
                            const std::vector<CampaignIteration>& iterations);
+
+// The folder of iteration `index` in a campaign's `out_dir`: its run.csv,
+// est.json and, when it designed, design.json.
+std::string CampaignIterationDir(const std::string& out_dir, int index);
+
+// Reads a campaign folder back: campaign.json (criterion; per iteration the
+// index, logs, experiment, estimates with intervals and log10
+// diag((J^T J)^-1), criterion of the data, whether it designed) and, for
+// each iteration that designed, its design.json into `design`. Errors name
+// the file and the field.
+Status ReadCampaign(const std::string& out_dir, Criterion* criterion,
+                    std::vector<CampaignIteration>* iterations);
 
 // Runs the campaign in `out_dir` (iteration_K/run.csv, est.json,
 // design.json per iteration); `iterations` receives every iteration as it

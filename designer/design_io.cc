@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "designer/json_reader.h"
 #include "nlohmann/json.hpp"
 #include "rt_core/model/channels.h"
 
@@ -13,7 +14,100 @@ nlohmann::ordered_json Point(const Design& d, double value) {
   return {{"phi_deg", d.phi / kDegree}, {"z_a", d.z_a}, {"value", value}};
 }
 
+// A design and its value, {"phi_deg", "z_a", "value"}, at `node[key]`.
+Status ReadPoint(const nlohmann::json& node, const std::string& key,
+                 const std::string& where, Design* design, double* value) {
+  nlohmann::json point;
+  double phi_deg = 0;
+  const std::string at = where + "." + key;
+  for (Status s : {ReadField(node, key, where, &point),
+                   ReadField(point, "phi_deg", at, &phi_deg),
+                   ReadField(point, "z_a", at, &design->z_a),
+                   ReadField(point, "value", at, value)}) {
+    if (!s.ok()) return s;
+  }
+  design->phi = phi_deg * kDegree;
+  return Status::Ok();
+}
+
+// Rows of `width` finite numbers at `node[key]`.
+Status ReadRows(const nlohmann::json& node, const std::string& key,
+                const std::string& where, size_t width,
+                std::vector<std::vector<double>>* rows) {
+  Status status = ReadField(node, key, where, rows);
+  if (!status.ok()) return status;
+  for (size_t r = 0; r < rows->size(); ++r) {
+    const std::vector<double>& row = (*rows)[r];
+    bool finite = row.size() == width;
+    for (double v : row) finite = finite && std::isfinite(v);
+    if (!finite) {
+      return Status::Error(where + "." + key + "[" + std::to_string(r) +
+                           "]: expected " + std::to_string(width) +
+                           " finite numbers");
+    }
+  }
+  return Status::Ok();
+}
+
+Status ReadRun(const nlohmann::json& node, const std::string& where,
+               DesignRun* run) {
+  OptimizationResult& r = run->result;
+  std::vector<std::vector<double>> path, evaluated;
+  for (Status s :
+       {ReadField(node, "optimizer", where, &r.optimizer),
+        ReadPoint(node, "initial", where, &r.start, &r.start_value),
+        ReadPoint(node, "optimal", where, &r.best, &r.best_value),
+        ReadField(node, "evaluations", where, &r.evaluations),
+        ReadField(node, "seconds", where, &r.seconds),
+        ReadField(node, "budget_exhausted", where, &r.budget_exhausted),
+        ReadField(node, "message", where, &r.message),
+        ReadRows(node, "path", where, 2, &path),
+        ReadRows(node, "evaluated", where, 4, &evaluated)}) {
+    if (!s.ok()) return s;
+  }
+  for (const std::vector<double>& row : path) {
+    r.path.push_back({row[0] * kDegree, row[1]});
+  }
+  for (const std::vector<double>& row : evaluated) {
+    DesignEvaluation& e = run->record.emplace_back();
+    e.design = {row[0] * kDegree, row[1]};
+    e.value = row[2];
+    e.batch = static_cast<int>(row[3]);
+  }
+  return Status::Ok();
+}
+
+Status ReadDesignJson(const std::string& path, Criterion* criterion,
+                      std::vector<DesignRun>* runs) {
+  nlohmann::json doc;
+  Status status = ReadJsonFile(path, &doc);
+  if (!status.ok()) return status;
+  std::string name;
+  std::vector<nlohmann::json> list;
+  for (Status s : {ReadField(doc, "criterion", path, &name),
+                   ReadField(doc, "runs", path, &list)}) {
+    if (!s.ok()) return s;
+  }
+  status = ParseCriterion(name, criterion);
+  if (!status.ok()) return Status::Error(path + ": " + status.message());
+  runs->clear();
+  for (size_t k = 0; k < list.size(); ++k) {
+    status = ReadRun(list[k], path + ": runs[" + std::to_string(k) + "]",
+                     &runs->emplace_back());
+    if (!status.ok()) return status;
+  }
+  if (runs->empty()) return Status::Ok();
+  return ReadField(doc, "optimal_singular", path,
+                   &(*runs)[BestRun(*runs)].result.best_singular);
+}
+
 }  // namespace
+
+Status ReadDesign(const std::string& path, Criterion* criterion,
+                  std::vector<DesignRun>* runs) {
+  return GuardedRead(path,
+                     [&] { return ReadDesignJson(path, criterion, runs); });
+}
 
 size_t BestRun(const std::vector<DesignRun>& runs) {
   size_t best = 0;

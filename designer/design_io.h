@@ -1,5 +1,6 @@
-// design.json (DESIGN.md §4) and the Table-1-style comparison of optimizer
-// runs. Angles are written in degrees (phi_deg), heights in metres.
+// design.json (DESIGN.md §4), its writer and reader, and the Table-1-style
+// comparison of optimizer runs. Angles are written in degrees (phi_deg),
+// heights in metres.
 #ifndef KCRIG_DESIGNER_DESIGN_IO_H_
 #define KCRIG_DESIGNER_DESIGN_IO_H_
 
@@ -25,6 +26,13 @@ size_t BestRun(const std::vector<DesignRun>& runs);
 // their paths and evaluated points.
 std::string DesignRunsToJson(Criterion criterion,
                              const std::vector<DesignRun>& runs);
+
+// Reads a design.json back into what DesignRunsToJson wrote: per run the
+// result (optimum flagged singular on the best run only) and the record of
+// evaluated designs with their values and batches (unit, information and
+// epigraph are not stored). Errors name the file and the field.
+Status ReadDesign(const std::string& path, Criterion* criterion,
+                  std::vector<DesignRun>* runs);
 
 // criterion | Phi(v0) | algorithm | Phi(v*) | nEv | seconds | phi* | z_a*
 std::string ComparisonTable(Criterion criterion,

@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdio>
 #include <limits>
 #include <thread>
 #include <utility>
+
+#include "rt_core/model/channels.h"
 
 namespace kcrig {
 
@@ -100,10 +103,26 @@ std::vector<DesignEvaluation> DesignObjective::Evaluate(
   }
   if (!to_run.empty()) {
     ++batches_;
-    if (options_.on_batch) options_.on_batch(*this);
+    interrupted_ = !ReportBatch();
   }
   results.resize(count);
   return results;
+}
+
+bool DesignObjective::ReportBatch() const {
+  if (!options_.callback) return true;
+  const DesignEvaluation& b = best();
+  const int used = static_cast<int>(record_.size());
+  const double seconds = elapsed_seconds();
+  char text[200];
+  std::snprintf(text, sizeof(text),
+                "%d/%d evaluations, best %s %.6g at %.1f deg, %.3f m, %.1f s "
+                "(at most %.0f s left)",
+                used, budget(), CriterionName(criterion_), b.value,
+                b.design.phi / kDegree, b.design.z_a, seconds,
+                seconds / std::max(used, 1) * remaining());
+  return options_.callback({text, static_cast<double>(used) / budget(), used,
+                            budget()}) == CallbackReturn::kContinue;
 }
 
 const DesignEvaluation& DesignObjective::best() const {

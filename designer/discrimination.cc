@@ -21,7 +21,6 @@ Status DesignDiscriminatingExperiment(const EffectModel& a,
   *design = DiscriminatingDesign();
   design->model_a = a.Name();
   design->model_b = b.Name();
-  design->fmax = experiment.fmax;
   design->divergence = -1;
   Status failure = Status::Ok();
   for (const DiscriminationOptions::Shape& shape : options.shapes) {
@@ -46,11 +45,7 @@ Status DesignDiscriminatingExperiment(const EffectModel& a,
       }
       if (t > design->divergence) {
         design->divergence = t;
-        design->phi = phi;
-        design->z_a = z_a;
-        design->tf = shape.tf;
-        design->hold = shape.hold;
-        design->return_duration = shape.return_duration;
+        design->excitation = ramp;
       }
       return t;
     };
@@ -96,25 +91,26 @@ Status DesignDiscriminatingExperiment(const EffectModel& a,
   return Status::Ok();
 }
 
-std::string DiscriminatingDesignToJson(const DiscriminatingDesign& d) {
+std::string DiscriminatingDesignToJson(const DiscriminatingDesign& design) {
+  const RampExcitation<double>& d = design.excitation;
   char options[200];
   std::snprintf(options, sizeof(options),
                 "--phi %.2f --z %.3f --fmax %.0f --duration %.2f --hold %.2f "
                 "--return %.2f",
-                d.phi / kDegree, d.z_a, d.fmax, d.tf, d.hold,
+                d.phi / kDegree, d.z_a, d.fmax, d.duration, d.hold,
                 d.return_duration);
   nlohmann::ordered_json doc = {
-      {"discriminates", {d.model_a, d.model_b}},
+      {"discriminates", {design.model_a, design.model_b}},
       {"criterion", "sum of squared prediction differences / sigma^2"},
       {"phi_deg", d.phi / kDegree},
       {"z_a_m", d.z_a},
       {"fmax_n", d.fmax},
-      {"tf_s", d.tf},
+      {"tf_s", d.duration},
       {"hold_s", d.hold},
       {"return_s", d.return_duration},
-      {"divergence", d.divergence},
-      {"evaluations", d.evaluations},
-      {"seconds", d.seconds},
+      {"divergence", design.divergence},
+      {"evaluations", design.evaluations},
+      {"seconds", design.seconds},
       {"run_options", options}};
   return doc.dump();
 }

@@ -35,9 +35,8 @@ struct DiscriminationOptions {
 
 struct DiscriminatingDesign {
   std::string model_a, model_b;
-  double phi = 0, z_a = 0, fmax = 0;             // [rad], [m], [N]
-  double tf = 0, hold = 0, return_duration = 0;  // [s]
-  double divergence = 0;                         // T at the design
+  RampExcitation<double> excitation;  // the experiment to run
+  double divergence = 0;              // T at the design
   int evaluations = 0;
   double seconds = 0;
 };

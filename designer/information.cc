@@ -101,9 +101,8 @@ Status InformationEvaluator::Create(
 }
 
 Experiment InformationEvaluator::MakeExperiment(const Design& design) const {
-  return PlannedExperiment(
-      {design.phi, design.z_a, experiment_.fmax, experiment_.duration},
-      experiment_);
+  return PlannedExperiment(experiment_.Excitation(design.phi, design.z_a),
+                           experiment_);
 }
 
 Status InformationEvaluator::Information(const Design& design, bool split,

@@ -153,6 +153,23 @@ double KrigingModel::Predict(const Eigen::Vector2d& x, double* mse) const {
   return y_mean_ + y_scale_ * normalized;
 }
 
+Status RefitSurrogate(const std::vector<DesignEvaluation>& record,
+                      Criterion criterion, const DesignBounds& bounds,
+                      int batch, KrigingModel* model, int* samples) {
+  std::vector<Eigen::Vector2d> x;
+  std::vector<double> y;
+  for (const DesignEvaluation& e : record) {
+    if (e.batch > batch) continue;
+    x.emplace_back((e.design.phi - bounds.phi.lower) /
+                       (bounds.phi.upper - bounds.phi.lower),
+                   (e.design.z_a - bounds.z_a.lower) /
+                       (bounds.z_a.upper - bounds.z_a.lower));
+    y.push_back(OptimizationScale(criterion, e.value));
+  }
+  *samples = static_cast<int>(x.size());
+  return model->Fit(x, y, KrigingOptions());
+}
+
 double ExpectedImprovement(double best, double prediction, double mse) {
   const double s = std::sqrt(std::max(mse, 0.0));
   const double gap = best - prediction;

@@ -66,6 +66,14 @@ class KrigingModel {
   double sigma2_ = 0;
 };
 
+// A kriging search's surrogate as it stood after batch `batch` of its
+// `record`: fitted (default options) to the evaluations up to that batch, on
+// the scale the search fitted (OptimizationScale of `criterion`), in unit
+// coordinates over `bounds`. `samples` gets how many it was fitted to.
+Status RefitSurrogate(const std::vector<DesignEvaluation>& record,
+                      Criterion criterion, const DesignBounds& bounds,
+                      int batch, KrigingModel* model, int* samples);
+
 // Expected improvement below `best` of a Gaussian prediction.
 double ExpectedImprovement(double best, double prediction, double mse);
 

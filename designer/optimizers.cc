@@ -47,6 +47,7 @@ Status Optimize(const std::string& optimizer, DesignObjective* objective,
   } else {
     status = NloptSearch(optimizer.substr(6), objective, options, result);
   }
+  if (objective->interrupted()) return Interrupted("design");
   if (!status.ok()) return status;
   const DesignEvaluation& best = objective->best();
   result->best = best.design;

@@ -68,7 +68,8 @@ Status ValidateOptimizerName(const std::string& optimizer);
 
 // Minimizes the objective's criterion from `start` (inside the bounds)
 // within the objective's budget. The start is evaluated first. Fills
-// `result` from the objective's record (the best evaluation seen).
+// `result` from the objective's record (the best evaluation seen);
+// Interrupted() when the objective's callback stopped the search.
 Status Optimize(const std::string& optimizer, DesignObjective* objective,
                 const Design& start, const OptimizerOptions& options,
                 OptimizationResult* result);

@@ -4,210 +4,16 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <complex>
 #include <functional>
 #include <limits>
-#include <mutex>
-#include <numeric>
 
 #include "base/parallel_for.h"
+#include "diagnosis/localisation.h"
 #include "diagnosis/residual_statistics.h"
 #include "diagnosis/verdict.h"
-#include "unsupported/Eigen/FFT"
 
 namespace kcrig {
 namespace {
-
-void Localize(const std::vector<Experiment>& logs,
-              const std::vector<std::vector<Vec6<double>>>& residuals,
-              const DiagnosisOptions& options, DiagnosisResult* result) {
-  // Slices by channel, force magnitude and loading direction.
-  const char* magnitude_names[] = {"near_zero", "low", "mid", "high"};
-  const char* direction_names[] = {"loading", "unloading", "hold"};
-  std::vector<GapSlice> magnitude(4), direction(3), channels(6);
-  for (int i = 0; i < 4; ++i) magnitude[i].name = magnitude_names[i];
-  for (int i = 0; i < 3; ++i) direction[i].name = direction_names[i];
-  for (int k = 0; k < 6; ++k) channels[k].name = kChannelNames[k];
-  double total_excess = 0;
-  GapSlice all;
-  auto add = [](GapSlice* s, const Vec6<double>& w, const Vec6<double>& r) {
-    s->samples += 1;
-    s->channel_score += w.cwiseAbs2();
-    s->mean += r;
-    s->rms += r.cwiseAbs2();
-  };
-  const std::vector<double> band_edges = {0, 0.5, 2, 10, 50};
-  std::vector<double> band_energy;
-  double total_energy = 0;
-  std::vector<std::vector<double>> force_corr(6), rate_corr(6);
-  std::vector<double> lag_weight;
-  int max_lag_samples = 0;
-
-  for (size_t l = 0; l < logs.size(); ++l) {
-    const Experiment& e = logs[l];
-    const std::vector<Vec6<double>>& w = residuals[l];
-    const size_t n = w.size();
-    // Force along the excitation's main direction, its magnitude and rate.
-    Eigen::Vector2d direction_xy = Eigen::Vector2d::Zero();
-    double peak = 0;
-    for (const Vec3<double>& f : e.forces) {
-      if (f.head<2>().norm() > peak) {
-        peak = f.head<2>().norm();
-        direction_xy = f.head<2>() / peak;
-      }
-    }
-    std::vector<double> along(n), magnitude_of(n), rate(n);
-    for (size_t j = 0; j < n; ++j) {
-      along[j] = e.forces[j].head<2>().dot(direction_xy);
-      magnitude_of[j] = e.forces[j].norm();
-    }
-    const size_t half = std::max<size_t>(
-        1, static_cast<size_t>(std::lround(0.01 / e.sample_period)));
-    for (size_t j = 0; j < n; ++j) {
-      const size_t a = j >= half ? j - half : 0, b = std::min(n - 1, j + half);
-      rate[j] = b > a ? (magnitude_of[b] - magnitude_of[a]) /
-                            ((b - a) * e.sample_period)
-                      : 0;
-    }
-    const double fmax = std::max(
-        1.0, *std::max_element(magnitude_of.begin(), magnitude_of.end()));
-    double fastest = 0;
-    for (double r : rate) fastest = std::max(fastest, std::abs(r));
-    for (size_t j = 0; j < n; ++j) {
-      if (!Observed(e, j)) continue;
-      const Vec6<double> r = w[j].cwiseProduct(e.sigma);
-      const double level = magnitude_of[j] / fmax;
-      const int m = level < 0.1 ? 0 : level < 0.4 ? 1 : level < 0.7 ? 2 : 3;
-      const int d = std::abs(rate[j]) <= 0.05 * fastest ? 2
-                    : rate[j] > 0                       ? 0
-                                                        : 1;
-      add(&magnitude[m], w[j], r);
-      add(&direction[d], w[j], r);
-      add(&all, w[j], r);
-      for (int k = 0; k < 6; ++k) {
-        channels[k].samples += 1;
-        channels[k].channel_score(k) += w[j](k) * w[j](k);
-        channels[k].mean(k) += r(k);
-        channels[k].rms(k) += r(k) * r(k);
-      }
-      total_excess += w[j].squaredNorm() - 6;
-    }
-
-    // Residual spectrum per channel.
-    const double nyquist = 0.5 / e.sample_period;
-    if (band_energy.empty()) {
-      band_energy.assign(band_edges.size(), 0.0);
-      result->bands.clear();
-      for (size_t b = 0; b < band_edges.size(); ++b) {
-        const double high =
-            b + 1 < band_edges.size() ? band_edges[b + 1] : nyquist;
-        if (band_edges[b] >= nyquist) break;
-        result->bands.push_back(
-            {band_edges[b], std::min(high, nyquist), 0,
-             (std::min(high, nyquist) - band_edges[b]) / nyquist});
-      }
-    }
-    // Zero-padded to a power of two: a log's length may be prime, which
-    // costs a mixed-radix FFT O(n^2); the band shares do not change.
-    Eigen::FFT<double> fft;
-    size_t padded = 1;
-    while (padded < n) padded *= 2;
-    std::vector<double> series(padded, 0.0);
-    std::vector<std::complex<double>> spectrum;
-    for (int k = 0; k < 6; ++k) {
-      double mean = 0;
-      for (size_t j = 0; j < n; ++j) mean += w[j](k) / n;
-      for (size_t j = 0; j < n; ++j) series[j] = w[j](k) - mean;
-      fft.fwd(spectrum, series);
-      for (size_t i = 1; i <= padded / 2; ++i) {
-        const double f = i / (padded * e.sample_period);
-        const double energy = std::norm(spectrum[i]);
-        total_energy += energy;
-        for (size_t b = result->bands.size(); b-- > 0;) {
-          if (f >= result->bands[b].low_hz) {
-            band_energy[b] += energy;
-            break;
-          }
-        }
-      }
-    }
-
-    // Cross-correlation with the force and its rate.
-    const int lags =
-        static_cast<int>(std::lround(options.max_lag / e.sample_period));
-    if (max_lag_samples == 0) {
-      max_lag_samples = lags;
-      for (int k = 0; k < 6; ++k) {
-        force_corr[k].assign(2 * lags + 1, 0.0);
-        rate_corr[k].assign(2 * lags + 1, 0.0);
-      }
-    }
-    const int used = std::min(lags, max_lag_samples);
-    std::vector<double> channel(n);
-    for (int k = 0; k < 6; ++k) {
-      for (size_t j = 0; j < n; ++j) channel[j] = w[j](k);
-      for (int lag = -used; lag <= used; ++lag) {
-        force_corr[k][lag + max_lag_samples] +=
-            LaggedCorrelation(channel, along, lag) * n;
-        rate_corr[k][lag + max_lag_samples] +=
-            LaggedCorrelation(channel, rate, lag) * n;
-      }
-    }
-    lag_weight.push_back(static_cast<double>(n));
-  }
-
-  auto finish = [&](GapSlice* s) {
-    if (s->samples == 0) return;
-    s->excess_share =
-        total_excess != 0
-            ? (s->channel_score.sum() - 6.0 * s->samples) / total_excess
-            : 0;
-    s->channel_score /= s->samples;
-    s->mean /= s->samples;
-    s->rms = (s->rms / s->samples).cwiseSqrt();
-    s->score = s->channel_score.mean();
-  };
-  for (GapSlice& s : magnitude) finish(&s);
-  for (GapSlice& s : direction) finish(&s);
-  for (int k = 0; k < 6; ++k) {
-    GapSlice& s = channels[k];
-    s.excess_share =
-        total_excess != 0 ? (s.channel_score(k) - s.samples) / total_excess : 0;
-    s.score = s.samples > 0 ? s.channel_score(k) / s.samples : 0;
-    s.mean(k) /= std::max(1, s.samples);
-    s.rms(k) = std::sqrt(s.rms(k) / std::max(1, s.samples));
-    s.channel_score = Vec6<double>::Zero();
-    s.channel_score(k) = s.score;
-  }
-  result->channels = channels;
-  result->magnitude = magnitude;
-  result->direction = direction;
-  for (size_t b = 0; b < result->bands.size(); ++b) {
-    result->bands[b].energy_share =
-        total_energy > 0 ? band_energy[b] / total_energy : 0;
-  }
-  const double weight =
-      std::accumulate(lag_weight.begin(), lag_weight.end(), 0.0);
-  const double period = logs.front().sample_period;
-  result->lags.clear();
-  for (int k = 0; k < 6; ++k) {
-    LagCorrelation c;
-    c.channel = kChannelNames[k];
-    for (int i = 0; i < 2 * max_lag_samples + 1; ++i) {
-      const double fc = force_corr[k][i] / weight;
-      const double rc = rate_corr[k][i] / weight;
-      if (std::abs(fc) > std::abs(c.force_correlation)) {
-        c.force_correlation = fc;
-        c.force_lag = (i - max_lag_samples) * period;
-      }
-      if (std::abs(rc) > std::abs(c.rate_correlation)) {
-        c.rate_correlation = rc;
-        c.rate_lag = (i - max_lag_samples) * period;
-      }
-    }
-    result->lags.push_back(c);
-  }
-}
 
 // The information criteria of a fit with chi-square `chi2`, k parameters
 // and m residuals.
@@ -236,17 +42,29 @@ class DiagnosisRun {
         options_(options),
         step_(step),
         result_(result),
-        start_(std::chrono::steady_clock::now()) {}
+        start_(std::chrono::steady_clock::now()),
+        progress_(options.callback) {}
 
+  // A stage that fails or returns early because the callback asked to stop
+  // makes the diagnosis interrupted.
   Status Run() {
     *result_ = DiagnosisResult();
+    const Status status = RunStages();
+    return progress_.aborted() ? Interrupted("diagnosis") : status;
+  }
+
+ private:
+  using Start = std::vector<double>;
+
+  Status RunStages() {
     KCRIG_RETURN_IF_ERROR(CheckInputs());
     KCRIG_RETURN_IF_ERROR(CreateModels());
-    Progress("nominal fit", 0);
+    KCRIG_RETURN_IF_ERROR(Progress("nominal fit", 0));
     KCRIG_RETURN_IF_ERROR(FitNominal());
-    Progress("localisation and per-log fits", 0.1);
+    KCRIG_RETURN_IF_ERROR(Progress("localisation and per-log fits", 0.1));
     Localize(training_, residuals_, options_, result_);
     EstimateDrift();
+    if (progress_.aborted()) return Interrupted("diagnosis");
     result_->scoring = !holdout_.empty()      ? "holdout"
                        : training_.size() > 1 ? "cross_validation"
                                               : "information_criterion";
@@ -260,13 +78,12 @@ class DiagnosisRun {
     KCRIG_RETURN_IF_ERROR(ScoreNominal());
     if (!GapReproduced()) return Finish();
     FitSingles();
+    if (progress_.aborted()) return Interrupted("diagnosis");
     const CandidateScore* chosen = ChooseWithPairs();
+    if (progress_.aborted()) return Interrupted("diagnosis");
     StateVerdict(chosen, rules_, result_);
     return Finish();
   }
-
- private:
-  using Start = std::vector<double>;
 
   Status CheckInputs() const {
     if (training_.empty()) return Status::Error("diagnose: no training log");
@@ -286,6 +103,7 @@ class DiagnosisRun {
           "diagnose: options need ljung_box_lags >= 1, min_samples >= "
           "ljung_box_lags + 20, retry_pool >= 0 and num_threads >= 1");
     }
+    KCRIG_RETURN_IF_ERROR(CheckSameForceChannels());
     for (const std::vector<Experiment>* set : {&training_, &holdout_}) {
       for (const Experiment& e : *set) {
         const int n = ObservedCount(e);
@@ -296,6 +114,25 @@ class DiagnosisRun {
               std::to_string(options_.min_samples) +
               " per log for its residual statistics (record a longer ramp)");
         }
+      }
+    }
+    return Status::Ok();
+  }
+
+  // The candidates are compared on every log at once: all must drive the
+  // model with the same force channels (load cell or commanded).
+  Status CheckSameForceChannels() const {
+    const Experiment& first = training_.front();
+    for (const std::vector<Experiment>* set : {&training_, &holdout_}) {
+      for (const Experiment& e : *set) {
+        if (e.measured_force == first.measured_force) continue;
+        const Experiment& with = e.measured_force ? e : first;
+        const Experiment& without = e.measured_force ? first : e;
+        return Status::Error(
+            without.source + " has no load-cell force columns (Fx,Fy,Fz) but " +
+            with.source +
+            " has: logs with different channel sets cannot be diagnosed "
+            "together");
       }
     }
     return Status::Ok();
@@ -315,15 +152,15 @@ class DiagnosisRun {
     }
     fit_options_ = options_.fit;
     fit_options_.uncertainty = options_.estimator;
+    fit_options_.callback = progress_.Nested();
     return Status::Ok();
   }
 
   // The fraction done is a rough guide from typical stage costs: the fits
   // of the single effects take about half of a diagnosis, pairs a quarter.
-  void Progress(const std::string& text, double fraction) {
-    if (!options_.on_progress) return;
-    std::lock_guard<std::mutex> lock(progress_mutex_);
-    options_.on_progress(text, fraction);
+  Status Progress(const std::string& text, double fraction) {
+    return progress_.Report({text, fraction}) ? Status::Ok()
+                                              : Interrupted("diagnosis");
   }
 
   Status Finish() {
@@ -370,12 +207,15 @@ class DiagnosisRun {
   void EstimateDrift() {
     std::vector<EffectFit> per_log(training_.size() > 1 ? training_.size() : 0);
     std::vector<Status> per_log_status(per_log.size());
-    ParallelFor(
-        static_cast<int>(per_log.size()), options_.num_threads, [&](int l) {
-          per_log_status[l] = FitEffectModel(nominal_model_, {training_[l]},
-                                             result_->nominal.fit.values,
-                                             fit_options_, step_, &per_log[l]);
-        });
+    ParallelFor(static_cast<int>(per_log.size()), options_.num_threads,
+                [&](int l) {
+                  per_log_status[l] =
+                      progress_.aborted()
+                          ? Interrupted("diagnosis")
+                          : FitEffectModel(nominal_model_, {training_[l]},
+                                           result_->nominal.fit.values,
+                                           fit_options_, step_, &per_log[l]);
+                });
     const bool available =
         std::all_of(per_log_status.begin(), per_log_status.end(),
                     [](const Status& s) { return s.ok(); });
@@ -544,7 +384,7 @@ class DiagnosisRun {
       for (int i = 0; i < count; ++i) {
         any_at_noise |= FitsToNoise(*models[i], (*scores)[i], fitted[i]);
       }
-      if (any_at_noise) break;
+      if (any_at_noise || progress_.aborted()) break;
       std::vector<int> todo;
       for (int i = 0; i < count; ++i) {
         if (round < starts[i].size()) todo.push_back(i);
@@ -565,8 +405,10 @@ class DiagnosisRun {
           static_cast<int>(todo.size()), options_.num_threads, [&](int k) {
             const int i = todo[k];
             status_of[k] =
-                FitEffectModel(*models[i], training_, starts[i][round],
-                               fit_options_, step_, &fits[k]);
+                progress_.aborted()
+                    ? Interrupted("diagnosis")
+                    : FitEffectModel(*models[i], training_, starts[i][round],
+                                     fit_options_, step_, &fits[k]);
             const int finished = ++done;
             Progress("candidate fits " + std::to_string(finished) + " (" +
                          models[i]->Name() + ")",
@@ -586,9 +428,12 @@ class DiagnosisRun {
         fitted[i] = true;
       }
     }
-    Progress("scoring " + std::to_string(count) + " candidates (" +
-                 result_->scoring + ")",
-             from + (to - from) * 0.9);
+    if (!Progress("scoring " + std::to_string(count) + " candidates (" +
+                      result_->scoring + ")",
+                  from + (to - from) * 0.9)
+             .ok()) {
+      return;
+    }
     std::vector<const EffectModel*> ok_models;
     std::vector<CandidateScore*> ok_scores;
     for (int i = 0; i < count; ++i) {
@@ -692,6 +537,7 @@ class DiagnosisRun {
     }
     std::vector<CandidateScore> pairs;
     FitAndScore(pointers, pair_starts, 0.75, 0.97, &pairs);
+    if (progress_.aborted()) return nullptr;
     RankCandidates(&pairs);
     const bool pair_wins =
         rules_.Decides(pairs) && rules_.ClearlyBetter(pairs[0], ranking[0]);
@@ -717,7 +563,7 @@ class DiagnosisRun {
   EffectModel nominal_model_;
   std::vector<EffectModel> singles_;
   EffectFitOptions fit_options_;
-  std::mutex progress_mutex_;
+  ProgressReporter progress_;
   // The nominal fit's weighted training residuals and their count.
   std::vector<std::vector<Vec6<double>>> residuals_;
   int m_ = 0;

@@ -15,10 +15,10 @@
 #ifndef KCRIG_DIAGNOSIS_DIAGNOSIS_H_
 #define KCRIG_DIAGNOSIS_DIAGNOSIS_H_
 
-#include <functional>
 #include <string>
 #include <vector>
 
+#include "base/iteration_callback.h"
 #include "base/status.h"
 #include "diagnosis/effect_model.h"
 #include "estimator/experiment.h"
@@ -67,9 +67,11 @@ struct DiagnosisOptions {
   int num_threads = 2;
   // Every log needs at least this many observed samples.
   int min_samples = 500;
-  // Called with a short line at each stage and after each candidate fit
-  // (one call at a time, from any thread). Optional.
-  std::function<void(const std::string& stage, double fraction)> on_progress;
+  // Asked with a short line at each stage and after each candidate fit,
+  // and with that line again during every fit (one call at a time, from
+  // any thread); kAbort stops the diagnosis with Interrupted(). The fit
+  // options' callback is replaced by it. Optional.
+  IterationCallback callback;
 };
 
 // Residual energy of the nominal fit in one slice of the data.

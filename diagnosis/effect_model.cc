@@ -7,6 +7,7 @@
 #include "Eigen/QR"
 #include "ceres/ceres.h"
 #include "ceres/jet.h"
+#include "estimator/least_squares.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/rig_plant.h"
 
@@ -115,8 +116,9 @@ bool SimulateSensed(const EffectModel& model, const T* theta,
 }
 
 // The weighted residuals (sensed - measured) / sigma of one experiment over
-// all six channels, zero for unobserved samples; the Jacobian is exact
-// (a Jet of the parameter count, padded to an even size).
+// all six channels, zero for unobserved samples, with one parameter block
+// of size 1 per theta; the Jacobian is exact (a Jet of the parameter
+// count, padded to an even size).
 class EffectResidual : public ceres::CostFunction {
  public:
   EffectResidual(const EffectModel* model, const Experiment* experiment,
@@ -127,40 +129,44 @@ class EffectResidual : public ceres::CostFunction {
         step_(step),
         lower_(std::move(lower)),
         upper_(std::move(upper)) {
-    mutable_parameter_block_sizes()->push_back(model->num_parameters());
+    for (int i = 0; i < model->num_parameters(); ++i) {
+      mutable_parameter_block_sizes()->push_back(1);
+    }
     set_num_residuals(static_cast<int>(experiment->measured.size() * 6));
   }
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
-    const double* theta = parameters[0];
+    std::vector<double> theta(model_->num_parameters());
     for (int i = 0; i < model_->num_parameters(); ++i) {
+      theta[i] = parameters[i][0];
       if (!(theta[i] >= lower_[i] && theta[i] <= upper_[i])) return false;
     }
-    if (jacobians == nullptr || jacobians[0] == nullptr) {
-      return Fill<double>(theta, residuals, nullptr);
+    if (jacobians == nullptr) {
+      return Fill<double>(theta.data(), residuals, nullptr);
     }
     switch ((model_->num_parameters() + 1) / 2) {
       case 0:
       case 1:
       case 2:
       case 3:
-        return Fill<ceres::Jet<double, 6>>(theta, residuals, jacobians[0]);
+        return Fill<ceres::Jet<double, 6>>(theta.data(), residuals, jacobians);
       case 4:
-        return Fill<ceres::Jet<double, 8>>(theta, residuals, jacobians[0]);
+        return Fill<ceres::Jet<double, 8>>(theta.data(), residuals, jacobians);
       case 5:
-        return Fill<ceres::Jet<double, 10>>(theta, residuals, jacobians[0]);
+        return Fill<ceres::Jet<double, 10>>(theta.data(), residuals, jacobians);
       case 6:
-        return Fill<ceres::Jet<double, 12>>(theta, residuals, jacobians[0]);
+        return Fill<ceres::Jet<double, 12>>(theta.data(), residuals, jacobians);
       default:
         return Fill<ceres::Jet<double, kMaxEffectModelParameters>>(
-            theta, residuals, jacobians[0]);
+            theta.data(), residuals, jacobians);
     }
   }
 
  private:
+  // `jacobians[i]`: the column of theta_i, null when not wanted.
   template <typename T>
-  bool Fill(const double* theta, double* residuals, double* jacobian) const {
+  bool Fill(const double* theta, double* residuals, double** jacobians) const {
     const int n = model_->num_parameters();
     std::vector<T> seeded(n);
     for (int i = 0; i < n; ++i) {
@@ -180,7 +186,9 @@ class EffectResidual : public ceres::CostFunction {
                          inverse_sigma;
         if constexpr (!std::is_same_v<T, double>) {
           for (int i = 0; i < n; ++i) {
-            jacobian[row * n + i] = sensed[j](k).v[i] * inverse_sigma;
+            if (jacobians[i] != nullptr) {
+              jacobians[i][row] = sensed[j](k).v[i] * inverse_sigma;
+            }
           }
         }
       }
@@ -192,6 +200,31 @@ class EffectResidual : public ceres::CostFunction {
   const Experiment* experiment_;
   double step_;
   std::vector<double> lower_, upper_;  // theta bounds
+};
+
+// The box of the scaled parameters theta.
+void ThetaBox(const EffectModel& model, std::vector<double>* lower,
+              std::vector<double>* upper) {
+  lower->clear();
+  upper->clear();
+  for (int i = 0; i < model.num_parameters(); ++i) {
+    lower->push_back(model.ToTheta(i, model.parameters()[i].lower));
+    upper->push_back(model.ToTheta(i, model.parameters()[i].upper));
+  }
+}
+
+// A candidate's fit to `experiments` in theta on `lower` .. `upper`.
+class EffectProblem : public LeastSquaresProblem {
+ public:
+  EffectProblem(const EffectModel& model,
+                const std::vector<Experiment>& experiments, double step,
+                const std::vector<double>& lower,
+                const std::vector<double>& upper)
+      : LeastSquaresProblem(lower, upper) {
+    for (const Experiment& e : experiments) {
+      AddResidualBlock(new EffectResidual(&model, &e, step, lower, upper));
+    }
+  }
 };
 
 }  // namespace
@@ -296,24 +329,25 @@ Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
     return Status::Error("one value per parameter of " + model.Name() +
                          " is needed");
   }
-  std::vector<double> theta(n), lower(n), upper(n);
+  std::vector<double> lower, upper, theta(n);
+  ThetaBox(model, &lower, &upper);
   for (int i = 0; i < n; ++i) {
-    lower[i] = model.ToTheta(i, model.parameters()[i].lower);
-    upper[i] = model.ToTheta(i, model.parameters()[i].upper);
     // A value on its bound may round just outside it.
     theta[i] = std::clamp(model.ToTheta(i, values[i]), lower[i], upper[i]);
   }
   long rows = 0;
   for (const Experiment& e : experiments) rows += 6L * e.measured.size();
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>
-      jacobian(rows, n);
+  Eigen::MatrixXd jacobian(rows, n);
   Eigen::VectorXd residuals(rows);
+  std::vector<const double*> parameters(n);
+  for (int i = 0; i < n; ++i) parameters[i] = &theta[i];
+  std::vector<double*> columns(n);
   long row = 0;
-  const double* parameters[] = {theta.data()};
   for (const Experiment& e : experiments) {
     EffectResidual residual(&model, &e, integrator_step, lower, upper);
-    double* jacobians[] = {jacobian.data() + row * n};
-    if (!residual.Evaluate(parameters, residuals.data() + row, jacobians)) {
+    for (int i = 0; i < n; ++i) columns[i] = &jacobian(row, i);
+    if (!residual.Evaluate(parameters.data(), residuals.data() + row,
+                           columns.data())) {
       return Status::Error(e.source + ": the " + model.Name() +
                            " model cannot be evaluated at the fit");
     }
@@ -344,52 +378,31 @@ Status FitEffectModel(const EffectModel& model,
     return Status::Error("one initial value per parameter of " + model.Name() +
                          " is needed");
   }
-  std::vector<double> theta(n), lower(n), upper(n);
+  std::vector<double> lower, upper, theta(n);
+  ThetaBox(model, &lower, &upper);
   for (int i = 0; i < n; ++i) {
     const EffectParameter& p = model.parameters()[i];
-    lower[i] = model.ToTheta(i, p.lower);
-    upper[i] = model.ToTheta(i, p.upper);
     const double value = initial.empty() ? p.initial : initial[i];
     theta[i] = std::clamp(model.ToTheta(i, value), lower[i], upper[i]);
   }
-  ceres::Problem::Options problem_options;
-  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
+  EffectProblem problem(model, experiments, integrator_step, lower, upper);
   int observed = 0;
-  for (const Experiment& e : experiments) {
-    problem.AddResidualBlock(
-        new EffectResidual(&model, &e, integrator_step, lower, upper), nullptr,
-        theta.data());
-    observed += 6 * ObservedCount(e);
-  }
-  ceres::Solver::Options solver;
-  solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  solver.linear_solver_type = ceres::DENSE_QR;
-  solver.max_num_iterations = options.max_iterations;
+  for (const Experiment& e : experiments) observed += 6 * ObservedCount(e);
+  LeastSquaresOptions solver;
+  solver.max_iterations = options.max_iterations;
   solver.function_tolerance = options.function_tolerance;
   solver.parameter_tolerance = options.parameter_tolerance;
   solver.gradient_tolerance = 1e-16;
   solver.num_threads = 1;
-  solver.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver, &problem, &summary);
-  if (!std::isfinite(summary.final_cost) ||
-      summary.termination_type == ceres::FAILURE) {
-    return Status::Error("fitting the " + model.Name() +
-                         " model failed: " + summary.message);
-  }
+  solver.stage = "fitting the " + model.Name() + " model";
+  solver.callback = options.callback;
+  LeastSquaresSummary summary;
+  KCRIG_RETURN_IF_ERROR(problem.Minimize(solver, {}, &theta, &summary));
 
   // The weighted Jacobian at the solution, for the uncertainty.
   double cost = 0;
-  ceres::CRSMatrix crs;
-  problem.Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr,
-                   &crs);
-  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
-  for (int r = 0; r < crs.num_rows; ++r) {
-    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
-      jacobian(r, crs.cols[k]) = crs.values[k];
-    }
-  }
+  Eigen::MatrixXd jacobian;
+  problem.Evaluate(theta, &cost, nullptr, &jacobian);
 
   *fit = EffectFit();
   fit->model = model.Name();
@@ -402,17 +415,15 @@ Status FitEffectModel(const EffectModel& model,
     estimate.nominal = p.scale;
     estimate.initial = model.ToPhysical(i, model.ToTheta(i, p.initial));
     estimate.value = model.ToPhysical(i, theta[i]);
-    const double span = upper[i] - lower[i];
-    estimate.at_bound =
-        theta[i] - lower[i] < 1e-3 * span || upper[i] - theta[i] < 1e-3 * span;
+    estimate.at_bound = problem.AtBound(i, theta[i]);
     fit->values.push_back(estimate.value);
     result.parameters.push_back(estimate);
   }
   result.cost = cost;
   result.num_residuals = observed;
   result.sigma_hat = observed > n ? std::sqrt(2 * cost / (observed - n)) : 0;
-  result.iterations = static_cast<int>(summary.iterations.size()) - 1;
-  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.iterations = summary.iterations;
+  result.converged = summary.converged;
   result.termination = summary.message;
   std::fill(result.channel_used.begin(), result.channel_used.end(), true);
   AnalyzeUncertainty(jacobian, options.uncertainty, &result);

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "base/iteration_callback.h"
 #include "base/status.h"
 #include "estimator/estimator.h"
 #include "estimator/experiment.h"
@@ -102,8 +103,12 @@ struct EffectFitOptions {
   double function_tolerance = 1e-7;
   double parameter_tolerance = 1e-8;
   // Options of the uncertainty analysis (rank and identifiability
-  // thresholds) as for the nominal estimate.
+  // thresholds) as for the nominal estimate; its callback is not used.
   EstimatorOptions uncertainty;
+  // Asked after every Levenberg-Marquardt iteration ("fitting the <model>
+  // model: iteration k"); kAbort stops the fit with Interrupted().
+  // Optional.
+  IterationCallback callback;
 };
 
 struct EffectFit {

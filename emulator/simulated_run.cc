@@ -32,12 +32,7 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
   *log = RunLog();
   RunMetadata& m = log->metadata;
   m.rate = options.rate;
-  m.phi = ramp.phi;
-  m.z_a = ramp.z_a;
-  m.fmax = ramp.fmax;
-  m.duration = ramp.duration;
-  m.hold = ramp.hold;
-  m.return_duration = ramp.return_duration;
+  m.excitation = ramp;
   m.sigma_position = experiment.sigma_position;
   m.sigma_angle = experiment.sigma_angle;
   m.transport = options.transport;
@@ -73,10 +68,8 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
 }
 
 Status RunEmbeddedRig(const KcrigConfig& config, const PlantConfig& plant,
-                      double phi, double z_a, int run,
+                      const RampExcitation<double>& ramp, int run,
                       const std::string& csv_path) {
-  const RampExcitation<double> ramp{phi, z_a, config.experiment.fmax,
-                                    config.experiment.duration};
   SimulatedRunOptions options;
   options.rate = config.experiment.rate;
   options.noise = plant.noise;

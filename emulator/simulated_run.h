@@ -36,11 +36,10 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
                    const SimulatedRunOptions& options, RunLog* log);
 
 // One experiment of the embedded emulated rig (`--rig sim`): `plant` under
-// the ramp (phi [rad], z_a [m]) with the config's Fmax, tf and rate, sensor
-// noise as plant.yaml says with seed plant.seed + run, written to
-// `csv_path` (and its sidecar).
+// `ramp` at the config's rate, sensor noise as plant.yaml says with seed
+// plant.seed + run, written to `csv_path` (and its sidecar).
 Status RunEmbeddedRig(const KcrigConfig& config, const PlantConfig& plant,
-                      double phi, double z_a, int run,
+                      const RampExcitation<double>& ramp, int run,
                       const std::string& csv_path);
 
 }  // namespace kcrig

@@ -208,13 +208,16 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   }
 
   FitProblem problem(nominal, experiments, options, integrator_step, indices);
-  status = problem.Minimize(std::vector<bool>(n, false), &scaled, &result->cost,
-                            &result->converged, &result->iterations,
-                            &result->termination);
-  if (!status.ok()) return status;
+  LeastSquaresSummary summary;
+  KCRIG_RETURN_IF_ERROR(problem.Minimize(FitOptions(options, "estimation"), {},
+                                         &scaled, &summary));
+  result->cost = summary.cost;
+  result->converged = summary.converged;
+  result->iterations = summary.iterations;
+  result->termination = summary.message;
   Eigen::MatrixXd jacobian;
   Eigen::VectorXd residuals;
-  if (!problem.Evaluate(scaled, &jacobian, &residuals)) {
+  if (!problem.Evaluate(scaled, nullptr, &residuals, &jacobian)) {
     return Status::Error("the model cannot be evaluated at the solution");
   }
   // Rows of unobserved samples (fresh = 0) are zero and carry no data.
@@ -255,9 +258,7 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   for (int i = 0; i < n; ++i) {
     ParameterEstimate& p = result->parameters[i];
     p.value = scaled[i] * p.nominal;
-    // Within 0.1 % of a bound the box, not the data, decided the value.
-    p.at_bound = scaled[i] < options.lower_scale * 1.001 ||
-                 scaled[i] > options.upper_scale * 0.999;
+    p.at_bound = problem.AtBound(i, scaled[i]);
   }
   AnalyzeUncertainty(jacobian, options, result);
   result->seconds =

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "Eigen/Core"
+#include "base/iteration_callback.h"
 #include "base/status.h"
 #include "estimator/experiment.h"
 #include "rt_core/model/channels.h"
@@ -47,6 +48,10 @@ struct EstimatorOptions {
   double max_relative_standard_error = 0.1;
   // Condition numbers above this are reported as ill-conditioned.
   double ill_conditioned_above = 1e6;
+  // Asked after every Levenberg-Marquardt iteration of Estimate and after
+  // every point of a profile likelihood; kAbort stops them with
+  // Interrupted(). Optional.
+  IterationCallback callback;
 };
 
 struct ParameterEstimate {
@@ -60,7 +65,8 @@ struct ParameterEstimate {
   // log10 of the diagonal of (J^T J)^-1 in scaled parameters (paper Fig. 4).
   double log10_inverse_information = 0;
   bool identifiable = true;
-  bool at_bound = false;  // the estimate sits on the scale bounds
+  // The estimate sits on its bound (LeastSquaresProblem::AtBound).
+  bool at_bound = false;
 };
 
 struct EstimationResult {

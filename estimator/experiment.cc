@@ -31,7 +31,7 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
   experiment->source = source;
   experiment->sample_period = period;
   experiment->steps_per_sample = static_cast<int>(steps);
-  experiment->z_a = m.z_a;
+  experiment->z_a = m.excitation.z_a;
   experiment->measured_force = log.has_measured_force;
   experiment->geometry = m.geometry;
   experiment->sigma << Vec3<double>::Constant(m.sigma_position),
@@ -41,8 +41,7 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
   experiment->observed.clear();
   // The measured force when the rig has a load cell, else the commanded
   // ramp of the sidecar (its time origin is the log's first sample).
-  const RampExcitation<double> commanded{m.phi,      m.z_a,  m.fmax,
-                                         m.duration, m.hold, m.return_duration};
+  const RampExcitation<double>& commanded = m.excitation;
   for (const LogSample& s : log.samples) {
     experiment->forces.push_back(
         log.has_measured_force ? s.force : commanded.LoadAt(s.t - t0).force);
@@ -89,9 +88,18 @@ Status LoadExperiment(const std::string& path, const KcrigConfig& config,
   can.sigma_position = config.experiment.sigma_position;
   can.sigma_angle = config.experiment.sigma_angle;
   RunLog log;
-  const Status status = ReadLog(path, can, &log);
-  if (!status.ok()) return status;
-  return MakeExperiment(path, log, config.experiment.step, experiment);
+  KCRIG_RETURN_IF_ERROR(ReadLog(path, can, &log));
+  KCRIG_RETURN_IF_ERROR(
+      MakeExperiment(path, log, config.experiment.step, experiment));
+  const std::string geometry = GeometryFingerprint(config.model);
+  if (!experiment->geometry.empty() && experiment->geometry != geometry) {
+    return Status::Error(
+        path + ": recorded with geometry " + experiment->geometry + ", but " +
+        config.directory + "/model.yaml is geometry " + geometry +
+        ": a log from a different geometry config cannot be analysed with "
+        "this model (use its --config)");
+  }
+  return Status::Ok();
 }
 
 Experiment PlannedExperiment(const RampExcitation<double>& ramp,

@@ -55,7 +55,8 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
 
 // A log read by records' ReadLog (a CAN bus log decoded with `dbc_file`
 // and the config's sensor sigmas; "" refuses one), then MakeExperiment with
-// the config's integrator step.
+// the config's integrator step. A log recorded with another geometry than
+// the config's model is refused: no model here can explain it.
 Status LoadExperiment(const std::string& path, const KcrigConfig& config,
                       const std::string& dbc_file, Experiment* experiment);
 

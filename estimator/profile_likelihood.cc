@@ -101,10 +101,17 @@ Status ProfileLikelihood(const SuspensionParameters<double>& nominal,
     estimate[i] = fit.parameters[i].value / fit.parameters[i].nominal;
   }
   FitProblem problem(nominal, experiments, options, integrator_step, indices);
+  ProgressReporter progress(options.callback);
+  LeastSquaresOptions refit = FitOptions(options, "profile likelihood");
+  refit.callback = progress.Nested();
   profiles->clear();
   for (int i = 0; i < n; ++i) {
     ParameterProfile profile;
     profile.name = fit.parameters[i].name;
+    if (!progress.Report({"profile likelihood of " + profile.name,
+                          static_cast<double>(i) / n, i, n})) {
+      return Interrupted("profile likelihood");
+    }
     // The linearized standard error at the stated sigmas sets the first step,
     // so the first point is about one sigma out.
     const double linear_se =
@@ -125,12 +132,12 @@ Status ProfileLikelihood(const SuspensionParameters<double>& nominal,
         scaled[i] = value;
         std::vector<bool> fixed(n, false);
         fixed[i] = true;
-        double cost = 0;
-        status =
-            problem.Minimize(fixed, &scaled, &cost, nullptr, nullptr, nullptr);
+        LeastSquaresSummary summary;
+        status = problem.Minimize(refit, fixed, &scaled, &summary);
+        if (progress.aborted()) return Interrupted("profile likelihood");
         if (!status.ok()) break;  // the model fails out there: stop this side
         relative.push_back(side * r);
-        delta.push_back(std::max(0.0, 2.0 * (cost - fit.cost)));
+        delta.push_back(std::max(0.0, 2.0 * (summary.cost - fit.cost)));
         if (delta.back() >= profile_options.threshold ||
             r >= profile_options.explored_half_width) {
           break;

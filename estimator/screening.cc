@@ -56,7 +56,7 @@ Status Screen(const SuspensionParameters<double>& nominal,
     std::vector<double> scaled(k);
     for (int i = 0; i < k; ++i) scaled[i] = to_scaled(u[i]);
     ++result->evaluations;
-    return problem.Cost(scaled, cost);
+    return problem.Evaluate(scaled, cost, nullptr, nullptr);
   };
   std::vector<std::vector<double>> effects(k);
   for (int t = 0; t < options.trajectories; ++t) {
@@ -80,8 +80,15 @@ Status Screen(const SuspensionParameters<double>& nominal,
       effects[i].push_back((cost - previous) / delta);
       previous = cost;
     }
-    if (options.on_progress) {
-      options.on_progress(result->evaluations, options.trajectories * (k + 1));
+    if (options.callback) {
+      IterationSummary summary;
+      summary.stage = "screening";
+      summary.done = result->evaluations;
+      summary.total = options.trajectories * (k + 1);
+      summary.fraction = static_cast<double>(summary.done) / summary.total;
+      if (options.callback(summary) == CallbackReturn::kAbort) {
+        return Interrupted("screening");
+      }
     }
   }
   for (int i = 0; i < k; ++i) {
@@ -110,8 +117,8 @@ Status Screen(const SuspensionParameters<double>& nominal,
 
   // Sensitivities at the nominal values.
   Eigen::MatrixXd jacobian;
-  Eigen::VectorXd residuals;
-  if (!problem.Evaluate(std::vector<double>(k, 1.0), &jacobian, &residuals)) {
+  if (!problem.Evaluate(std::vector<double>(k, 1.0), nullptr, nullptr,
+                        &jacobian)) {
     return Status::Error("screening: the model fails at the nominal values");
   }
   Eigen::MatrixXd centered = jacobian.rowwise() - jacobian.colwise().mean();

@@ -15,12 +15,12 @@
 #define KCRIG_ESTIMATOR_SCREENING_H_
 
 #include <cstdint>
-#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "Eigen/Core"
+#include "base/iteration_callback.h"
 #include "estimator/estimator.h"
 
 namespace kcrig {
@@ -39,9 +39,11 @@ struct ScreeningOptions {
   double negligible_fraction = 0.01;
   // Sensitivity columns correlated beyond this are mutually dependent.
   double dependence_correlation = 0.95;
-  // Called after each trajectory with the evaluations done and the total
-  // (progress display); may be empty.
-  std::function<void(int done, int total)> on_progress;
+  // Asked after each trajectory with the model evaluations done and in all
+  // (stage "screening"); kAbort stops it with Interrupted(). Optional.
+  // (The estimator options' callback is not used: screening solves
+  // nothing.)
+  IterationCallback callback;
 };
 
 struct ScreenedParameter {

@@ -18,14 +18,12 @@ Status CampaignRig::Open(const std::string& uri, const KcrigConfig& config,
   KCRIG_RETURN_IF_ERROR(probe->Configure());
   probe.reset();
   RigSessionOptions check;
-  check.phi = 0;
-  check.z_a = config.experiment.z_a_bounds.lower;
-  check.fmax = config.experiment.fmax;
-  check.tf = config.experiment.duration;
+  check.excitation =
+      config.experiment.Excitation(0.0, config.experiment.z_a_bounds.lower);
   return ValidateRunRequest(rig->rig_config_, check);
 }
 
-Status CampaignRig::Run(double phi, double z_a, int run,
+Status CampaignRig::Run(const RampExcitation<double>& excitation, int run,
                         const std::string& csv_path,
                         const std::atomic<int>* stop) const {
   namespace fs = std::filesystem;
@@ -41,10 +39,7 @@ Status CampaignRig::Run(double phi, double z_a, int run,
   KCRIG_RETURN_IF_ERROR(MakeRig(uri_, rig_config_, log_dir, &transport));
   KCRIG_RETURN_IF_ERROR(transport->Configure());
   RigSessionOptions options;
-  options.phi = phi;
-  options.z_a = z_a;
-  options.fmax = config_.experiment.fmax;
-  options.tf = config_.experiment.duration;
+  options.excitation = excitation;
   options.log_dir = log_dir;
   options.stop_signal = stop;
   RigSessionResult result;

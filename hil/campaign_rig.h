@@ -20,13 +20,13 @@ class CampaignRig {
   static Status Open(const std::string& uri, const KcrigConfig& config,
                      CampaignRig* rig);
 
-  // Runs the ramp at (phi [rad], z_a [m]) with the config's Fmax and tf as
-  // run number `run`; the log is `csv_path`, which must be a run.csv (its
+  // Runs `excitation` as run number `run`; the log is `csv_path`, which
+  // must be a run.csv (its
   // folder also takes can.log and timing.json). A trip is an error.
   // `stop` (the SIGINT/SIGTERM flag) ends the run with a ramp-down and
   // refuses it once set.
-  Status Run(double phi, double z_a, int run, const std::string& csv_path,
-             const std::atomic<int>* stop) const;
+  Status Run(const RampExcitation<double>& excitation, int run,
+             const std::string& csv_path, const std::atomic<int>* stop) const;
 
  private:
   std::string uri_;

@@ -76,6 +76,115 @@ std::string TripMessage(const LoopResult& loop, double period,
   return "tripped: " + what + at + "; force ramped to zero and disabled";
 }
 
+Status CreateLogDir(const std::string& log_dir) {
+  if (log_dir.empty()) return Status::Ok();
+  std::error_code error;
+  std::filesystem::create_directories(log_dir, error);
+  if (error || !std::filesystem::is_directory(log_dir)) {
+    return Status::Error("--log-dir " + log_dir +
+                         ": cannot create the directory");
+  }
+  return Status::Ok();
+}
+
+LoopOptions LoopOptionsFor(const RigConfig& rig_config,
+                           const RigSessionOptions& options) {
+  LoopOptions loop;
+  loop.period = rig_config.period;
+  loop.excitation = options.excitation;
+  loop.profile = rig_config.profile;
+  loop.safety = rig_config.safety;
+  loop.max_duration = options.max_duration;
+  return loop;
+}
+
+RunLogger::Options LoggerOptionsFor(const RigConfig& rig_config,
+                                    const RigSessionOptions& options,
+                                    const RunProfile& profile) {
+  RunLogger::Options logger;
+  logger.period = rig_config.period;
+  if (!options.log_dir.empty()) {
+    logger.csv_path =
+        (std::filesystem::path(options.log_dir) / "run.csv").string();
+  }
+  logger.expected_duration = profile.duration();
+  logger.on_warning = options.on_warning;
+  if (options.on_progress) {
+    logger.on_progress = [&options, &profile](double t) {
+      options.on_progress(t, profile.Phase(t));
+    };
+  }
+  return logger;
+}
+
+// Real-time set-up first (mlockall faults every page in, which takes time),
+// then enable the rig, whose command watchdog runs from then; after the
+// loop, zero force and disabled whatever ended it (best effort when the
+// link is gone: the rig's own watchdog then does it).
+Status RunOnRig(const RealtimeOptions& realtime, RigInterface* rig,
+                ControlLoop* loop, RigSessionResult* result) {
+  result->realtime = SetUpRealtime(realtime);
+  const Status activated = rig != nullptr ? rig->Activate() : Status::Ok();
+  if (activated.ok()) result->loop = loop->Run();
+  LeaveRealtime();
+  if (rig != nullptr && !rig->Deactivate().ok()) rig->OnError();
+  return activated;
+}
+
+// The transport's counters and fault (an empty object without a rig).
+nlohmann::ordered_json TransportCounters(const RigInterface* rig) {
+  if (rig == nullptr) return nlohmann::ordered_json::object();
+  nlohmann::ordered_json counters = nlohmann::ordered_json::parse(
+      rig->CountersJson(), nullptr, /*allow_exceptions=*/false);
+  return counters.is_discarded() ? nlohmann::ordered_json::object() : counters;
+}
+
+// run.json's "hil" block: the phases, the safety outcome, the loop's
+// counters and the transport's.
+std::string HilJson(const RigConfig& rig_config,
+                    const RigSessionOptions& options, const RunProfile& profile,
+                    const RigSessionResult& result, const RunLog& log,
+                    const nlohmann::ordered_json& transport) {
+  const RunProfileTimes& p = rig_config.profile;
+  const LoopResult& lr = result.loop;
+  nlohmann::ordered_json hil;
+  hil["profile_s"] = {{"tare", p.tare},
+                      {"lead_in", p.lead_in},
+                      {"settle", p.settle},
+                      {"ramp", options.excitation.duration},
+                      {"hold", options.excitation.hold},
+                      {"return", options.excitation.return_duration},
+                      {"ramp_down", p.ramp_down},
+                      {"ramp_start", profile.ramp_start()}};
+  hil["completed"] = result.completed;
+  hil["safety"] = {{"tripped", !result.completed},
+                   {"cause", TripCauseName(lr.cause)},
+                   {"message", result.trip_message},
+                   {"trip_time_s",
+                    lr.trip_cycle >= 0
+                        ? static_cast<double>(lr.trip_cycle) * rig_config.period
+                        : -1.0},
+                   {"limited_commands", lr.limited_commands}};
+  hil["cycles"] = lr.cycles;
+  hil["fresh_samples"] = lr.fresh;
+  hil["stale_samples"] = lr.stale;
+  hil["read_errors"] = lr.read_errors;
+  hil["write_errors"] = lr.write_errors;
+  hil["lost_rig_samples"] = lr.lost_rig_samples;
+  hil["overruns"] = lr.overruns;
+  hil["skipped_cycles"] = lr.skipped_cycles;
+  hil["skipped_by_late_wakeup"] = lr.skipped_by_late_wakeup;
+  hil["rows_without_fresh_sample"] = static_cast<std::int64_t>(
+      std::count_if(log.samples.begin(), log.samples.end(),
+                    [](const LogSample& s) { return !s.fresh; }));
+  hil["dropped_log_records"] = lr.dropped_records;
+  hil["rest_pose"] =
+      std::vector<double>(lr.rest_pose.data(), lr.rest_pose.data() + 6);
+  hil["realtime_warnings"] = result.realtime.warnings;
+  hil["transport"] = transport;
+  return hil.dump();
+}
+
 }  // namespace
 
 std::string TimingJson(const LoopTiming& timing, const LoopResult& loop,
@@ -137,35 +246,35 @@ Status ValidateRunRequest(const RigConfig& rig_config,
                           const RigSessionOptions& options) {
   const SafetyLimits& limits = rig_config.safety;
   const RunProfileTimes& p = rig_config.profile;
+  const RampExcitation<double>& e = options.excitation;
   char text[200];
-  if (!std::isfinite(options.phi)) return Status::Error("phi: must be finite");
-  if (!(std::abs(options.z_a) <= 2.0)) {
+  if (!std::isfinite(e.phi)) return Status::Error("phi: must be finite");
+  if (!(std::abs(e.z_a) <= 2.0)) {
     return Status::Error(
         "z_a: must be a finite height within +-2 m of the wheel centre");
   }
-  if (!(options.fmax >= 0) || options.fmax > limits.force_max) {
+  if (!(e.fmax >= 0) || e.fmax > limits.force_max) {
     std::snprintf(text, sizeof(text),
                   "fmax: must be >= 0 N and <= safety.force_max = %.0f N "
                   "(rig.yaml)",
                   limits.force_max);
     return Status::Error(text);
   }
-  if (!(options.tf > 0) || options.tf > 3600) {
+  if (!(e.duration > 0) || e.duration > 3600) {
     return Status::Error("ramp time: must be within (0, 3600] s");
   }
-  if (!(options.hold >= 0) || options.hold > 3600) {
+  if (!(e.hold >= 0) || e.hold > 3600) {
     return Status::Error("hold: must be within [0, 3600] s");
   }
-  if (!(options.return_duration >= 0) || options.return_duration > 3600) {
+  if (!(e.return_duration >= 0) || e.return_duration > 3600) {
     return Status::Error("return ramp time: must be within [0, 3600] s");
   }
   // The limiter would lag a faster profile, and a run could then end with
   // a force still applied.
-  const double fastest = std::max(
-      {options.fmax / p.lead_in, 2 * options.fmax / options.tf,
-       options.return_duration > 0 ? 2 * options.fmax / options.return_duration
-                                   : 0.0,
-       options.fmax / p.ramp_down});
+  const double fastest =
+      std::max({e.fmax / p.lead_in, 2 * e.fmax / e.duration,
+                e.return_duration > 0 ? 2 * e.fmax / e.return_duration : 0.0,
+                e.fmax / p.ramp_down});
   if (fastest > limits.force_rate_max) {
     std::snprintf(text, sizeof(text),
                   "the run would change the force at %.0f N/s, beyond "
@@ -180,78 +289,27 @@ Status ValidateRunRequest(const RigConfig& rig_config,
 Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
                      RigInterface* rig, const RigSessionOptions& options,
                      RigSessionResult* result) {
-  namespace fs = std::filesystem;
   *result = RigSessionResult();
-  const double period = rig_config.period;
-  const Status valid = ValidateRunRequest(rig_config, options);
-  if (!valid.ok()) return valid;
-  if (!options.log_dir.empty()) {
-    std::error_code error;
-    fs::create_directories(options.log_dir, error);
-    if (error || !fs::is_directory(options.log_dir)) {
-      return Status::Error("--log-dir " + options.log_dir +
-                           ": cannot create the directory");
-    }
-  }
-  LoopOptions loop_options;
-  loop_options.period = period;
-  loop_options.phi = options.phi;
-  loop_options.z_a = options.z_a;
-  loop_options.fmax = options.fmax;
-  loop_options.tf = options.tf;
-  loop_options.hold = options.hold;
-  loop_options.return_duration = options.return_duration;
-  loop_options.profile = rig_config.profile;
-  loop_options.safety = rig_config.safety;
-  loop_options.max_duration = options.max_duration;
-
+  KCRIG_RETURN_IF_ERROR(ValidateRunRequest(rig_config, options));
+  KCRIG_RETURN_IF_ERROR(CreateLogDir(options.log_dir));
+  const RunProfile profile(rig_config.profile, options.excitation);
   SpscRing<CycleRecord> ring(kRingCapacity);
-  ControlLoop loop(config.model, loop_options, rig, &ring, options.stop_signal);
-  const RunProfile profile(rig_config.profile, options.tf, options.hold,
-                           options.return_duration);
-
-  RunLogger::Options logger_options;
-  logger_options.period = period;
-  if (!options.log_dir.empty()) {
-    logger_options.csv_path = (fs::path(options.log_dir) / "run.csv").string();
-  }
-  logger_options.expected_duration = profile.duration();
-  logger_options.on_warning = options.on_warning;
-  if (options.on_progress) {
-    logger_options.on_progress = [&options, &profile](double t) {
-      options.on_progress(t, profile.Phase(t));
-    };
-  }
-  RunLogger logger(logger_options);
+  ControlLoop loop(config.model, LoopOptionsFor(rig_config, options), rig,
+                   &ring, options.stop_signal);
+  RunLogger logger(LoggerOptionsFor(rig_config, options, profile));
   KCRIG_RETURN_IF_ERROR(logger.Open());
   logger.Start(&ring);
-
-  // Real-time set-up first (mlockall faults every page in, which takes
-  // time), then enable the rig, whose command watchdog is running from then.
-  result->realtime = SetUpRealtime(rig_config.realtime);
-  Status activated = Status::Ok();
-  if (rig != nullptr) activated = rig->Activate();
-  if (activated.ok()) result->loop = loop.Run();
-  LeaveRealtime();
+  const Status activated = RunOnRig(rig_config.realtime, rig, &loop, result);
   logger.Stop();
-  if (rig != nullptr) {
-    // Zero force and disabled, whatever ended the loop (best effort when
-    // the link is gone: the rig's own watchdog then does it).
-    if (!rig->Deactivate().ok()) rig->OnError();
-  }
   if (!activated.ok()) {
     logger.Discard();
     return activated;
   }
 
   const LoopResult& lr = result->loop;
+  const double period = rig_config.period;
+  const nlohmann::ordered_json transport = TransportCounters(rig);
   result->completed = lr.cause == TripCause::kNone;
-  nlohmann::ordered_json transport = nlohmann::ordered_json::object();
-  if (rig != nullptr) {
-    transport = nlohmann::ordered_json::parse(rig->CountersJson(), nullptr,
-                                              /*allow_exceptions=*/false);
-    if (transport.is_discarded()) transport = nlohmann::ordered_json::object();
-  }
   result->trip_message =
       TripMessage(lr, period,
                   transport.contains("fault") && transport["fault"].is_string()
@@ -266,52 +324,15 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
 
   RunMetadata& m = log.metadata;
   m.rate = 1.0 / period;
-  m.phi = options.phi;
-  m.z_a = options.z_a;
-  m.fmax = options.fmax;
-  m.duration = options.tf;
-  m.hold = options.hold;
+  m.excitation = options.excitation;
   m.geometry = GeometryFingerprint(config.model);
-  m.return_duration = options.return_duration;
   m.sigma_position = config.experiment.sigma_position;
   m.sigma_angle = config.experiment.sigma_angle;
   m.transport = rig != nullptr ? rig->Describe() : "none";
-  const RunProfileTimes& p = rig_config.profile;
-  nlohmann::ordered_json hil;
-  hil["profile_s"] = {
-      {"tare", p.tare},           {"lead_in", p.lead_in},
-      {"settle", p.settle},       {"ramp", options.tf},
-      {"hold", options.hold},     {"return", options.return_duration},
-      {"ramp_down", p.ramp_down}, {"ramp_start", profile.ramp_start()}};
-  hil["completed"] = result->completed;
-  hil["safety"] = {
-      {"tripped", !result->completed},
-      {"cause", TripCauseName(lr.cause)},
-      {"message", result->trip_message},
-      {"trip_time_s",
-       lr.trip_cycle >= 0 ? static_cast<double>(lr.trip_cycle) * period : -1.0},
-      {"limited_commands", lr.limited_commands}};
-  hil["cycles"] = lr.cycles;
-  hil["fresh_samples"] = lr.fresh;
-  hil["stale_samples"] = lr.stale;
-  hil["read_errors"] = lr.read_errors;
-  hil["write_errors"] = lr.write_errors;
-  hil["lost_rig_samples"] = lr.lost_rig_samples;
-  hil["overruns"] = lr.overruns;
-  hil["skipped_cycles"] = lr.skipped_cycles;
-  hil["skipped_by_late_wakeup"] = lr.skipped_by_late_wakeup;
-  hil["rows_without_fresh_sample"] = static_cast<std::int64_t>(
-      std::count_if(log.samples.begin(), log.samples.end(),
-                    [](const LogSample& s) { return !s.fresh; }));
-  hil["dropped_log_records"] = lr.dropped_records;
-  hil["rest_pose"] =
-      std::vector<double>(lr.rest_pose.data(), lr.rest_pose.data() + 6);
-  hil["realtime_warnings"] = result->realtime.warnings;
-  hil["transport"] = transport;
-  m.hil_json = hil.dump();
+  m.hil_json = HilJson(rig_config, options, profile, *result, log, transport);
   KCRIG_RETURN_IF_ERROR(logger.Finish(options.log_dir));
   return WriteFilesAtomically(
-      {{(fs::path(options.log_dir) / "timing.json").string(),
+      {{(std::filesystem::path(options.log_dir) / "timing.json").string(),
         result->timing_json}});
 }
 

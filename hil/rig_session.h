@@ -22,10 +22,8 @@
 namespace kcrig {
 
 struct RigSessionOptions {
-  // Excitation: direction [rad], acting height [m], Fmax [N], tf [s].
-  double phi = 0, z_a = 0, fmax = 0, tf = 0;
-  // Hold at +Fmax and return ramp to -Fmax after the ramp [s] (0: none).
-  double hold = 0, return_duration = 0;
+  // The experiment; the run profile's phases come from rig.yaml.
+  RampExcitation<double> excitation;
   // Output directory for run.csv, run.json, timing.json ("" = none).
   std::string log_dir;
   // Stop after this long [s] (0 = the whole run profile).

@@ -1,9 +1,7 @@
 #include "hil/run_logger.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
-#include <cstring>
 #include <utility>
 
 namespace kcrig {
@@ -27,18 +25,13 @@ LogSample ToSample(const CycleRecord& r, double period) {
 
 }  // namespace
 
-RunLogger::RunLogger(Options options)
-    : options_(std::move(options)),
-      partial_path_(options_.csv_path + ".partial") {
+RunLogger::RunLogger(Options options) : options_(std::move(options)) {
   log_.has_measured_force = true;
   log_.has_commanded_force = true;
   log_.has_loop_columns = true;
 }
 
-RunLogger::~RunLogger() {
-  Stop();
-  if (partial_ != nullptr) std::fclose(partial_);
-}
+RunLogger::~RunLogger() { Stop(); }
 
 Status RunLogger::Open() {
   if (options_.csv_path.empty()) return Status::Ok();
@@ -46,43 +39,35 @@ Status RunLogger::Open() {
       static_cast<size_t>(std::min(options_.expected_duration, 600.0) /
                           options_.period) +
       16);
-  partial_ = std::fopen(partial_path_.c_str(), "wb");
-  if (partial_ == nullptr) {
-    return Status::Error(partial_path_ + ": cannot write (" +
-                         std::strerror(errno) + ")");
-  }
-  const std::string header = RunLogCsvHeader(log_);
-  std::fwrite(header.data(), 1, header.size(), partial_);
+  KCRIG_RETURN_IF_ERROR(partial_.Open(options_.csv_path));
+  partial_.Write(RunLogCsvHeader(log_));
   return Status::Ok();
 }
 
 void RunLogger::Start(SpscRing<CycleRecord>* ring) {
-  thread_ = std::thread([this, ring] {
-    auto last_progress = std::chrono::steady_clock::now();
-    auto last_warning = last_progress;
-    for (;;) {
-      const bool done = loop_done_.load(std::memory_order_acquire);
-      Drain(ring);
-      Stream();
-      if (done) break;
-      const auto now = std::chrono::steady_clock::now();
-      if (options_.on_warning && skipped_since_warning_ > 0 &&
-          now - last_warning >= std::chrono::seconds(1)) {
-        options_.on_warning(
-            "overrun: " + std::to_string(skipped_since_warning_) +
-            " cycle(s) skipped since the last warning (see timing.json)");
-        skipped_since_warning_ = 0;
-        last_warning = now;
-      }
-      if (options_.on_progress &&
-          now - last_progress > std::chrono::milliseconds(250)) {
-        last_progress = now;
-        options_.on_progress(static_cast<double>(next_cycle_) *
-                             options_.period);
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
+  last_progress_ = last_warning_ = std::chrono::steady_clock::now();
+  worker_.Start(std::chrono::milliseconds(5), [this, ring] {
+    Drain(ring);
+    Stream();
+    Report();
   });
+}
+
+void RunLogger::Report() {
+  const auto now = std::chrono::steady_clock::now();
+  if (options_.on_warning && skipped_since_warning_ > 0 &&
+      now - last_warning_ >= std::chrono::seconds(1)) {
+    options_.on_warning(
+        "overrun: " + std::to_string(skipped_since_warning_) +
+        " cycle(s) skipped since the last warning (see timing.json)");
+    skipped_since_warning_ = 0;
+    last_warning_ = now;
+  }
+  if (options_.on_progress &&
+      now - last_progress_ > std::chrono::milliseconds(250)) {
+    last_progress_ = now;
+    options_.on_progress(static_cast<double>(next_cycle_) * options_.period);
+  }
 }
 
 void RunLogger::Drain(SpscRing<CycleRecord>* ring) {
@@ -106,28 +91,18 @@ void RunLogger::Drain(SpscRing<CycleRecord>* ring) {
 }
 
 void RunLogger::Stream() {
-  if (partial_ == nullptr || streamed_ >= log_.samples.size()) return;
+  if (!partial_.is_open() || streamed_ >= log_.samples.size()) return;
   for (; streamed_ < log_.samples.size(); ++streamed_) {
     AppendRunLogCsvRow(log_, log_.samples[streamed_], &rows_);
   }
-  stream_failed_ |=
-      std::fwrite(rows_.data(), 1, rows_.size(), partial_) != rows_.size() ||
-      std::fflush(partial_) != 0;
+  partial_.Write(rows_);
+  partial_.Flush();
   rows_.clear();
 }
 
-void RunLogger::Stop() {
-  if (!thread_.joinable()) return;
-  loop_done_.store(true, std::memory_order_release);
-  thread_.join();
-}
+void RunLogger::Stop() { worker_.Stop(); }
 
-void RunLogger::Discard() {
-  if (partial_ == nullptr) return;
-  std::fclose(partial_);
-  partial_ = nullptr;
-  std::remove(partial_path_.c_str());
-}
+void RunLogger::Discard() { partial_.Discard(); }
 
 Status RunLogger::Finish(const std::string& log_dir) {
   if (log_.samples.size() < 2) {
@@ -135,15 +110,8 @@ Status RunLogger::Finish(const std::string& log_dir) {
     return Status::Error(log_dir +
                          ": the run ended before two cycles were logged");
   }
-  const bool closed = std::fclose(partial_) == 0;
-  partial_ = nullptr;
-  if (!closed || stream_failed_) {
-    return Status::Error(partial_path_ +
-                         ": writing the log failed (disk "
-                         "full?); the rows written so far are "
-                         "in this file");
-  }
-  return FinishStreamedRunLog(partial_path_, options_.csv_path, log_);
+  KCRIG_RETURN_IF_ERROR(partial_.Close());
+  return FinishStreamedRunLog(partial_.partial_path(), options_.csv_path, log_);
 }
 
 }  // namespace kcrig

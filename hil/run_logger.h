@@ -1,21 +1,21 @@
 // The logger of a rig session. On its own thread it takes the loop's cycle
 // records from the ring, gives every cycle an overrun skipped a row without
 // a fresh sample (so that the log's time column stays uniform), streams the
-// rows to run.csv.partial as they come (a crash of the process keeps every
-// row up to it), and reports progress and overrun warnings. Finish writes
+// rows to run.csv.partial as they come (records/partial_file.h), and
+// reports progress and overrun warnings. Finish writes
 // the sidecar and renames the partial file to run.csv.
 #ifndef KCRIG_HIL_RUN_LOGGER_H_
 #define KCRIG_HIL_RUN_LOGGER_H_
 
-#include <atomic>
+#include <chrono>
 #include <cstdint>
-#include <cstdio>
 #include <functional>
 #include <string>
-#include <thread>
 
+#include "base/periodic_worker.h"
 #include "base/spsc_ring.h"
 #include "base/status.h"
+#include "records/partial_file.h"
 #include "records/run_log.h"
 #include "rt_core/runtime/control_loop.h"
 
@@ -62,19 +62,18 @@ class RunLogger {
  private:
   void Drain(SpscRing<CycleRecord>* ring);
   void Stream();
+  void Report();
 
   Options options_;
-  std::string partial_path_;
-  std::FILE* partial_ = nullptr;
+  PartialFile partial_;
   RunLog log_;
-  std::thread thread_;
-  std::atomic<bool> loop_done_{false};
+  PeriodicWorker worker_;
+  std::chrono::steady_clock::time_point last_progress_, last_warning_;
   std::int64_t next_cycle_ = 0;
   std::int64_t filled_rows_ = 0;
   std::int64_t skipped_since_warning_ = 0;
   size_t streamed_ = 0;  // rows already on disk
   std::string rows_;
-  bool stream_failed_ = false;
 };
 
 }  // namespace kcrig

@@ -18,7 +18,7 @@
 
 #include "io_drivers/can_frame.h"
 #include "io_drivers/dbc.h"
-#include "rt_core/runtime/rig_interface.h"
+#include "rt_core/model/rig_signals.h"
 
 namespace kcrig {
 

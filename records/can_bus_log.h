@@ -1,21 +1,21 @@
 // The raw bus log of a CAN run: every frame kcrig sent or took in, in the
 // order it did so, as `candump -l` lines (records/candump_log.h). The
 // producer (the control loop's thread) only pushes into a lock-free ring;
-// a writer thread formats and writes. The file is FILE.partial until
-// Close() renames it, so a crash never leaves a can.log that looks whole.
+// a writer thread (PeriodicWorker) formats and writes to a PartialFile,
+// renamed into place by Close().
 #ifndef KCRIG_RECORDS_CAN_BUS_LOG_H_
 #define KCRIG_RECORDS_CAN_BUS_LOG_H_
 
 #include <atomic>
 #include <cstdint>
-#include <cstdio>
 #include <string>
-#include <thread>
 #include <utility>
 
+#include "base/periodic_worker.h"
 #include "base/spsc_ring.h"
 #include "base/status.h"
 #include "io_drivers/can_frame.h"
+#include "records/partial_file.h"
 
 namespace kcrig {
 
@@ -31,7 +31,7 @@ class CanBusLog : public CanFrameSink {
 
   // Starts writing `path`.partial, naming frames' interface `interface`.
   Status Open(const std::string& path, const std::string& interface);
-  bool is_open() const { return file_ != nullptr; }
+  bool is_open() const { return file_.is_open(); }
   Status Start(const std::string& interface) override {
     return Open(path_, interface);
   }
@@ -39,7 +39,7 @@ class CanBusLog : public CanFrameSink {
   // From one producer thread; no allocation, no I/O. A full ring drops the
   // frame (counted).
   void Push(const TimedCanFrame& frame) override {
-    if (file_ != nullptr) ring_.Push(frame);
+    if (file_.is_open()) ring_.Push(frame);
   }
 
   // Writes what is left, renames `path`.partial to `path`.
@@ -53,16 +53,12 @@ class CanBusLog : public CanFrameSink {
  private:
   static constexpr std::size_t kCapacity = 1 << 16;
   void Drain();
-  // Stops the writer and closes the file; false when writing failed.
-  bool Stop();
 
   SpscRing<TimedCanFrame> ring_;
   std::string path_, interface_;
-  std::FILE* file_ = nullptr;
-  std::thread writer_;
-  std::atomic<bool> stop_{false};
+  PartialFile file_;
+  PeriodicWorker writer_;
   std::atomic<std::int64_t> written_{0};
-  bool write_failed_ = false;
 };
 
 }  // namespace kcrig

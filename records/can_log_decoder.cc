@@ -118,7 +118,7 @@ Status DecodeCanLog(const std::string& path,
         row.rig_sample = latest.sample;
         row.rig_status = latest.status;
         log->samples.push_back(row);
-        m.z_a = setup.z_a;
+        m.excitation.z_a = setup.z_a;
         m.rate = 1.0 / setup.period;
         fresh = false;
         break;

@@ -95,13 +95,14 @@ std::string FormatSidecar(const RunLog& log) {
   }
   doc["rate_hz"] = m.rate;
   doc["samples"] = log.samples.size();
+  const RampExcitation<double>& e = m.excitation;
   doc["excitation"] = {{"type", "linear_ramp"},
-                       {"phi_rad", m.phi},
-                       {"z_a_m", m.z_a},
-                       {"fmax_n", m.fmax},
-                       {"tf_s", m.duration},
-                       {"hold_s", m.hold},
-                       {"return_s", m.return_duration}};
+                       {"phi_rad", e.phi},
+                       {"z_a_m", e.z_a},
+                       {"fmax_n", e.fmax},
+                       {"tf_s", e.duration},
+                       {"hold_s", e.hold},
+                       {"return_s", e.return_duration}};
   doc["measurement_sigma"] = {{"position_m", m.sigma_position},
                               {"angle_rad", m.sigma_angle}};
   doc["noise"] = {{"added", m.noise_added}, {"seed", m.seed}};
@@ -177,12 +178,13 @@ Status ReadSidecar(const std::string& path, size_t rows, double first_t,
   }
   const nlohmann::json& ex = doc["excitation"];
   const nlohmann::json& sigma = doc["measurement_sigma"];
+  RampExcitation<double>* e = &m->excitation;
   for (const Status& status :
        {number(doc, "", "rate_hz", &m->rate),
-        number(ex, "excitation.", "phi_rad", &m->phi),
-        number(ex, "excitation.", "z_a_m", &m->z_a),
-        number(ex, "excitation.", "fmax_n", &m->fmax),
-        number(ex, "excitation.", "tf_s", &m->duration),
+        number(ex, "excitation.", "phi_rad", &e->phi),
+        number(ex, "excitation.", "z_a_m", &e->z_a),
+        number(ex, "excitation.", "fmax_n", &e->fmax),
+        number(ex, "excitation.", "tf_s", &e->duration),
         number(sigma, "measurement_sigma.", "position_m", &m->sigma_position),
         number(sigma, "measurement_sigma.", "angle_rad", &m->sigma_angle)}) {
     if (!status.ok()) return status;
@@ -190,7 +192,7 @@ Status ReadSidecar(const std::string& path, size_t rows, double first_t,
   if (!(m->rate > 0) || !(m->sigma_position > 0) || !(m->sigma_angle > 0)) {
     return Status::Error(path + ": rate_hz and measurement sigmas must be > 0");
   }
-  if (!(m->duration > 0)) {
+  if (!(e->duration > 0)) {
     return Status::Error(path + ": excitation.tf_s must be > 0");
   }
   if (doc.contains("samples") && doc["samples"].is_number_unsigned() &&
@@ -208,7 +210,7 @@ Status ReadSidecar(const std::string& path, size_t rows, double first_t,
   }
   // Optional: logs written before these existed have neither.
   for (const auto& [key, target] :
-       {std::pair{"hold_s", &m->hold}, {"return_s", &m->return_duration}}) {
+       {std::pair{"hold_s", &e->hold}, {"return_s", &e->return_duration}}) {
     if (!ex.contains(key)) continue;
     const Status status = number(ex, "excitation.", key, target);
     if (!status.ok()) return status;

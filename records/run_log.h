@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "base/status.h"
+#include "rt_core/model/excitation.h"
 #include "rt_core/model/rotation.h"
 
 namespace kcrig {
@@ -37,10 +38,8 @@ struct LogSample {
 
 struct RunMetadata {
   double rate = 0;  // [Hz]
-  // Excitation: direction [rad], acting height [m], amplitude [N], tf [s].
-  double phi = 0, z_a = 0, fmax = 0, duration = 0;
-  // After the ramp: hold at +Fmax, return ramp to -Fmax [s] (0: none).
-  double hold = 0, return_duration = 0;
+  // The experiment that was run (or simulated).
+  RampExcitation<double> excitation;
   double sigma_position = 0;  // [m]
   double sigma_angle = 0;     // [rad]
   std::string transport;      // "simulation", "modbus-tcp://...", "can:vcan0"

@@ -1,23 +1,20 @@
 #include "report/report.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
-#include <limits>
-#include <memory>
-#include <mutex>
 #include <sstream>
 
-#include "base/parallel_for.h"
+#include "designer/campaign.h"
 #include "designer/criteria.h"
-#include "designer/design_objective.h"
-#include "designer/information.h"
+#include "designer/criterion_surface.h"
+#include "designer/json_reader.h"
 #include "designer/kriging.h"
 #include "diagnosis/effect_model.h"
+#include "estimator/estimate_io.h"
 #include "estimator/estimator.h"
 #include "estimator/experiment.h"
 #include "nlohmann/json.hpp"
@@ -32,66 +29,6 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
-Status ReadJsonFile(const fs::path& path, Json* doc) {
-  std::ifstream in(path);
-  if (!in) return Status::Error(path.string() + ": cannot open");
-  try {
-    *doc = Json::parse(in);
-  } catch (const Json::exception& e) {
-    return Status::Error(path.string() + ": not valid JSON (" + e.what() + ")");
-  }
-  return Status::Ok();
-}
-
-// A JSON field read with its file and path in the error, never a throw
-// across the module boundary.
-template <typename T>
-Status Field(const Json& node, const std::string& key, const std::string& where,
-             T* value) {
-  if (!node.is_object() || !node.contains(key)) {
-    return Status::Error(where + ": missing field '" + key + "'");
-  }
-  try {
-    *value = node.at(key).get<T>();
-  } catch (const Json::exception&) {
-    return Status::Error(where + "." + key + ": unexpected type (" +
-                         node.at(key).type_name() + ")");
-  }
-  if constexpr (std::is_floating_point_v<T>) {
-    if (!std::isfinite(*value)) {
-      return Status::Error(where + "." + key + ": not a finite number");
-    }
-  }
-  return Status::Ok();
-}
-
-// Runs `read`, which reads `file`: JSON of a shape the field checks did not
-// anticipate (an array where an object belongs, a string for a number)
-// becomes an error naming the file instead of an exception.
-template <typename Read>
-Status Guarded(const fs::path& file, Read&& read) {
-  try {
-    return read();
-  } catch (const Json::exception& e) {
-    return Status::Error(file.string() + ": unexpected content (" + e.what() +
-                         ")");
-  }
-}
-
-// The rows of `rows` that start with `width` numbers (the others dropped):
-// what the page plots from a file's point lists.
-Json NumberRows(const Json& rows, size_t width) {
-  Json out = Json::array();
-  if (!rows.is_array()) return out;
-  for (const Json& row : rows) {
-    if (!row.is_array() || row.size() < width) continue;
-    bool numbers = true;
-    for (size_t i = 0; i < width; ++i) numbers = numbers && row[i].is_number();
-    if (numbers) out.push_back(row);
-  }
-  return out;
-}
-
 // Every `stride`-th index so that at most `max_points` remain (the last
 // sample always).
 std::vector<size_t> Decimation(size_t count, int max_points) {
@@ -103,17 +40,17 @@ std::vector<size_t> Decimation(size_t count, int max_points) {
   return index;
 }
 
-// The config's model with `names` set to `values` (an estimate).
+// The config's model with the parameters of `estimate` set.
 Status ModelWith(const SuspensionParameters<double>& nominal,
-                 const std::vector<std::pair<std::string, double>>& values,
+                 const std::vector<ParameterEstimate>& estimate,
                  SuspensionParameters<double>* model) {
   *model = nominal;
-  for (const auto& [name, value] : values) {
-    double* parameter = FindParameter(model, name);
+  for (const ParameterEstimate& p : estimate) {
+    double* parameter = FindParameter(model, p.name);
     if (parameter == nullptr) {
-      return Status::Error("unknown parameter '" + name + "'");
+      return Status::Error("unknown parameter '" + p.name + "'");
     }
-    *parameter = value;
+    *parameter = p.value;
   }
   return Status::Ok();
 }
@@ -164,7 +101,7 @@ Json TimeHistories(const Experiment& e, const std::vector<Vec6<double>>& model,
 
 // What the nominal model (bushings from `estimate`) predicts for `e`.
 Status Predict(const KcrigConfig& config,
-               const std::vector<std::pair<std::string, double>>& estimate,
+               const std::vector<ParameterEstimate>& estimate,
                const Experiment& e, std::vector<Vec6<double>>* sensed) {
   SuspensionParameters<double> model;
   Status status = ModelWith(config.model, estimate, &model);
@@ -183,131 +120,47 @@ Status Predict(const KcrigConfig& config,
                              sensed);
 }
 
-// An iteration's design.json: the criterion it optimised and its runs
-// (empty when the iteration designed nothing, the last one).
-struct DesignFile {
-  std::string name;  // the iteration folder, e.g. "iteration_0"
-  Criterion criterion = Criterion::kD;
-  std::string criterion_name;
-  Json runs = Json::array();
-};
-
-struct CampaignData {
-  Json doc;
-  std::vector<fs::path> iteration_dirs;
-  std::vector<std::vector<std::pair<std::string, double>>> estimates;
-  std::vector<Design> designs;           // of the experiments run
-  std::vector<DesignFile> design_files;  // of the iterations that designed
-};
-
-// Reads `file` when it exists (appending it to `designs`).
-Status ReadDesignFile(const fs::path& file, std::vector<DesignFile>* designs) {
-  if (!fs::exists(file)) return Status::Ok();
-  Json doc;
-  Status status = ReadJsonFile(file, &doc);
-  if (!status.ok()) return status;
-  DesignFile design;
-  design.name = file.parent_path().filename().string();
-  status = Field(doc, "criterion", file.string(), &design.criterion_name);
-  if (!status.ok()) return status;
-  status = ParseCriterion(design.criterion_name, &design.criterion);
-  if (!status.ok())
-    return Status::Error(file.string() + ": " + status.message());
-  if (doc.contains("runs") && doc["runs"].is_array()) {
-    for (const Json& run : doc["runs"]) {
-      if (run.is_object()) design.runs.push_back(run);
-    }
-  }
-  designs->push_back(std::move(design));
-  return Status::Ok();
-}
-
-Status ReadCampaign(const fs::path& dir, CampaignData* data) {
-  const fs::path file = dir / "campaign.json";
-  Status status = ReadJsonFile(file, &data->doc);
-  if (!status.ok()) return status;
-  Json iterations;
-  status = Field(data->doc, "iterations", file.string(), &iterations);
-  if (!status.ok()) return status;
-  if (!iterations.is_array() || iterations.empty()) {
-    return Status::Error(file.string() + ": iterations: no iteration");
-  }
-  for (size_t k = 0; k < iterations.size(); ++k) {
-    const std::string where =
-        file.string() + ": iterations[" + std::to_string(k) + "]";
-    const Json& it = iterations[k];
-    int index = 0;
-    Json experiment, parameters;
-    double phi_deg = 0, z_a = 0;
-    for (Status s : {Field(it, "iteration", where, &index),
-                     Field(it, "experiment", where, &experiment),
-                     Field(it, "parameters", where, &parameters)}) {
-      if (!s.ok()) return s;
-    }
-    for (Status s :
-         {Field(experiment, "phi_deg", where + ".experiment", &phi_deg),
-          Field(experiment, "z_a", where + ".experiment", &z_a)}) {
-      if (!s.ok()) return s;
-    }
-    std::vector<std::pair<std::string, double>> estimate;
-    for (size_t i = 0; i < parameters.size(); ++i) {
-      const std::string at = where + ".parameters[" + std::to_string(i) + "]";
-      std::string name;
-      double value = 0;
-      for (Status s : {Field(parameters[i], "name", at, &name),
-                       Field(parameters[i], "value", at, &value)}) {
-        if (!s.ok()) return s;
-      }
-      estimate.emplace_back(name, value);
-    }
-    data->iteration_dirs.push_back(dir /
-                                   ("iteration_" + std::to_string(index)));
-    status = ReadDesignFile(data->iteration_dirs.back() / "design.json",
-                            &data->design_files);
-    if (!status.ok()) return status;
-    data->estimates.push_back(estimate);
-    data->designs.push_back({phi_deg * kDegree, z_a});
-  }
-  return Status::Ok();
+// A number the page draws, or a gap.
+Json Number(double value) {
+  return std::isfinite(value) ? Json(value) : Json(nullptr);
 }
 
 // A parameter's unit as engineers read it and the factor from SI to it.
-std::pair<std::string, double> DisplayUnit(const std::string& si) {
+std::pair<std::string, double> PageUnit(const std::string& si) {
   if (si == "N/m") return {"N/mm", 1e-3};
   if (si == "N s/m") return {"N s/mm", 1e-3};
   if (si == "m") return {"mm", 1e3};
   return {si, 1.0};
 }
 
+// The folder name of a campaign iteration, e.g. "iteration_1".
+std::string IterationName(const fs::path& root, int index) {
+  return fs::path(CampaignIterationDir(root.string(), index))
+      .filename()
+      .string();
+}
+
 // Per-iteration sensitivities and estimates, in the page's units.
-Json EstimatesJson(const CampaignData& data) {
-  const Json& iterations = data.doc["iterations"];
+Json EstimatesJson(const std::vector<CampaignIteration>& iterations) {
   Json names = Json::array(), units = Json::array(), labels = Json::array(),
        log10 = Json::array(), value = Json::array(), low = Json::array(),
        high = Json::array();
-  for (const Json& p : iterations[0]["parameters"]) {
-    names.push_back(p["name"]);
-    units.push_back(DisplayUnit(p.value("unit", "")).first);
+  for (const ParameterEstimate& p : iterations[0].estimate.parameters) {
+    names.push_back(p.name);
+    units.push_back(PageUnit(p.unit).first);
   }
-  for (const Json& it : iterations) {
-    labels.push_back(
-        "iteration " + std::to_string(it["iteration"].get<int>()) + " (" +
-        std::to_string(it.value("logs", Json::array()).size()) + " log" +
-        (it.value("logs", Json::array()).size() == 1 ? "" : "s") + ")");
+  for (const CampaignIteration& it : iterations) {
+    labels.push_back("iteration " + std::to_string(it.index) + " (" +
+                     std::to_string(it.logs.size()) + " log" +
+                     (it.logs.size() == 1 ? "" : "s") + ")");
     Json l = Json::array(), v = Json::array(), lo = Json::array(),
          hi = Json::array();
-    for (const Json& p : it["parameters"]) {
-      l.push_back(p.value("log10_diag_inv_jtj", Json(nullptr)));
-      const double scale = DisplayUnit(p.value("unit", "")).second;
-      v.push_back(p["value"].get<double>() * scale);
-      if (p.contains("ci95") && p["ci95"].is_array() && p["ci95"].size() == 2 &&
-          p["ci95"][0].is_number() && p["ci95"][1].is_number()) {
-        lo.push_back(p["ci95"][0].get<double>() * scale);
-        hi.push_back(p["ci95"][1].get<double>() * scale);
-      } else {
-        lo.push_back(nullptr);
-        hi.push_back(nullptr);
-      }
+    for (const ParameterEstimate& p : it.estimate.parameters) {
+      const double scale = PageUnit(p.unit).second;
+      l.push_back(Number(p.log10_inverse_information));
+      v.push_back(p.value * scale);
+      lo.push_back(Number(p.ci95_low * scale));
+      hi.push_back(Number(p.ci95_high * scale));
     }
     log10.push_back(l);
     value.push_back(v);
@@ -323,186 +176,236 @@ Json EstimatesJson(const CampaignData& data) {
           {"units", units}};
 }
 
-// The D and A surfaces over the design box at the first estimate, with the
-// information of the first experiment as the prior (what the first design
-// was chosen on), and the first design's evaluated points and paths.
-Status SurfacesJson(const KcrigConfig& config, const CampaignData& data,
-                    const ReportOptions& options, Json* out) {
-  std::vector<std::string> names;
-  std::vector<double> values;
-  for (const auto& [name, value] : data.estimates[0]) {
-    names.push_back(name);
-    values.push_back(value);
+// A design run as the page draws it: the evaluated designs and the path.
+Json RunJson(const DesignRun& run) {
+  Json evaluated = Json::array(), path = Json::array();
+  for (const DesignEvaluation& e : run.record) {
+    evaluated.push_back({e.design.phi / kDegree, e.design.z_a, e.value});
   }
-  std::unique_ptr<InformationEvaluator> no_prior, with_prior;
-  const int p = static_cast<int>(names.size());
-  Status status = InformationEvaluator::Create(
-      config.model, names, values, config.experiment,
-      Eigen::MatrixXd::Zero(p, p), &no_prior);
-  if (!status.ok()) return status;
-  Eigen::MatrixXd prior;
-  status = no_prior->Information(data.designs[0], true, &prior);
-  if (!status.ok()) return status;
-  status = InformationEvaluator::Create(config.model, names, values,
-                                        config.experiment, prior, &with_prior);
-  if (!status.ok()) return status;
-  // The first design's runs go on the surface of their criterion, which is
-  // drawn beside D and A when it is another (E, MM).
-  const DesignFile* first =
-      !data.design_files.empty() &&
-              data.design_files[0].name ==
-                  data.iteration_dirs[0].filename().string()
-          ? &data.design_files[0]
-          : nullptr;
-  std::vector<Criterion> criteria = {Criterion::kD, Criterion::kA};
-  if (first != nullptr && std::find(criteria.begin(), criteria.end(),
-                                    first->criterion) == criteria.end()) {
-    criteria.push_back(first->criterion);
+  for (const Design& d : run.result.path) {
+    path.push_back({d.phi / kDegree, d.z_a});
   }
-  const Interval phi = config.experiment.phi_bounds;
-  const Interval z = config.experiment.z_a_bounds;
-  const int np = std::max(2, options.surface_phi_points);
-  const int nz = std::max(2, options.surface_z_points);
-  const int points = np * nz;
-  auto design_at = [&](int i, int j) {
-    return Design{phi.lower + (phi.upper - phi.lower) * i / (np - 1),
-                  z.lower + (z.upper - z.lower) * j / (nz - 1)};
-  };
-  // One information matrix per point serves every criterion. A point whose
-  // simulation fails (diverges) is left empty, not fatal.
-  std::vector<std::vector<double>> surface(
-      criteria.size(),
-      std::vector<double>(points, std::numeric_limits<double>::quiet_NaN()));
-  std::mutex progress_mutex;
-  int done = 0;
-  auto progress = [&](int finished) {
-    if (!options.on_progress) return;
-    options.on_progress("criterion surfaces " + std::to_string(finished) + "/" +
-                            std::to_string(points),
-                        static_cast<double>(finished) / points);
-  };
-  progress(0);
-  ParallelFor(points, options.num_threads, [&](int job) {
-    Eigen::MatrixXd information;
-    if (with_prior
-            ->Information(design_at(job % np, job / np), false, &information)
-            .ok()) {
-      for (size_t c = 0; c < criteria.size(); ++c) {
-        surface[c][job] = EvaluateCriterion(criteria[c], information).value;
-      }
-    }
-    std::lock_guard<std::mutex> lock(progress_mutex);
-    if (++done % 10 == 0 || done == points) progress(done);
-  });
+  return {{"optimizer", run.result.optimizer},
+          {"evaluated", evaluated},
+          {"path", path}};
+}
+
+// The page's panels of one design step's surface: one per criterion, the
+// step's run on the surface of the criterion it optimised, and each
+// criterion's value at the step's optimum.
+void AddSurfaceJson(const CriterionSurface& surface, Criterion optimised,
+                    const std::string& iteration, const DesignRun& run,
+                    Json* out) {
   Json phi_axis = Json::array(), z_axis = Json::array();
-  for (int i = 0; i < np; ++i)
-    phi_axis.push_back(design_at(i, 0).phi / kDegree);
-  for (int j = 0; j < nz; ++j) z_axis.push_back(design_at(0, j).z_a);
-  *out = Json::array();
-  for (size_t c = 0; c < criteria.size(); ++c) {
+  for (double phi : surface.phi) phi_axis.push_back(phi / kDegree);
+  for (double z_a : surface.z_a) z_axis.push_back(z_a);
+  const size_t np = surface.phi.size();
+  const Design& optimum = run.result.best;
+  for (size_t c = 0; c < surface.criteria.size(); ++c) {
     Json rows = Json::array();
-    for (int j = 0; j < nz; ++j) {
+    for (size_t j = 0; j < surface.z_a.size(); ++j) {
       Json row = Json::array();
-      for (int i = 0; i < np; ++i) {
-        const double v = surface[c][j * np + i];
-        row.push_back(std::isfinite(v) ? Json(v) : Json(nullptr));
+      for (size_t i = 0; i < np; ++i) {
+        row.push_back(Number(surface.grid[c][j * np + i]));
       }
       rows.push_back(row);
     }
-    Json runs = Json::array();
-    if (first != nullptr && first->criterion == criteria[c]) {
-      for (const Json& run : first->runs) {
-        runs.push_back(
-            {{"optimizer", run.value("optimizer", "")},
-             {"evaluated", NumberRows(run.value("evaluated", Json()), 3)},
-             {"path", NumberRows(run.value("path", Json()), 2)}});
-      }
-    }
-    out->push_back({{"criterion", CriterionName(criteria[c])},
-                    {"phi_deg", phi_axis},
-                    {"z_a", z_axis},
-                    {"values", rows},
-                    {"runs", runs}});
+    out->push_back(
+        {{"criterion", CriterionName(surface.criteria[c])},
+         {"iteration", iteration},
+         {"phi_deg", phi_axis},
+         {"z_a", z_axis},
+         {"values", rows},
+         {"runs", surface.criteria[c] == optimised ? Json::array({RunJson(run)})
+                                                   : Json::array()},
+         {"optimum",
+          {{"phi_deg", optimum.phi / kDegree},
+           {"z_a", optimum.z_a},
+           {"value", Number(surface.at_points[c][0])}}}});
+  }
+}
+
+// Reports a stage to the caller's callback; Interrupted() when it asks to
+// stop.
+Status Progress(const ReportOptions& options, const std::string& stage,
+                double fraction) {
+  if (options.callback &&
+      options.callback({stage, fraction}) == CallbackReturn::kAbort) {
+    return Interrupted("report");
   }
   return Status::Ok();
 }
 
-// The kriging surrogate refitted to the samples the designer had after its
-// first, middle and last batch (the refinement of Fig. 2; batch 0 is the
-// start design alone), on the scale the designer fitted (ln for A, E, MM),
-// from the first kriging design run of the campaign.
-Json KrigingJson(const KcrigConfig& config, const CampaignData& data) {
-  for (const DesignFile& design : data.design_files) {
-    for (const Json& run : design.runs) {
-      if (run.value("optimizer", "") != "kriging") continue;
-      const Interval phi = config.experiment.phi_bounds;
-      const Interval z = config.experiment.z_a_bounds;
-      std::vector<Eigen::Vector2d> x;
-      std::vector<double> y;
-      std::vector<int> batch;
-      Json shown = Json::array();
-      for (const Json& row : NumberRows(run.value("evaluated", Json()), 4)) {
-        const double phi_deg = row[0], z_a = row[1], value = row[2];
-        if (!std::isfinite(value)) continue;
-        x.emplace_back(
-            (phi_deg * kDegree - phi.lower) / (phi.upper - phi.lower),
-            (z_a - z.lower) / (z.upper - z.lower));
-        y.push_back(OptimizationScale(design.criterion, value));
-        batch.push_back(row[3].get<int>());
-        shown.push_back({phi_deg, z_a});
-      }
-      if (x.empty()) continue;
-      const int last = *std::max_element(batch.begin(), batch.end());
-      std::vector<int> stages = {std::min(1, last), (last + 1) / 2, last};
-      stages.erase(std::unique(stages.begin(), stages.end()), stages.end());
-      Json panels = Json::array();
-      const int np = 37, nz = 21;
-      for (int stage : stages) {
-        std::vector<Eigen::Vector2d> xs;
-        std::vector<double> ys;
-        Json points = Json::array();
-        for (size_t k = 0; k < x.size(); ++k) {
-          if (batch[k] > stage) continue;
-          xs.push_back(x[k]);
-          ys.push_back(y[k]);
-          points.push_back(shown[k]);
-        }
-        KrigingModel model;
-        if (!model.Fit(xs, ys, KrigingOptions()).ok()) continue;
-        Json rows = Json::array(), phi_axis = Json::array(),
-             z_axis = Json::array();
-        for (int i = 0; i < np; ++i) {
-          phi_axis.push_back(
-              (phi.lower + (phi.upper - phi.lower) * i / (np - 1)) / kDegree);
-        }
-        for (int j = 0; j < nz; ++j) {
-          z_axis.push_back(z.lower + (z.upper - z.lower) * j / (nz - 1));
-          Json row = Json::array();
-          for (int i = 0; i < np; ++i) {
-            row.push_back(model.Predict(
-                Eigen::Vector2d(static_cast<double>(i) / (np - 1),
-                                static_cast<double>(j) / (nz - 1))));
-          }
-          rows.push_back(row);
-        }
-        panels.push_back(
-            {{"label", "after batch " + std::to_string(stage) + " (" +
-                           std::to_string(xs.size()) + " samples)"},
-             {"phi_deg", phi_axis},
-             {"z_a", z_axis},
-             {"values", rows},
-             {"points", points}});
-      }
-      if (panels.empty()) continue;
-      const std::string scaled = OptimizationScale(design.criterion, 2.0) == 2.0
-                                     ? design.criterion_name
-                                     : "ln " + design.criterion_name;
-      return {{"criterion", scaled},
-              {"iteration", design.name},
-              {"panels", panels}};
+// The D and A surfaces (and the campaign's criterion when another) of each
+// iteration that designed: the objective its optimizer searched, computed
+// by the designer from the estimate and information matrix in the
+// iteration's est.json.
+Status SurfacesJson(const KcrigConfig& config, const fs::path& root,
+                    Criterion criterion,
+                    const std::vector<CampaignIteration>& iterations,
+                    const ReportOptions& options, Json* out) {
+  std::vector<Criterion> criteria = {Criterion::kD, Criterion::kA};
+  if (std::find(criteria.begin(), criteria.end(), criterion) ==
+      criteria.end()) {
+    criteria.push_back(criterion);
+  }
+  const auto designed =
+      std::count_if(iterations.begin(), iterations.end(),
+                    [](const CampaignIteration& it) { return it.designed; });
+  SurfaceOptions surface_options;
+  surface_options.phi_points = options.surface_phi_points;
+  surface_options.z_points = options.surface_z_points;
+  *out = Json::array();
+  int done = 0;
+  for (const CampaignIteration& it : iterations) {
+    if (!it.designed) continue;
+    const std::string name = IterationName(root, it.index);
+    KCRIG_RETURN_IF_ERROR(Progress(options, "criterion surfaces " + name,
+                                   static_cast<double>(done++) / designed));
+    const std::string est =
+        (fs::path(CampaignIterationDir(root.string(), it.index)) / "est.json")
+            .string();
+    EstimateFile estimate;
+    KCRIG_RETURN_IF_ERROR(ReadEstimateFile(est, &estimate));
+    if (estimate.information.size() == 0) {
+      return Status::Error(est +
+                           ": information_matrix: missing (the prior the "
+                           "design searched with)");
     }
+    DesignStepOptions step;
+    step.names = estimate.names;
+    step.values = estimate.values;
+    step.prior_information = estimate.information;
+    step.objective.num_threads = options.num_threads;
+    surface_options.points = {it.design.result.best};
+    CriterionSurface surface;
+    const Status status = ComputeCriterionSurface(config, step, criteria,
+                                                  surface_options, &surface);
+    if (!status.ok()) return Status::Error(est + ": " + status.message());
+    AddSurfaceJson(surface, criterion, name, it.design, out);
+  }
+  return Status::Ok();
+}
+
+// The kriging surrogate refitted by the designer to the samples it had
+// after its first, middle and last batch (the refinement of Fig. 2; batch 0
+// is the start design alone), on the scale it fitted (ln for A, E, MM), from
+// the first kriging design of the campaign.
+Json KrigingJson(const KcrigConfig& config, const fs::path& root,
+                 Criterion criterion,
+                 const std::vector<CampaignIteration>& iterations) {
+  const DesignBounds bounds{config.experiment.phi_bounds,
+                            config.experiment.z_a_bounds};
+  const Interval phi = bounds.phi, z = bounds.z_a;
+  for (const CampaignIteration& it : iterations) {
+    const std::vector<DesignEvaluation>& record = it.design.record;
+    if (!it.designed || it.design.result.optimizer != "kriging" ||
+        record.empty()) {
+      continue;
+    }
+    const int last = std::max_element(record.begin(), record.end(),
+                                      [](const DesignEvaluation& a,
+                                         const DesignEvaluation& b) {
+                                        return a.batch < b.batch;
+                                      })
+                         ->batch;
+    std::vector<int> stages = {std::min(1, last), (last + 1) / 2, last};
+    stages.erase(std::unique(stages.begin(), stages.end()), stages.end());
+    Json panels = Json::array();
+    const int np = 37, nz = 21;
+    for (int stage : stages) {
+      KrigingModel model;
+      int samples = 0;
+      if (!RefitSurrogate(record, criterion, bounds, stage, &model, &samples)
+               .ok()) {
+        continue;
+      }
+      Json points = Json::array();
+      for (const DesignEvaluation& e : record) {
+        if (e.batch <= stage) {
+          points.push_back({e.design.phi / kDegree, e.design.z_a});
+        }
+      }
+      Json rows = Json::array(), phi_axis = Json::array(),
+           z_axis = Json::array();
+      for (int i = 0; i < np; ++i) {
+        phi_axis.push_back(
+            (phi.lower + (phi.upper - phi.lower) * i / (np - 1)) / kDegree);
+      }
+      for (int j = 0; j < nz; ++j) {
+        z_axis.push_back(z.lower + (z.upper - z.lower) * j / (nz - 1));
+        Json row = Json::array();
+        for (int i = 0; i < np; ++i) {
+          row.push_back(model.Predict(
+              Eigen::Vector2d(static_cast<double>(i) / (np - 1),
+                              static_cast<double>(j) / (nz - 1))));
+        }
+        rows.push_back(row);
+      }
+      panels.push_back(
+          {{"label", "after batch " + std::to_string(stage) + " (" +
+                         std::to_string(samples) + " samples)"},
+           {"phi_deg", phi_axis},
+           {"z_a", z_axis},
+           {"values", rows},
+           {"points", points}});
+    }
+    if (panels.empty()) continue;
+    const std::string name = CriterionName(criterion);
+    const std::string scaled =
+        OptimizationScale(criterion, 2.0) == 2.0 ? name : "ln " + name;
+    return {{"criterion", scaled},
+            {"iteration", IterationName(root, it.index)},
+            {"panels", panels}};
   }
   return nullptr;
+}
+
+// The campaign's figures: every experiment against the final estimate, the
+// estimates per iteration, the criterion surfaces and the kriging surrogate.
+Status CampaignJson(const KcrigConfig& config, const fs::path& root,
+                    const ReportOptions& options, Json* data,
+                    ReportSummary* summary) {
+  Criterion criterion = Criterion::kD;
+  std::vector<CampaignIteration> iterations;
+  KCRIG_RETURN_IF_ERROR(ReadCampaign(root.string(), &criterion, &iterations));
+  summary->campaign = true;
+  (*data)["criterion"] = CriterionName(criterion);
+  (*data)["estimates"] = EstimatesJson(iterations);
+  const std::vector<ParameterEstimate>& final_estimate =
+      iterations.back().estimate.parameters;
+  Json experiments = Json::array();
+  for (const CampaignIteration& it : iterations) {
+    const fs::path log =
+        fs::path(CampaignIterationDir(root.string(), it.index)) / "run.csv";
+    KCRIG_RETURN_IF_ERROR(Progress(options,
+                                   "time histories " +
+                                       std::to_string(experiments.size() + 1) +
+                                       "/" + std::to_string(iterations.size()),
+                                   -1));
+    Experiment e;
+    KCRIG_RETURN_IF_ERROR(LoadExperiment(log.string(), config, "", &e));
+    std::vector<Vec6<double>> model;
+    const Status predicted = Predict(config, final_estimate, e, &model);
+    if (!predicted.ok()) {
+      return Status::Error(log.string() + ": " + predicted.message());
+    }
+    Json histories = TimeHistories(e, model, options.max_plot_samples);
+    histories["name"] = fs::relative(log, root).string();
+    histories["phi_deg"] = it.experiment.phi / kDegree;
+    histories["z_a"] = it.experiment.z_a;
+    experiments.push_back(histories);
+  }
+  (*data)["experiments"] = experiments;
+  (*data)["model_label"] = "model at the final estimate (iteration " +
+                           std::to_string(iterations.back().index) + ")";
+  summary->experiments = static_cast<int>(experiments.size());
+  Json surfaces;
+  KCRIG_RETURN_IF_ERROR(
+      SurfacesJson(config, root, criterion, iterations, options, &surfaces));
+  (*data)["surfaces"] = surfaces;
+  (*data)["kriging"] = KrigingJson(config, root, criterion, iterations);
+  return Status::Ok();
 }
 
 // Resolves a log path written in diag.json: beside it (a folder moved as a
@@ -519,8 +422,8 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
   Status status = ReadJsonFile(file, &diag);
   if (!status.ok()) return status;
   std::string verdict, confidence, reason;
-  for (Status s : {Field(diag, "verdict", file.string(), &verdict),
-                   Field(diag, "reason", file.string(), &reason)}) {
+  for (Status s : {ReadField(diag, "verdict", file.string(), &verdict),
+                   ReadField(diag, "reason", file.string(), &reason)}) {
     if (!s.ok()) return s;
   }
   confidence = diag.value("confidence", "");
@@ -609,7 +512,7 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
     std::vector<double> values;
     for (const Json& p : parameters) {
       double v = 0;
-      Status s = Field(p, "value", file.string() + ": " + name, &v);
+      Status s = ReadField(p, "value", file.string() + ": " + name, &v);
       if (!s.ok()) return s;
       values.push_back(v);
     }
@@ -657,8 +560,8 @@ Status TimingJson(const fs::path& root, const fs::path& file, Json* out) {
   if (!status.ok()) return status;
   double period = 0;
   Json phases;
-  for (Status s : {Field(doc, "period_us", file.string(), &period),
-                   Field(doc, "phases", file.string(), &phases)}) {
+  for (Status s : {ReadField(doc, "period_us", file.string(), &period),
+                   ReadField(doc, "phases", file.string(), &phases)}) {
     if (!s.ok()) return s;
   }
   const Json& budget = doc.value("budget", Json::object());
@@ -724,9 +627,6 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
   if (!fs::is_directory(root)) {
     return Status::Error(from_dir + ": not a folder");
   }
-  auto progress = [&](const std::string& text) {
-    if (options.on_progress) options.on_progress(text, -1);
-  };
   const char* plotly_override = std::getenv("KCRIG_PLOTLY_JS");
   const std::string plotly_path =
       plotly_override != nullptr ? plotly_override : options.plotly_js;
@@ -750,46 +650,7 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
 
   Status status;
   if (fs::exists(root / "campaign.json")) {
-    status = Guarded(root / "campaign.json", [&] {
-      CampaignData campaign;
-      Status read = ReadCampaign(root, &campaign);
-      if (!read.ok()) return read;
-      summary->campaign = true;
-      data["criterion"] = campaign.doc.value("criterion", "");
-      data["estimates"] = EstimatesJson(campaign);
-      // Every experiment against the final estimate.
-      const auto& final_estimate = campaign.estimates.back();
-      Json experiments = Json::array();
-      for (size_t k = 0; k < campaign.iteration_dirs.size(); ++k) {
-        const fs::path log = campaign.iteration_dirs[k] / "run.csv";
-        progress("time histories " + std::to_string(k + 1) + "/" +
-                 std::to_string(campaign.iteration_dirs.size()));
-        Experiment e;
-        read = LoadExperiment(log.string(), config, "", &e);
-        if (!read.ok()) return read;
-        std::vector<Vec6<double>> model;
-        read = Predict(config, final_estimate, e, &model);
-        if (!read.ok()) {
-          return Status::Error(log.string() + ": " + read.message());
-        }
-        Json histories = TimeHistories(e, model, options.max_plot_samples);
-        histories["name"] = fs::relative(log, root).string();
-        histories["phi_deg"] = campaign.designs[k].phi / kDegree;
-        histories["z_a"] = campaign.designs[k].z_a;
-        experiments.push_back(histories);
-      }
-      data["experiments"] = experiments;
-      data["model_label"] = "model at the final estimate (iteration " +
-                            std::to_string(campaign.iteration_dirs.size() - 1) +
-                            ")";
-      summary->experiments = static_cast<int>(experiments.size());
-      Json surfaces;
-      read = SurfacesJson(config, campaign, options, &surfaces);
-      if (!read.ok()) return read;
-      data["surfaces"] = surfaces;
-      data["kriging"] = KrigingJson(config, campaign);
-      return Status::Ok();
-    });
+    status = CampaignJson(config, root, options, &data, summary);
     if (!status.ok()) return status;
   }
   // Diagnosis and timing files anywhere in the folder.
@@ -805,10 +666,11 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
   std::sort(timing_files.begin(), timing_files.end());
   Json diagnoses = Json::array();
   for (const fs::path& file : diag_files) {
-    progress("diagnosis " + fs::relative(file, root).string());
+    KCRIG_RETURN_IF_ERROR(Progress(
+        options, "diagnosis " + fs::relative(file, root).string(), -1));
     Json d;
-    status =
-        Guarded(file, [&] { return DiagnosisJson(config, file, options, &d); });
+    status = GuardedRead(
+        file, [&] { return DiagnosisJson(config, file, options, &d); });
     if (!status.ok()) return status;
     diagnoses.push_back(d);
   }
@@ -817,7 +679,7 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
   Json timings = Json::array();
   for (const fs::path& file : timing_files) {
     Json t;
-    status = Guarded(file, [&] { return TimingJson(root, file, &t); });
+    status = GuardedRead(file, [&] { return TimingJson(root, file, &t); });
     if (!status.ok()) return status;
     timings.push_back(t);
   }

@@ -5,9 +5,11 @@
 //   - log10 diag((J^T J)^-1) per parameter before and after the designed
 //     experiments (the paper's Figs. 4 and 6) and the estimates with their
 //     95 % intervals per campaign iteration;
-//   - the D and A criterion surfaces over (phi, z_a) with the optimizer's
-//     evaluated points and path (Fig. 5), and the kriging surrogate as its
-//     samples were refined (Fig. 2);
+//   - per iteration that designed, the D and A criterion surfaces over
+//     (phi, z_a) that its optimizer searched (the designer's, from the
+//     estimate and information matrix in its est.json) with the optimizer's
+//     evaluated points, path and optimum (Fig. 5), and the kriging surrogate
+//     as its samples were refined (Fig. 2);
 //   - diagnosis: residual energy by channel x load regime, the candidate
 //     ranking, and held-out data against the nominal and attributed models;
 //   - timing: wake-up latency and compute-time histograms with the budget,
@@ -16,9 +18,9 @@
 #ifndef KCRIG_REPORT_REPORT_H_
 #define KCRIG_REPORT_REPORT_H_
 
-#include <functional>
 #include <string>
 
+#include "base/iteration_callback.h"
 #include "base/status.h"
 #include "rt_core/model/model_config.h"
 
@@ -27,8 +29,8 @@ namespace kcrig {
 struct ReportOptions {
   // Grid of the criterion surfaces: points along phi and along z_a over the
   // config's design bounds. 19 x 11 is the paper's 5 deg x 0.05 m spacing;
-  // each point costs one trajectory with sensitivities (both criteria come
-  // from the same information matrix).
+  // each point of each designed iteration costs one trajectory with
+  // sensitivities (all criteria come from the same information matrix).
   int surface_phi_points = 19;
   int surface_z_points = 11;
   // At most this many samples per plotted time history (evenly decimated):
@@ -42,8 +44,10 @@ struct ReportOptions {
   int num_threads = 2;
   // The plotly.js bundle inlined into the page (Debian: python3-plotly).
   std::string plotly_js = KCRIG_PLOTLY_JS;
-  // Stage messages for a progress line (may be empty).
-  std::function<void(const std::string& stage, double fraction)> on_progress;
+  // Asked at each stage ("criterion surfaces iteration_1", "time histories
+  // 2/4", "diagnosis diag.json"); kAbort stops the report with
+  // Interrupted() before anything is written. Optional.
+  IterationCallback callback;
 };
 
 // What the report found in the folder (for the caller's summary line).

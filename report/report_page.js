@@ -178,10 +178,12 @@
 
   guarded('surfaces', function () { if (data.surfaces) {
     var s3 = section('surfaces', 'Criterion surfaces over (phi, z_a)');
-    note(s3, 'D and A criteria of the next experiment at the first estimate, ' +
-         'with the first experiment as prior (the paper\u2019s Fig. 5); ' +
-         'smaller is better. Markers: the optimizer\u2019s evaluated designs; ' +
-         'line: its path; star: its optimum.');
+    note(s3, 'D and A criteria of the next experiment of each iteration ' +
+         'that designed: the objective its optimizer searched, at that ' +
+         'iteration\u2019s estimate with the information of its data ' +
+         '(est.json) as prior (the paper\u2019s Fig. 5); smaller is better. ' +
+         'Markers: the optimizer\u2019s evaluated designs; line: its path; ' +
+         'star: the designed experiment, with the criterion there.');
     data.surfaces.forEach(function (surface) {
       var traces = [{type: 'contour', x: surface.phi_deg, y: surface.z_a,
                      z: surface.values, colorscale: 'Viridis', ncontours: 25,
@@ -199,15 +201,16 @@
                      x: run.path.map(function (r) { return r[0]; }),
                      y: run.path.map(function (r) { return r[1]; }),
                      line: {color: palette[i + 1], width: 2}});
-        var last = run.path[run.path.length - 1];
-        if (last) {
-          traces.push({type: 'scatter', mode: 'markers', name: run.optimizer +
-                       ' optimum', x: [last[0]], y: [last[1]],
-                       marker: {symbol: 'star', size: 16, color: palette[i + 1],
-                                line: {color: '#000', width: 1}}});
-        }
       });
-      figure(s3, traces, {title: {text: surface.criterion + ' criterion'},
+      var best = surface.optimum;
+      traces.push({type: 'scatter', mode: 'markers', name: 'designed (' +
+                   surface.criterion + ' ' + (best.value === null ? 'n/a' :
+                   best.value.toPrecision(6)) + ')', x: [best.phi_deg],
+                   y: [best.z_a],
+                   marker: {symbol: 'star', size: 16, color: palette[1],
+                            line: {color: '#000', width: 1}}});
+      figure(s3, traces, {title: {text: surface.criterion + ' criterion, ' +
+                                        surface.iteration + ' design'},
                            xaxis: {title: {text: 'phi [deg]'}},
                            yaxis: {title: {text: 'z_a [m]'}},
                            legend: {orientation: 'h', y: -0.2}}, 480);

@@ -4,7 +4,9 @@
 The table is the README's layout section (DESIGN.md section 2 as built, with
 the amendments the README states): a folder lists the folders it may include
 from directly. Tests, benchmarks and fuzzers may include anything; no
-library may include from them or from any other folder of the tree.
+library may include from them or from any other folder of the tree. A
+library's headers under internal/ are its own (Ceres' internal/ split):
+no other library and none of its public headers may include them.
 """
 import pathlib
 import re
@@ -67,9 +69,16 @@ def main():
                     errors.append(f"{rel}:{line}: {folder} may not include "
                                   f"{target} (not a library folder)")
                     continue
+                line = text.count("\n", 0, match.start()) + 1
+                if "/internal/" in target and (
+                        to != folder or (source.suffix == ".h" and
+                                         "/internal/" not in rel)):
+                    errors.append(f"{rel}:{line}: {target} is internal to "
+                                  f"{to}: only its own sources may include "
+                                  f"it, never a public header")
+                    continue
                 if to is None or to == folder:
                     continue
-                line = text.count("\n", 0, match.start()) + 1
                 allowed = to in MAY_INCLUDE[folder]
                 only = ONLY.get((folder, to))
                 if allowed and only and pathlib.PurePath(target).name not in only:

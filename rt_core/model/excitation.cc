@@ -24,12 +24,18 @@ const char* RunPhaseName(RunPhase phase) {
   return "unknown";
 }
 
-RunProfile::RunProfile(const RunProfileTimes& times, double tf, double hold,
-                       double return_duration)
-    : excitation_{0.0, 0.0, 1.0, tf, hold, return_duration} {
+RunProfile::RunProfile(const RunProfileTimes& times,
+                       const RampExcitation<double>& excitation)
+    : excitation_{0.0,
+                  0.0,
+                  1.0,
+                  excitation.duration,
+                  excitation.hold,
+                  excitation.return_duration} {
   const double durations[kNumPhases] = {
-      times.tare, times.lead_in,   times.settle,   tf,
-      hold,       return_duration, times.ramp_down};
+      times.tare,          times.lead_in,   times.settle,
+      excitation.duration, excitation.hold, excitation.return_duration,
+      times.ramp_down};
   // The levels at the ends of the phases around the excitation's.
   const double levels[kNumPhases] = {
       0.0, -1.0, -1.0, 1.0, 1.0, excitation_.Profile(excitation_.EndTime()),

@@ -116,10 +116,10 @@ struct RunProfileTimes {
 class RunProfile {
  public:
   RunProfile() = default;
-  // tf: the paper's ramp time [s]; hold and return_duration as in
-  // RampExcitation [s] (0: no such phase).
-  RunProfile(const RunProfileTimes& times, double tf, double hold = 0,
-             double return_duration = 0);
+  // The phases around `excitation`'s ramp, hold and return (its direction,
+  // height and amplitude do not matter: the level is normalised).
+  RunProfile(const RunProfileTimes& times,
+             const RampExcitation<double>& excitation);
 
   // Level in [-1, 1] and phase at time t from the start [s]; kDone (level
   // 0) after the last phase.

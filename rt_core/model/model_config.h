@@ -8,6 +8,7 @@
 #include <string>
 
 #include "base/status.h"
+#include "rt_core/model/excitation.h"
 #include "rt_core/model/suspension_parameters.h"
 
 namespace kcrig {
@@ -29,6 +30,12 @@ struct ExperimentConfig {
   double sigma_angle = 0;     // [rad]
   Interval phi_bounds;        // [rad]
   Interval z_a_bounds;        // [m]
+
+  // The paper's ramp in direction `phi` [rad] at height `z_a` [m] with this
+  // experiment's Fmax and tf: what a design (phi, z_a) runs.
+  RampExcitation<double> Excitation(double phi, double z_a) const {
+    return {phi, z_a, fmax, duration};
+  }
 };
 
 struct KcrigConfig {

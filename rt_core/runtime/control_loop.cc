@@ -16,17 +16,17 @@ ControlLoop::ControlLoop(const SuspensionParameters<double>& model,
       rig_(rig),
       ring_(ring),
       stop_signal_(stop_signal),
-      profile_(options.profile, options.tf, options.hold,
-               options.return_duration),
+      profile_(options.profile, options.excitation),
       safety_(options.safety, options.period) {
-  direction_ << std::cos(options.phi), std::sin(options.phi), 0.0;
+  direction_ << std::cos(options.excitation.phi),
+      std::sin(options.excitation.phi), 0.0;
   const double duration =
       options.max_duration > 0 ? options.max_duration : profile_.duration();
   end_cycle_ = std::llround(duration / options.period);
 }
 
 LoopResult ControlLoop::Run() {
-  CycleTimer timer(std::llround(options_.period * 1e9));
+  CycleTimer timer(std::llround(options_.period * 1e9), end_cycle_ - 1);
   timer.Start();
   for (;;) {
     const CycleTimer::Wake wake = timer.WaitForNextCycle();
@@ -158,12 +158,12 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
   }
 
   // Excitation through the safety limits.
-  const Vec3<double> wanted =
-      options_.fmax * profile_.Level(t + options_.period) * direction_;
+  const Vec3<double> wanted = options_.excitation.fmax *
+                              profile_.Level(t + options_.period) * direction_;
   const Vec3<double> command = safety_.Limit(wanted);
   result_.limited_commands = safety_.limited_commands();
   command_.force = command;
-  command_.z_a = options_.z_a;
+  command_.z_a = options_.excitation.z_a;
   command_.enable = safety_.state() != SafetyState::kDisabled;
   command_.sequence = static_cast<std::uint16_t>(cycle);
   command_.phase = static_cast<std::uint8_t>(1 + static_cast<int>(phase));
@@ -176,7 +176,7 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
   // when no sample arrived), over the cycles skipped too (bounded).
   RigLoad<double> load;
   load.force = fresh ? measurement_.force : command;
-  load.point << 0.0, 0.0, options_.z_a;
+  load.point << 0.0, 0.0, options_.excitation.z_a;
   const std::int64_t steps = 1 + std::min<std::int64_t>(skipped, 50);
   for (std::int64_t s = 0; s < steps; ++s) {
     SemiImplicitEulerStep(model_, load, options_.period, &state_);

@@ -37,11 +37,8 @@ struct CycleRecord {
 
 struct LoopOptions {
   double period = 1e-3;  // [s]
-  // The experiment: direction [rad], acting height [m], Fmax [N], tf [s]
-  // and the phases around the paper's ramp.
-  double phi = 0, z_a = 0, fmax = 0, tf = 0;
-  // Hold at +Fmax and return ramp to -Fmax after the ramp [s] (0: none).
-  double hold = 0, return_duration = 0;
+  // The experiment, and the phases around it.
+  RampExcitation<double> excitation;
   RunProfileTimes profile;
   SafetyLimits safety;
   // Stop after this long [s] even if the profile goes on (0: the profile's

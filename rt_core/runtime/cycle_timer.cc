@@ -35,8 +35,12 @@ CycleTimer::Wake CycleTimer::WaitForNextCycle() {
   const std::int64_t now = MonotonicNanoseconds();
   if (now > next_deadline_) {
     // The last cycle ran past the next deadline: skip to the first deadline
-    // still ahead rather than running late cycles back to back.
-    const std::int64_t missed = (now - next_deadline_) / period_ + 1;
+    // still ahead rather than running late cycles back to back, but never
+    // past the run's last cycle (after it, as in a trip's ramp-down, skip).
+    std::int64_t missed = (now - next_deadline_) / period_ + 1;
+    if (next_cycle_ <= last_cycle_) {
+      missed = std::min(missed, last_cycle_ - next_cycle_);
+    }
     // The previous cycle started last_latency_ after its deadline, one
     // period before next_deadline_: the deadlines already passed then.
     const std::int64_t missed_waking =

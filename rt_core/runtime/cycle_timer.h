@@ -20,7 +20,13 @@ std::int64_t MonotonicNanoseconds();
 
 class CycleTimer {
  public:
-  explicit CycleTimer(std::int64_t period_ns) : period_(period_ns) {}
+  // `last_cycle`: the index of the run's last cycle, which is never
+  // skipped: an overrun past its deadline runs it at once, late, so that a
+  // run that ends on time always ends with its own last cycle (and its log
+  // with its last row).
+  explicit CycleTimer(std::int64_t period_ns,
+                      std::int64_t last_cycle = INT64_MAX)
+      : period_(period_ns), last_cycle_(last_cycle) {}
 
   // The first deadline is one period from now; cycle 0 starts there.
   void Start();
@@ -44,6 +50,7 @@ class CycleTimer {
 
  private:
   std::int64_t period_;
+  std::int64_t last_cycle_;
   std::int64_t next_deadline_ = 0;
   std::int64_t next_cycle_ = 0;
   std::int64_t overruns_ = 0;

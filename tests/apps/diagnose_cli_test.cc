@@ -1,14 +1,18 @@
 // `kcrig diagnose` as a user runs it: clean logs are `none`; a strong effect
 // is attributed and quantified; logs that cannot be diagnosed together are
 // one-line errors that leave no diag.json behind.
+#include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
+#include "tests/support/child_process.h"
 #include "tests/support/cli_runner.h"
 #include "tests/support/edited_config.h"
 #include "tests/support/temp_dir_test.h"
@@ -95,6 +99,34 @@ TEST_F(DiagnoseCliTest, CleanLogsAreNone) {
   EXPECT_EQ(diag["localisation"]["stiffness_drift"].size(), 5u);
   EXPECT_FALSE(diag["localisation"]["drift_detected"].get<bool>());
   EXPECT_TRUE(diag["candidates"].empty());
+}
+
+// SIGINT stops a long diagnosis (a minute: a 61 s log with a gap, every
+// candidate fitted) within a few iterations: exit status 130, one line, no
+// diag.json nor a temporary of it.
+TEST_F(DiagnoseCliTest, SigintStopsItCleanlyAndWritesNothing) {
+  const std::string log = Simulate(
+      "long.csv", "--phi 80 --z -0.4 --duration 30 --hold 1 --return 30", 11,
+      "--effect rig_compliance:k=2e7");
+  ChildProcess diagnose(
+      {KCRIG_BINARY, "diagnose", "--log", log, "--out", Path("diag.json")},
+      Path("output.txt"));
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  diagnose.Signal(SIGINT);
+  const auto signalled = std::chrono::steady_clock::now();
+  EXPECT_EQ(diagnose.Wait(60), 130) << diagnose.Output();
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                          signalled)
+                .count(),
+            20);
+  EXPECT_EQ(diagnose.Output(),
+            "kcrig diagnose: interrupted (SIGINT); nothing written\n");
+  for (const fs::directory_entry& entry : fs::directory_iterator(dir_)) {
+    const std::string name = entry.path().filename().string();
+    EXPECT_TRUE(name == "long.csv" || name == "long.json" ||
+                name == "output.txt")
+        << name;
+  }
 }
 
 TEST_F(DiagnoseCliTest, LogsWithDifferentForceChannelsAreRefused) {

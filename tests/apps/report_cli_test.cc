@@ -275,6 +275,49 @@ TEST_F(ReportCliTest, BadFoldersAreOneLineErrorsAndWriteNothing) {
   ExpectRefused("--from " + copy, "campaign.json", out);
 }
 
+// The surfaces are the objective the campaign's optimizer searched: at the
+// designed experiment of each iteration, the second one's prior being the
+// information of two logs (est.json), the report's criterion is the value
+// its design.json recorded.
+TEST(ReportSurfacesTest, AreTheObjectiveTheCampaignSearched) {
+  const fs::path dir = fs::temp_directory_path() /
+                       ("kcrig_report_surfaces_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  const std::string campaign = (dir / "campaign").string();
+  const CliResult run = RunKcrig(
+      "campaign --iterations 2 --budget 12 --quiet --no-report --out " +
+      campaign);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const std::string html = (dir / "report.html").string();
+  const CliResult r = RunKcrig("report --from " + campaign +
+                               " --grid 3x2 --quiet --out " + html);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // 3 experiments, sensitivities, estimates, D and A of 2 designs, kriging.
+  EXPECT_NE(r.output.find("10 figures (3 experiments, campaign)"),
+            std::string::npos)
+      << r.output;
+  const Json data = PageData(ReadText(html));
+  ASSERT_EQ(data["surfaces"].size(), 4u);
+  for (int k = 0; k < 2; ++k) {
+    const std::string iteration = "iteration_" + std::to_string(k);
+    const Json design =
+        Json::parse(std::ifstream(campaign + "/" + iteration + "/design.json"));
+    const Json& surface = data["surfaces"][2 * k];
+    EXPECT_EQ(surface["iteration"], iteration);
+    EXPECT_EQ(surface["criterion"], "D");
+    EXPECT_NEAR(surface["optimum"]["phi_deg"].get<double>(),
+                design["optimal"]["phi_deg"].get<double>(), 1e-12);
+    EXPECT_EQ(surface["optimum"]["z_a"], design["optimal"]["z_a"]);
+    const double recorded = design["optimal"]["value"];
+    EXPECT_NEAR(surface["optimum"]["value"].get<double>(), recorded,
+                1e-9 * std::abs(recorded))
+        << iteration;
+    EXPECT_EQ(surface["runs"][0]["evaluated"].size(),
+              design["runs"][0]["evaluated"].size());
+  }
+  fs::remove_all(dir);
+}
+
 // Text from the files (a diagnosis reason here) cannot end the page's data
 // script or open a comment in it: the data reads back intact.
 TEST_F(ReportCliTest, MarkupInTheFilesCannotBreakThePage) {

@@ -1,12 +1,20 @@
 // Unit tests of the designer's pieces: criteria and their penalty, the
-// epigraph functions, the budgeted objective, ECnoise, the kriging model.
+// epigraph functions, the budgeted objective, ECnoise, the kriging model,
+// the criterion surface of a design step and design.json read back.
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <random>
 
 #include "designer/criteria.h"
+#include "designer/criterion_surface.h"
+#include "designer/design_io.h"
 #include "designer/design_objective.h"
+#include "designer/design_step.h"
 #include "designer/ecnoise.h"
 #include "designer/information.h"
 #include "designer/kriging.h"
@@ -156,7 +164,10 @@ TEST(DesignObjectiveTest, SpendsNoMoreThanTheBudgetAndRecordsEverything) {
   ObjectiveOptions options;
   options.budget = 3;
   int batches = 0;
-  options.on_batch = [&batches](const DesignObjective&) { ++batches; };
+  options.callback = [&batches](const IterationSummary&) {
+    ++batches;
+    return CallbackReturn::kContinue;
+  };
   DesignObjective objective(
       evaluator.get(), Criterion::kD,
       {config.experiment.phi_bounds, config.experiment.z_a_bounds}, options);
@@ -187,6 +198,35 @@ TEST(OptimizeTest, RejectsUnknownOptimizerAndStartOutsideBounds) {
   EXPECT_FALSE(Optimize("simplex", &objective, {0.5, -0.2}, {}, &result).ok());
   EXPECT_FALSE(Optimize("imfil", &objective, {0.5, 0.3}, {}, &result).ok());
   EXPECT_TRUE(objective.record().empty());
+}
+
+// A callback that asks to stop ends the search after that batch, as if the
+// budget were spent, and Optimize says it was interrupted.
+TEST(OptimizeTest, AnAbortingCallbackInterruptsTheSearch) {
+  KcrigConfig config = SourceConfig();
+  config.experiment.duration = 0.5;
+  const auto evaluator = NominalEvaluator(config);
+  ObjectiveOptions options;
+  int batches = 0;
+  options.callback = [&batches](const IterationSummary& summary) {
+    EXPECT_NE(summary.stage.find(" evaluations, best D "), std::string::npos)
+        << summary.stage;
+    return ++batches == 2 ? CallbackReturn::kAbort : CallbackReturn::kContinue;
+  };
+  DesignObjective objective(
+      evaluator.get(), Criterion::kD,
+      {config.experiment.phi_bounds, config.experiment.z_a_bounds}, options);
+  OptimizationResult result;
+  const Status status =
+      Optimize("kriging", &objective, {config.experiment.phi, -0.2},
+               OptimizerOptions(), &result);
+  EXPECT_EQ(status.message(), "design: interrupted");
+  EXPECT_EQ(batches, 2);
+  EXPECT_TRUE(objective.interrupted());
+  EXPECT_EQ(objective.remaining(), 0);
+  // The start, then the initial Latin hypercube, then nothing.
+  EXPECT_EQ(objective.record().size(),
+            1u + OptimizerOptions().kriging_initial_points);
 }
 
 TEST(EcnoiseTest, RecoversTheNoiseOfASmoothFunctionPlusNoise) {
@@ -252,6 +292,82 @@ TEST(KrigingTest, InterpolatesAndReproducesItsRegressionTrend) {
   // uncertain.
   EXPECT_EQ(ExpectedImprovement(0.0, 1.0, 0.0), 0.0);
   EXPECT_GT(ExpectedImprovement(0.0, 1.0, 1.0), 0.0);
+}
+
+// A design step with a prior, then its surface from the same step options:
+// on the grid the grid search laid out, and at its optimum, the surface
+// holds exactly the values the optimizer recorded; design.json reads back
+// what was written.
+TEST(CriterionSurfaceTest, IsTheObjectiveTheStepSearched) {
+  KcrigConfig config = SourceConfig();
+  config.experiment.duration = 0.5;
+  DesignStepOptions step;
+  step.names = kBushings;
+  step.values = std::vector<double>(5, 4e6);
+  Eigen::MatrixXd prior;
+  ASSERT_TRUE(
+      NominalEvaluator(config)->Information({0.3, -0.2}, false, &prior).ok());
+  step.prior_information = prior;
+  step.criterion = Criterion::kA;
+  step.optimizer = "grid";
+  step.optimizer_options.grid_phi_points = 3;
+  step.optimizer_options.grid_z_points = 2;
+  step.objective.budget = 7;
+  DesignRun run;
+  const Design start{config.experiment.phi, config.experiment.z_a};
+  ASSERT_TRUE(DesignStep(config, step, start, &run).ok());
+  ASSERT_EQ(run.record.size(), 7u);  // the start, then the 3 x 2 grid
+
+  SurfaceOptions options;
+  options.phi_points = 3;
+  options.z_points = 2;
+  options.points = {run.result.best};
+  CriterionSurface surface;
+  const Status status = ComputeCriterionSurface(
+      config, step, {Criterion::kA, Criterion::kD}, options, &surface);
+  ASSERT_TRUE(status.ok()) << status.message();
+  ASSERT_EQ(surface.grid.size(), 2u);
+  ASSERT_EQ(surface.grid[0].size(), 6u);
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_EQ(surface.grid[0][k], run.record[k + 1].value) << k;
+  }
+  EXPECT_DOUBLE_EQ(surface.phi.front(), config.experiment.phi_bounds.lower);
+  EXPECT_DOUBLE_EQ(surface.z_a.back(), config.experiment.z_a_bounds.upper);
+  EXPECT_NEAR(surface.at_points[0][0], run.result.best_value,
+              1e-12 * std::abs(run.result.best_value));
+  // D from the same information matrices.
+  EXPECT_NEAR(surface.grid[1][0],
+              EvaluateCriterion(Criterion::kD, run.record[1].information).value,
+              1e-12);
+
+  const std::string path =
+      (std::filesystem::temp_directory_path() /
+       ("kcrig_designer_test_" + std::to_string(::getpid()) + ".json"))
+          .string();
+  std::ofstream(path) << DesignRunsToJson(Criterion::kA, {run});
+  Criterion criterion = Criterion::kD;
+  std::vector<DesignRun> read;
+  const Status read_status = ReadDesign(path, &criterion, &read);
+  std::filesystem::remove(path);
+  ASSERT_TRUE(read_status.ok()) << read_status.message();
+  EXPECT_EQ(criterion, Criterion::kA);
+  ASSERT_EQ(read.size(), 1u);
+  EXPECT_EQ(read[0].result.optimizer, "grid");
+  EXPECT_EQ(read[0].result.best_value, run.result.best_value);
+  EXPECT_NEAR(read[0].result.best.phi, run.result.best.phi, 1e-15);
+  EXPECT_EQ(read[0].result.best.z_a, run.result.best.z_a);
+  EXPECT_EQ(read[0].result.evaluations, run.result.evaluations);
+  ASSERT_EQ(read[0].record.size(), run.record.size());
+  EXPECT_EQ(read[0].record.back().value, run.record.back().value);
+  EXPECT_EQ(read[0].record.back().batch, run.record.back().batch);
+
+  std::ofstream(path) << "{\"criterion\": \"A\", \"runs\": [{}]}";
+  const Status broken = ReadDesign(path, &criterion, &read);
+  std::filesystem::remove(path);
+  ASSERT_FALSE(broken.ok());
+  EXPECT_NE(broken.message().find(path + ": runs[0]: missing field"),
+            std::string::npos)
+      << broken.message();
 }
 
 }  // namespace

@@ -107,6 +107,30 @@ TEST_F(DiagnosisTest, OneLogIsScoredByInformationCriteria) {
   EXPECT_EQ(r.verdict, "rig_compliance") << r.reason;
 }
 
+// A callback that asks to stop after the first candidate fit ends the
+// diagnosis there, the other candidate's fit stopped within an iteration:
+// the interrupted status, no verdict, nothing reported after.
+TEST_F(DiagnosisTest, AnAbortingCallbackInterruptsIt) {
+  DiagnosisOptions options;
+  options.candidates = {"bushing_damping", "rig_compliance"};
+  std::vector<std::string> stages;
+  options.callback = [&stages](const IterationSummary& summary) {
+    stages.push_back(summary.stage);
+    return summary.stage.rfind("candidate fits", 0) == 0
+               ? CallbackReturn::kAbort
+               : CallbackReturn::kContinue;
+  };
+  DiagnosisResult r;
+  const Status status =
+      Diagnose(config_.model, {Log("rig_compliance:k=1e7", 60, -0.2, 5)}, {},
+               options, config_.experiment.step, &r);
+  EXPECT_EQ(status.message(), "diagnosis: interrupted");
+  EXPECT_TRUE(r.verdict.empty());
+  ASSERT_FALSE(stages.empty());
+  EXPECT_EQ(stages.front(), "nominal fit");
+  EXPECT_EQ(stages.back().rfind("candidate fits 1 (", 0), 0u) << stages.back();
+}
+
 TEST_F(DiagnosisTest, InputErrors) {
   DiagnosisResult r;
   EXPECT_FALSE(Diagnose(config_.model, {}, {}, DiagnosisOptions(),

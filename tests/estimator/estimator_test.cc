@@ -176,5 +176,33 @@ TEST(EstimatorTest, ParameterSelectionIsChecked) {
                    .ok());
 }
 
+// A callback that asks to stop ends the fit at that iteration with the
+// interrupted status; it saw the solver's iterations until then.
+TEST(EstimatorTest, AnAbortingCallbackInterruptsTheFit) {
+  const KcrigConfig config = SourceConfig();
+  const SuspensionParameters<double> truth = DistinctBushingTruth(config.model);
+  const std::vector<Experiment> experiments = {
+      SyntheticExperiment(config, truth, PaperInitialSpec(config))};
+  std::vector<double> initial;
+  for (int i = 0; i < kNumBushings; ++i) {
+    initial.push_back(truth.bushings[i].stiffness * 1.05);
+  }
+  EstimatorOptions options;
+  std::vector<IterationSummary> seen;
+  options.callback = [&seen](const IterationSummary& summary) {
+    seen.push_back(summary);
+    return seen.size() == 2 ? CallbackReturn::kAbort
+                            : CallbackReturn::kContinue;
+  };
+  EstimationResult result;
+  const Status status = Estimate(config.model, experiments, options, initial,
+                                 config.experiment.step, &result);
+  EXPECT_EQ(status.message(), "estimation: interrupted");
+  ASSERT_EQ(seen.size(), 2u);
+  EXPECT_EQ(seen[1].stage, "estimation: iteration 1");
+  EXPECT_EQ(seen[1].done, 1);
+  EXPECT_EQ(seen[1].total, options.max_iterations);
+}
+
 }  // namespace
 }  // namespace kcrig

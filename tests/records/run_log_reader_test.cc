@@ -29,7 +29,7 @@ class RunLogReaderTest : public TempDirTest {
     log.metadata.rate = 1000;
     log.metadata.sigma_position = 2e-5;
     log.metadata.sigma_angle = 1.7e-4;
-    log.metadata.duration = 0.004;
+    log.metadata.excitation.duration = 0.004;
     log.metadata.transport = "simulation";
     ASSERT_TRUE(WriteRunLog(Csv(), log).ok());
     std::ifstream in(Csv());

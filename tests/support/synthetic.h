@@ -38,10 +38,7 @@ inline RunLog SyntheticLog(const KcrigConfig& config,
   EXPECT_TRUE(status.ok()) << status.message();
   RunLog log;
   log.metadata.rate = 1.0 / config.experiment.step;
-  log.metadata.phi = spec.phi;
-  log.metadata.z_a = spec.z_a;
-  log.metadata.fmax = spec.fmax;
-  log.metadata.duration = spec.duration;
+  log.metadata.excitation = ramp;
   log.metadata.sigma_position = config.experiment.sigma_position;
   log.metadata.sigma_angle = config.experiment.sigma_angle;
   MeasurementNoise noise(config.experiment.sigma_position,

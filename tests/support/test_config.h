@@ -18,7 +18,7 @@ inline KcrigConfig SourceConfig() {
 // The paper's initial experiment with the config's defaults.
 inline RampExcitation<double> PaperInitialExcitation(
     const ExperimentConfig& experiment) {
-  return {experiment.phi, experiment.z_a, experiment.fmax, experiment.duration};
+  return experiment.Excitation(experiment.phi, experiment.z_a);
 }
 
 }  // namespace kcrig

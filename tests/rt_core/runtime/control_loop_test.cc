@@ -61,10 +61,8 @@ class ControlLoopTest : public ::testing::Test {
  protected:
   ControlLoopTest() : config_(SourceConfig()), rig_(config_), ring_(1 << 14) {
     options_.period = 1e-3;
-    options_.phi = config_.experiment.phi;
-    options_.z_a = config_.experiment.z_a;
-    options_.fmax = 4000;
-    options_.tf = 4.0;
+    options_.excitation = {config_.experiment.phi, config_.experiment.z_a, 4000,
+                           4.0};
     rig_.commands.reserve(20000);
     rig_.enabled.reserve(20000);
   }
@@ -94,7 +92,7 @@ class ControlLoopTest : public ::testing::Test {
 
 TEST_F(ControlLoopTest, RunsTheWholeProfileAndTracksTheModel) {
   ControlLoop loop(config_.model, options_, &rig_, &ring_, &stop_);
-  const RunProfile profile(options_.profile, options_.tf);
+  const RunProfile profile(options_.profile, options_.excitation);
   const std::int64_t cycles = Step(&loop, 100000);
   EXPECT_EQ(cycles, std::llround(profile.duration() / 1e-3));
   EXPECT_EQ(loop.result().cause, TripCause::kNone);
@@ -104,7 +102,7 @@ TEST_F(ControlLoopTest, RunsTheWholeProfileAndTracksTheModel) {
   const int k = static_cast<int>(std::lround(ramp_mid / 1e-3));
   EXPECT_NEAR(rig_.commands[k].norm(), 4000 * 0.5, 3.0);
   EXPECT_NEAR(std::atan2(rig_.commands[k](1), rig_.commands[k](0)),
-              options_.phi, 1e-9);
+              options_.excitation.phi, 1e-9);
   EXPECT_LT(rig_.commands.back().norm(), 5.0);
   // The plant is the model here: the prediction follows the measurement.
   const CycleRecord& r = records_[k];
@@ -167,7 +165,7 @@ TEST_F(ControlLoopTest, AStopSignalRampsDownLikeATrip) {
 }
 
 TEST_F(ControlLoopTest, CommandsRespectForceAndRateLimits) {
-  options_.fmax = 4000;
+  options_.excitation.fmax = 4000;
   options_.safety.force_max = 3000;
   options_.safety.force_rate_max = 3000;  // the lead-in wants 4000 N/s
   ControlLoop loop(config_.model, options_, &rig_, &ring_, &stop_);
@@ -213,7 +211,7 @@ TEST_F(ControlLoopTest, ACycleNeverAllocates) {
 
 TEST(RunProfileTest, PhasesAndLevels) {
   RunProfileTimes times;  // 0.2, 1.0, 0.5, ramp, 1.0
-  const RunProfile profile(times, 4.0);
+  const RunProfile profile(times, {0.0, 0.0, 1.0, 4.0});
   EXPECT_DOUBLE_EQ(profile.duration(), 6.7);
   EXPECT_DOUBLE_EQ(profile.ramp_start(), 1.7);
   EXPECT_EQ(profile.Phase(0.1), RunPhase::kTare);
@@ -231,7 +229,7 @@ TEST(RunProfileTest, PhasesAndLevels) {
 
 TEST(RunProfileTest, HoldAndReturnRampRunBetweenRampAndRampDown) {
   RunProfileTimes times;  // 0.2, 1.0, 0.5, ramp 4, hold 0.5, return 2, 1.0
-  const RunProfile profile(times, 4.0, 0.5, 2.0);
+  const RunProfile profile(times, {0.0, 0.0, 1.0, 4.0, 0.5, 2.0});
   EXPECT_DOUBLE_EQ(profile.duration(), 9.2);
   EXPECT_EQ(profile.Phase(5.9), RunPhase::kHold);
   EXPECT_EQ(profile.Level(5.9), 1.0);
@@ -287,6 +285,30 @@ TEST(CycleTimerTest, AnOverrunSkipsToTheNextDeadlineAhead) {
   EXPECT_EQ(timer.overruns(), 2);
   EXPECT_EQ(timer.skipped_cycles(), skipped);
   EXPECT_LE(timer.skipped_by_late_wakeup(), skipped);
+}
+
+TEST(CycleTimerTest, TheLastCycleIsNeverSkipped) {
+  // Work past three deadlines after cycle 0 of a three-cycle run: cycle 1
+  // is skipped, but the last one (2) runs, late, rather than none at all.
+  constexpr std::int64_t kPeriod = 2000000;  // 2 ms
+  CycleTimer timer(kPeriod, /*last_cycle=*/2);
+  timer.Start();
+  CycleTimer::Wake wake = timer.WaitForNextCycle();
+  const std::int64_t busy_until = wake.deadline + 7 * kPeriod / 2;
+  while (MonotonicNanoseconds() < busy_until) {
+  }
+  wake = timer.WaitForNextCycle();
+  EXPECT_EQ(wake.cycle, 2);
+  EXPECT_EQ(wake.skipped, 1);
+  EXPECT_GE(wake.latency, kPeriod);  // its deadline had passed
+  EXPECT_EQ(timer.skipped_cycles(), 1);
+  // Past the last cycle (a trip's ramp-down goes on), deadlines are
+  // skipped again.
+  while (MonotonicNanoseconds() < wake.deadline + 5 * kPeriod / 2) {
+  }
+  wake = timer.WaitForNextCycle();
+  EXPECT_GE(wake.cycle, 5);
+  EXPECT_EQ(wake.skipped, wake.cycle - 3);
 }
 
 TEST(TimingStatisticsTest, PercentilesFromTheHistogram) {

@@ -1,0 +1,133 @@
+#include "estimator/least_squares.h"
+
+#include <cmath>
+#include <utility>
+
+#include "ceres/ceres.h"
+
+namespace kcrig {
+namespace {
+
+// The caller's IterationCallback as Ceres' own, which can abort the solve.
+class CallbackAdapter : public ceres::IterationCallback {
+ public:
+  explicit CallbackAdapter(const LeastSquaresOptions& options)
+      : options_(options) {}
+
+  ceres::CallbackReturnType operator()(
+      const ceres::IterationSummary& iteration) override {
+    IterationSummary summary;
+    summary.stage =
+        options_.stage + ": iteration " + std::to_string(iteration.iteration);
+    summary.done = iteration.iteration;
+    summary.total = options_.max_iterations;
+    return options_.callback(summary) == CallbackReturn::kAbort
+               ? ceres::SOLVER_ABORT
+               : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const LeastSquaresOptions& options_;
+};
+
+}  // namespace
+
+LeastSquaresProblem::LeastSquaresProblem(std::vector<double> lower,
+                                         std::vector<double> upper)
+    : lower_(std::move(lower)), upper_(std::move(upper)), x_(lower_.size()) {
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  problem_ = std::make_unique<ceres::Problem>(problem_options);
+}
+
+LeastSquaresProblem::~LeastSquaresProblem() = default;
+
+void LeastSquaresProblem::AddResidualBlock(ceres::CostFunction* residual) {
+  std::vector<double*> blocks;
+  for (double& x : x_) blocks.push_back(&x);
+  problem_->AddResidualBlock(residual, nullptr, blocks);
+}
+
+Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
+                                     const std::vector<bool>& fixed,
+                                     std::vector<double>* x,
+                                     LeastSquaresSummary* summary) {
+  *summary = LeastSquaresSummary();
+  x_ = *x;
+  int free = 0;
+  for (size_t i = 0; i < x_.size(); ++i) {
+    if (!fixed.empty() && fixed[i]) {
+      problem_->SetParameterBlockConstant(&x_[i]);
+    } else {
+      problem_->SetParameterBlockVariable(&x_[i]);
+      ++free;
+    }
+  }
+  if (free == 0) {
+    if (!Evaluate(*x, &summary->cost, nullptr, nullptr)) {
+      return Status::Error("the model cannot be evaluated at these parameters");
+    }
+    summary->converged = true;
+    return Status::Ok();
+  }
+  ceres::Solver::Options solver;
+  solver.minimizer_type = ceres::TRUST_REGION;
+  solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = options.max_iterations;
+  solver.function_tolerance = options.function_tolerance;
+  solver.gradient_tolerance = options.gradient_tolerance;
+  solver.parameter_tolerance = options.parameter_tolerance;
+  solver.num_threads = options.num_threads;
+  solver.logging_type = ceres::SILENT;
+  CallbackAdapter adapter(options);
+  if (options.callback) solver.callbacks.push_back(&adapter);
+  ceres::Solver::Summary ceres_summary;
+  ceres::Solve(solver, problem_.get(), &ceres_summary);
+  if (ceres_summary.termination_type == ceres::USER_FAILURE) {
+    return Interrupted(options.stage);
+  }
+  if (ceres_summary.termination_type == ceres::FAILURE ||
+      !std::isfinite(ceres_summary.final_cost)) {
+    return Status::Error(options.stage + " failed: " + ceres_summary.message);
+  }
+  *x = x_;
+  summary->cost = ceres_summary.final_cost;
+  summary->iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
+  summary->converged = ceres_summary.termination_type == ceres::CONVERGENCE;
+  summary->message = ceres_summary.message;
+  return Status::Ok();
+}
+
+bool LeastSquaresProblem::Evaluate(const std::vector<double>& x, double* cost,
+                                   Eigen::VectorXd* residuals,
+                                   Eigen::MatrixXd* jacobian) {
+  x_ = x;
+  ceres::Problem::EvaluateOptions options;
+  for (double& block : x_) options.parameter_blocks.push_back(&block);
+  std::vector<double> r;
+  ceres::CRSMatrix crs;
+  if (!problem_->Evaluate(options, cost, residuals ? &r : nullptr, nullptr,
+                          jacobian ? &crs : nullptr)) {
+    return false;
+  }
+  if (residuals != nullptr) {
+    *residuals = Eigen::Map<Eigen::VectorXd>(r.data(), r.size());
+  }
+  if (jacobian != nullptr) {
+    jacobian->setZero(crs.num_rows, crs.num_cols);
+    for (int row = 0; row < crs.num_rows; ++row) {
+      for (int k = crs.rows[row]; k < crs.rows[row + 1]; ++k) {
+        (*jacobian)(row, crs.cols[k]) = crs.values[k];
+      }
+    }
+  }
+  return true;
+}
+
+bool LeastSquaresProblem::AtBound(int i, double x_i) const {
+  const double tolerance = 1e-3 * (upper_[i] - lower_[i]);
+  return x_i - lower_[i] < tolerance || upper_[i] - x_i < tolerance;
+}
+
+}  // namespace kcrig
