@@ -17,18 +17,15 @@ Status ComputeCriterionSurface(const KcrigConfig& config,
     return Status::Error(
         "criterion surface: needs a criterion and at least 2 x 2 points");
   }
-  const DesignBounds bounds{config.experiment.phi_bounds,
-                            config.experiment.z_a_bounds};
-  ObjectiveOptions objective_options;
-  objective_options.budget = np * nz + static_cast<int>(options.points.size());
-  objective_options.num_threads = step.objective.num_threads;
-  KCRIG_RETURN_IF_ERROR(DesignObjective::Validate(bounds, objective_options));
-  std::unique_ptr<InformationEvaluator> evaluator;
-  KCRIG_RETURN_IF_ERROR(InformationEvaluator::Create(
-      config.model, step.names, step.values, config.experiment,
-      step.prior_information, &evaluator));
-  DesignObjective objective(evaluator.get(), criteria[0], bounds,
-                            objective_options);
+  DesignStepOptions surface_step = step;
+  surface_step.criterion = criteria[0];
+  surface_step.objective = ObjectiveOptions();
+  surface_step.objective.budget =
+      np * nz + static_cast<int>(options.points.size());
+  surface_step.objective.num_threads = step.objective.num_threads;
+  StepObjective made;
+  KCRIG_RETURN_IF_ERROR(MakeStepObjective(config, surface_step, &made));
+  DesignObjective& objective = *made.objective;
   // The grid in the optimizers' unit coordinates (as the grid search lays
   // it out), then the extra designs: one parallel batch.
   std::vector<Eigen::Vector2d> units;

@@ -40,10 +40,7 @@ Design DesignObjective::ToDesign(const Eigen::Vector2d& unit) const {
 }
 
 Eigen::Vector2d DesignObjective::ToUnit(const Design& design) const {
-  return Eigen::Vector2d((design.phi - bounds_.phi.lower) /
-                             (bounds_.phi.upper - bounds_.phi.lower),
-                         (design.z_a - bounds_.z_a.lower) /
-                             (bounds_.z_a.upper - bounds_.z_a.lower));
+  return kcrig::ToUnit(bounds_, design);
 }
 
 DesignEvaluation DesignObjective::EvaluateOne(const Eigen::Vector2d& unit,

@@ -5,6 +5,7 @@
 #ifndef KCRIG_DESIGNER_DESIGN_STEP_H_
 #define KCRIG_DESIGNER_DESIGN_STEP_H_
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,7 @@
 #include "designer/criteria.h"
 #include "designer/design_io.h"
 #include "designer/design_objective.h"
+#include "designer/information.h"
 #include "designer/optimizers.h"
 #include "rt_core/model/model_config.h"
 
@@ -30,6 +32,16 @@ struct DesignStepOptions {
   ObjectiveOptions objective;
   OptimizerOptions optimizer_options;
 };
+
+// The objective a design step searches, over config.experiment's bounds
+// (the objective refers to the evaluator): what DesignStep optimizes and
+// ComputeCriterionSurface draws.
+struct StepObjective {
+  std::unique_ptr<InformationEvaluator> evaluator;
+  std::unique_ptr<DesignObjective> objective;
+};
+Status MakeStepObjective(const KcrigConfig& config,
+                         const DesignStepOptions& options, StepObjective* step);
 
 // Runs `options.optimizer` from `start` over config.experiment's bounds;
 // `run` gets the result and every evaluation.

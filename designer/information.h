@@ -34,6 +34,14 @@ struct DesignBounds {
 // Inverted or empty bounds are an error naming the bound.
 Status ValidateBounds(const DesignBounds& bounds);
 
+// `design` in the optimizers' unit coordinates: [0, 1]^2 over `bounds`.
+inline Eigen::Vector2d ToUnit(const DesignBounds& bounds,
+                              const Design& design) {
+  return Eigen::Vector2d(
+      (design.phi - bounds.phi.lower) / (bounds.phi.upper - bounds.phi.lower),
+      (design.z_a - bounds.z_a.lower) / (bounds.z_a.upper - bounds.z_a.lower));
+}
+
 class InformationEvaluator {
  public:
   // `nominal`: the config model (its values are the parameter scales and

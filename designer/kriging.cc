@@ -160,10 +160,7 @@ Status RefitSurrogate(const std::vector<DesignEvaluation>& record,
   std::vector<double> y;
   for (const DesignEvaluation& e : record) {
     if (e.batch > batch) continue;
-    x.emplace_back((e.design.phi - bounds.phi.lower) /
-                       (bounds.phi.upper - bounds.phi.lower),
-                   (e.design.z_a - bounds.z_a.lower) /
-                       (bounds.z_a.upper - bounds.z_a.lower));
+    x.push_back(ToUnit(bounds, e.design));
     y.push_back(OptimizationScale(criterion, e.value));
   }
   *samples = static_cast<int>(x.size());
