@@ -13,7 +13,7 @@
 
 #include "benchmark/benchmark.h"
 #include "designer/campaign.h"
-#include "designer/ecnoise.h"
+#include "designer/internal/ecnoise.h"
 #include "designer/optimizers.h"
 #include "emulator/plant_config.h"
 #include "emulator/simulated_run.h"

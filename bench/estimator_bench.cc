@@ -16,7 +16,7 @@
 #include "benchmark/benchmark.h"
 #include "ceres/ceres.h"
 #include "estimator/estimator.h"
-#include "estimator/fit_problem.h"
+#include "estimator/internal/fit_problem.h"
 #include "estimator/trajectory_residual.h"
 #include "rt_core/model/measurement_noise.h"
 #include "rt_core/model/model_config.h"

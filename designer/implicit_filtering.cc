@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "Eigen/Dense"
+#include "designer/internal/stencil.h"
 #include "designer/optimizers.h"
-#include "designer/stencil.h"
 
 namespace kcrig {
 namespace {

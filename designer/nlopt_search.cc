@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "designer/internal/stencil.h"
 #include "designer/optimizers.h"
-#include "designer/stencil.h"
 #include "nlopt.hpp"
 
 namespace kcrig {

@@ -8,9 +8,9 @@
 #include <limits>
 
 #include "base/parallel_for.h"
-#include "diagnosis/localisation.h"
-#include "diagnosis/residual_statistics.h"
-#include "diagnosis/verdict.h"
+#include "diagnosis/internal/localisation.h"
+#include "diagnosis/internal/residual_statistics.h"
+#include "diagnosis/internal/verdict.h"
 
 namespace kcrig {
 namespace {

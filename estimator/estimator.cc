@@ -10,7 +10,7 @@
 
 #include "Eigen/QR"
 #include "Eigen/SVD"
-#include "estimator/fit_problem.h"
+#include "estimator/internal/fit_problem.h"
 #include "estimator/trajectory_residual.h"
 
 namespace kcrig {

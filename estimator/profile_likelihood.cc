@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "estimator/fit_problem.h"
+#include "estimator/internal/fit_problem.h"
 
 namespace kcrig {
 namespace {

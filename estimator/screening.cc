@@ -8,7 +8,7 @@
 
 #include "Eigen/Cholesky"
 #include "Eigen/QR"
-#include "estimator/fit_problem.h"
+#include "estimator/internal/fit_problem.h"
 
 namespace kcrig {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <string_view>
 
-#include "records/candump_log.h"
+#include "records/internal/candump_log.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
                                       std::size_t size) {

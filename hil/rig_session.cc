@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "hil/run_logger.h"
+#include "hil/internal/run_logger.h"
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"
 #include "rt_core/model/channels.h"

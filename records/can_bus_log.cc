@@ -2,7 +2,7 @@
 
 #include <chrono>
 
-#include "records/candump_log.h"
+#include "records/internal/candump_log.h"
 
 namespace kcrig {
 

@@ -3,7 +3,7 @@
 #include <cmath>
 
 #include "io_drivers/kc_rig_protocol.h"
-#include "records/candump_log.h"
+#include "records/internal/candump_log.h"
 #include "rt_core/model/excitation.h"
 
 namespace kcrig {

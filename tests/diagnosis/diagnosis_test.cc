@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "diagnosis/residual_statistics.h"
+#include "diagnosis/internal/residual_statistics.h"
 #include "gtest/gtest.h"
 #include "rt_core/model/channels.h"
 #include "tests/support/synthetic.h"

@@ -1,6 +1,6 @@
 // The verdict policy alone, on hand-made scores: when a candidate is
 // clearly the best, when it leaves nothing but noise, what is said.
-#include "diagnosis/verdict.h"
+#include "diagnosis/internal/verdict.h"
 
 #include "gtest/gtest.h"
 

@@ -14,7 +14,7 @@
 #include "io_drivers/dbc.h"
 #include "io_drivers/kc_rig_protocol.h"
 #include "records/can_log_decoder.h"
-#include "records/candump_log.h"
+#include "records/internal/candump_log.h"
 
 namespace kcrig {
 namespace {

@@ -26,7 +26,7 @@
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
 #include "records/can_log_decoder.h"
-#include "records/candump_log.h"
+#include "records/internal/candump_log.h"
 #include "tests/support/child_process.h"
 #include "tests/support/cli_runner.h"
 #include "tests/support/edited_config.h"

@@ -1,8 +1,8 @@
 // The verdict policy of the diagnosis: when a scored candidate is clearly
 // the best, when it leaves nothing but noise, and the sentence that says so.
 // Apart from the fitting so that it can be tested on its own.
-#ifndef KCRIG_DIAGNOSIS_VERDICT_H_
-#define KCRIG_DIAGNOSIS_VERDICT_H_
+#ifndef KCRIG_DIAGNOSIS_INTERNAL_VERDICT_H_
+#define KCRIG_DIAGNOSIS_INTERNAL_VERDICT_H_
 
 #include <vector>
 
@@ -53,4 +53,4 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
 
 }  // namespace kcrig
 
-#endif  // KCRIG_DIAGNOSIS_VERDICT_H_
+#endif  // KCRIG_DIAGNOSIS_INTERNAL_VERDICT_H_

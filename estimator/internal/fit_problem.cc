@@ -1,4 +1,4 @@
-#include "estimator/fit_problem.h"
+#include "estimator/internal/fit_problem.h"
 
 #include <utility>
 

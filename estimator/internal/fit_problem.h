@@ -2,8 +2,8 @@
 // parameters p / p_nominal on the box [lower_scale, upper_scale]: the
 // trajectory residuals in the one least-squares fit (least_squares.h).
 // Used by Estimate, the profile likelihood and screening.
-#ifndef KCRIG_ESTIMATOR_FIT_PROBLEM_H_
-#define KCRIG_ESTIMATOR_FIT_PROBLEM_H_
+#ifndef KCRIG_ESTIMATOR_INTERNAL_FIT_PROBLEM_H_
+#define KCRIG_ESTIMATOR_INTERNAL_FIT_PROBLEM_H_
 
 #include <string>
 #include <vector>
@@ -29,4 +29,4 @@ LeastSquaresOptions FitOptions(const EstimatorOptions& options,
 
 }  // namespace kcrig
 
-#endif  // KCRIG_ESTIMATOR_FIT_PROBLEM_H_
+#endif  // KCRIG_ESTIMATOR_INTERNAL_FIT_PROBLEM_H_

@@ -1,8 +1,8 @@
 // The residual statistics of the diagnosis: weighted residuals of a
 // candidate model, their score against the noise floor, the chi-square tail,
 // Ljung-Box whiteness and lagged correlation.
-#ifndef KCRIG_DIAGNOSIS_RESIDUAL_STATISTICS_H_
-#define KCRIG_DIAGNOSIS_RESIDUAL_STATISTICS_H_
+#ifndef KCRIG_DIAGNOSIS_INTERNAL_RESIDUAL_STATISTICS_H_
+#define KCRIG_DIAGNOSIS_INTERNAL_RESIDUAL_STATISTICS_H_
 
 #include <vector>
 
@@ -58,4 +58,4 @@ double ChiSquareUpperTail(double x, double dof);
 
 }  // namespace kcrig
 
-#endif  // KCRIG_DIAGNOSIS_RESIDUAL_STATISTICS_H_
+#endif  // KCRIG_DIAGNOSIS_INTERNAL_RESIDUAL_STATISTICS_H_

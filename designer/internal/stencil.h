@@ -2,8 +2,8 @@
 // filtering (its gradient at scale h) and the NLopt gradient drivers:
 // points outside the box are left out and the difference is one-sided
 // there.
-#ifndef KCRIG_DESIGNER_STENCIL_H_
-#define KCRIG_DESIGNER_STENCIL_H_
+#ifndef KCRIG_DESIGNER_INTERNAL_STENCIL_H_
+#define KCRIG_DESIGNER_INTERNAL_STENCIL_H_
 
 #include <vector>
 
@@ -66,4 +66,4 @@ class Stencil {
 
 }  // namespace kcrig
 
-#endif  // KCRIG_DESIGNER_STENCIL_H_
+#endif  // KCRIG_DESIGNER_INTERNAL_STENCIL_H_

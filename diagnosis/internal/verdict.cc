@@ -1,10 +1,10 @@
-#include "diagnosis/verdict.h"
+#include "diagnosis/internal/verdict.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-#include "diagnosis/residual_statistics.h"
+#include "diagnosis/internal/residual_statistics.h"
 
 namespace kcrig {
 

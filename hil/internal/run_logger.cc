@@ -1,4 +1,4 @@
-#include "hil/run_logger.h"
+#include "hil/internal/run_logger.h"
 
 #include <algorithm>
 #include <chrono>

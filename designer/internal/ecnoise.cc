@@ -1,4 +1,4 @@
-#include "designer/ecnoise.h"
+#include "designer/internal/ecnoise.h"
 
 #include <algorithm>
 #include <cmath>

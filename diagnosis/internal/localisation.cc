@@ -1,11 +1,11 @@
-#include "diagnosis/localisation.h"
+#include "diagnosis/internal/localisation.h"
 
 #include <algorithm>
 #include <cmath>
 #include <complex>
 #include <numeric>
 
-#include "diagnosis/residual_statistics.h"
+#include "diagnosis/internal/residual_statistics.h"
 #include "rt_core/model/channels.h"
 #include "unsupported/Eigen/FFT"
 

@@ -1,4 +1,4 @@
-#include "diagnosis/residual_statistics.h"
+#include "diagnosis/internal/residual_statistics.h"
 
 #include <algorithm>
 #include <cmath>

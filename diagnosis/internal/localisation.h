@@ -2,8 +2,8 @@
 // sliced by channel, force magnitude and loading direction, their spectrum
 // in frequency bands, and their lagged correlation with the force and its
 // rate. Fills the localisation part of a DiagnosisResult.
-#ifndef KCRIG_DIAGNOSIS_LOCALISATION_H_
-#define KCRIG_DIAGNOSIS_LOCALISATION_H_
+#ifndef KCRIG_DIAGNOSIS_INTERNAL_LOCALISATION_H_
+#define KCRIG_DIAGNOSIS_INTERNAL_LOCALISATION_H_
 
 #include <vector>
 
@@ -19,4 +19,4 @@ void Localize(const std::vector<Experiment>& logs,
 
 }  // namespace kcrig
 
-#endif  // KCRIG_DIAGNOSIS_LOCALISATION_H_
+#endif  // KCRIG_DIAGNOSIS_INTERNAL_LOCALISATION_H_

@@ -1,4 +1,4 @@
-#include "records/candump_log.h"
+#include "records/internal/candump_log.h"
 
 #include <cstdio>
 #include <fstream>

@@ -7,8 +7,8 @@
 // frame (CAN_ERR_FLAG 0x20000000 set), '#', the data bytes in hex, or 'R'
 // (and the DLC) for a remote frame. canplayer replays such files and
 // python-can reads them. Classic CAN only: CAN FD lines ("##") are refused.
-#ifndef KCRIG_RECORDS_CANDUMP_LOG_H_
-#define KCRIG_RECORDS_CANDUMP_LOG_H_
+#ifndef KCRIG_RECORDS_INTERNAL_CANDUMP_LOG_H_
+#define KCRIG_RECORDS_INTERNAL_CANDUMP_LOG_H_
 
 #include <cstddef>
 #include <string>
@@ -45,4 +45,4 @@ Status ReadCandumpLog(const std::string& path,
 
 }  // namespace kcrig
 
-#endif  // KCRIG_RECORDS_CANDUMP_LOG_H_
+#endif  // KCRIG_RECORDS_INTERNAL_CANDUMP_LOG_H_

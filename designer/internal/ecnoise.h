@@ -4,8 +4,8 @@
 // independent noise their mean square is the noise variance, are compared
 // across orders; where consecutive orders agree (within a factor 4) and
 // change sign, that level is the noise.
-#ifndef KCRIG_DESIGNER_ECNOISE_H_
-#define KCRIG_DESIGNER_ECNOISE_H_
+#ifndef KCRIG_DESIGNER_INTERNAL_ECNOISE_H_
+#define KCRIG_DESIGNER_INTERNAL_ECNOISE_H_
 
 #include <functional>
 #include <string>
@@ -39,4 +39,4 @@ NoiseEstimate EstimateNoiseAlongLine(const std::function<double(double)>& f,
 
 }  // namespace kcrig
 
-#endif  // KCRIG_DESIGNER_ECNOISE_H_
+#endif  // KCRIG_DESIGNER_INTERNAL_ECNOISE_H_

@@ -4,8 +4,8 @@
 // rows to run.csv.partial as they come (records/partial_file.h), and
 // reports progress and overrun warnings. Finish writes
 // the sidecar and renames the partial file to run.csv.
-#ifndef KCRIG_HIL_RUN_LOGGER_H_
-#define KCRIG_HIL_RUN_LOGGER_H_
+#ifndef KCRIG_HIL_INTERNAL_RUN_LOGGER_H_
+#define KCRIG_HIL_INTERNAL_RUN_LOGGER_H_
 
 #include <chrono>
 #include <cstdint>
@@ -78,4 +78,4 @@ class RunLogger {
 
 }  // namespace kcrig
 
-#endif  // KCRIG_HIL_RUN_LOGGER_H_
+#endif  // KCRIG_HIL_INTERNAL_RUN_LOGGER_H_
