@@ -14,7 +14,6 @@
 #include "emulator/simulated_run.h"
 #include "estimator/estimate_io.h"
 #include "hil/campaign_rig.h"
-#include "hil/rig_factory.h"
 #include "records/run_log.h"
 #include "report/report.h"
 #include "rt_core/model/channels.h"

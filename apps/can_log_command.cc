@@ -5,7 +5,7 @@
 #include <memory>
 #include <string>
 
-#include "hil/rig_factory.h"
+#include "apps/progress.h"
 #include "io_drivers/socket_can.h"
 #include "records/can_bus_log.h"
 

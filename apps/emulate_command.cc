@@ -7,12 +7,12 @@
 #include <string>
 #include <vector>
 
+#include "apps/progress.h"
 #include "emulator/can_front_end.h"
 #include "emulator/modbus_front_end.h"
 #include "emulator/plant_config.h"
 #include "emulator/rig_emulator.h"
 #include "hil/rig_config.h"
-#include "hil/rig_factory.h"
 #include "io_drivers/modbus_map.h"
 #include "io_drivers/transport_config.h"
 #include "rt_core/model/model_config.h"

@@ -7,9 +7,28 @@
 #include <cstdio>
 #include <utility>
 
-#include "hil/rig_factory.h"
-
 namespace kcrig {
+namespace {
+
+std::atomic<int> g_stop_signal{0};
+static_assert(std::atomic<int>::is_always_lock_free,
+              "the signal handler stores into it");
+
+extern "C" void OnStopSignal(int signal) { g_stop_signal.store(signal); }
+
+}  // namespace
+
+const std::atomic<int>& InstallStopSignalHandlers() {
+  struct sigaction action {};
+  action.sa_handler = OnStopSignal;
+  // The first signal asks for the ramp-down; a second one acts as usual.
+  action.sa_flags = SA_RESETHAND;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+  return g_stop_signal;
+}
 
 ProgressLine::ProgressLine(bool quiet)
     : enabled_(!quiet && isatty(STDERR_FILENO)) {}

@@ -40,6 +40,11 @@ class ProgressLine {
       std::chrono::steady_clock::now();
 };
 
+// Installs handlers for SIGINT and SIGTERM that store the signal number in
+// the returned flag: a rig session ramps down when it is non-zero, a long
+// offline computation stops (StopSignal).
+const std::atomic<int>& InstallStopSignalHandlers();
+
 // SIGINT and SIGTERM in a long offline command (estimate, screen,
 // diagnose, design, campaign, report), through the HIL commands' handlers
 // (InstallStopSignalHandlers): the signal makes the command's

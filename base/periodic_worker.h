@@ -20,7 +20,9 @@ class PeriodicWorker {
   PeriodicWorker(const PeriodicWorker&) = delete;
   PeriodicWorker& operator=(const PeriodicWorker&) = delete;
 
+  // Starts the thread (after stopping one that runs).
   void Start(std::chrono::milliseconds interval, std::function<void()> work) {
+    Stop();
     stop_.store(false, std::memory_order_release);
     thread_ = std::thread([this, interval, work = std::move(work)] {
       for (;;) {

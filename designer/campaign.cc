@@ -7,8 +7,8 @@
 #include <limits>
 #include <memory>
 
+#include "base/json_reader.h"
 #include "designer/design_step.h"
-#include "designer/json_reader.h"
 #include "estimator/estimate_io.h"
 #include "estimator/experiment.h"
 #include "nlohmann/json.hpp"

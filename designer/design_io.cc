@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "designer/json_reader.h"
+#include "base/json_reader.h"
 #include "nlohmann/json.hpp"
 #include "rt_core/model/channels.h"
 

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "base/json_reader.h"
 #include "estimator/estimate_io.h"
 #include "nlohmann/json.hpp"
 
@@ -68,7 +69,92 @@ Json CandidateJson(const CandidateScore& s) {
   return out;
 }
 
+// A number that may be null (not computed): NaN then.
+double NumberOrNan(const nlohmann::json& node, const char* key) {
+  const nlohmann::json& value = node.value(key, nlohmann::json(nullptr));
+  return value.is_null() ? std::nan("") : value.get<double>();
+}
+
+Status ReadCandidate(const nlohmann::json& node, const std::string& where,
+                     CandidateScore* s) {
+  s->model = node.value("model", "nominal");
+  s->ok = node.value("ok", true);
+  if (!s->ok) return Status::Ok();
+  s->score = NumberOrNan(node, "score");
+  s->scored = std::isfinite(s->score);
+  s->gap_closed = NumberOrNan(node, "gap_closed");
+  s->bic = NumberOrNan(node, "bic");
+  const nlohmann::json& parameters =
+      node.value("parameters", nlohmann::json::array());
+  for (size_t i = 0; i < parameters.size(); ++i) {
+    double value = 0;
+    KCRIG_RETURN_IF_ERROR(ReadField(
+        parameters[i], "value",
+        where + ": " + s->model + ".parameters[" + std::to_string(i) + "]",
+        &value));
+    s->fit.values.push_back(value);
+  }
+  return Status::Ok();
+}
+
+GapSlice ReadSlice(const nlohmann::json& node) {
+  GapSlice s;
+  s.name = node.value("name", "");
+  s.samples = node.value("samples", 0);
+  const nlohmann::json& per =
+      node.value("score_per_channel", nlohmann::json::object());
+  for (int k = 0; k < 6; ++k)
+    s.channel_score(k) = NumberOrNan(per, kChannelNames[k]);
+  return s;
+}
+
+std::vector<std::string> ReadStrings(const nlohmann::json& doc,
+                                     const char* key) {
+  std::vector<std::string> out;
+  for (const nlohmann::json& item : doc.value(key, nlohmann::json::array())) {
+    if (item.is_string()) out.push_back(item.get<std::string>());
+  }
+  return out;
+}
+
+Status ReadDiagnosisDocument(const std::string& path, const nlohmann::json& doc,
+                             DiagnosisFile* file) {
+  DiagnosisResult& r = file->result;
+  KCRIG_RETURN_IF_ERROR(ReadField(doc, "verdict", path, &r.verdict));
+  KCRIG_RETURN_IF_ERROR(ReadField(doc, "reason", path, &r.reason));
+  r.confidence = doc.value("confidence", "");
+  r.scoring = doc.value("scoring", "");
+  const nlohmann::json& localisation =
+      doc.value("localisation", nlohmann::json::object());
+  for (const auto& [key, slices] : {std::pair{"load_magnitude", &r.magnitude},
+                                    {"load_direction", &r.direction}}) {
+    for (const nlohmann::json& s :
+         localisation.value(key, nlohmann::json::array())) {
+      slices->push_back(ReadSlice(s));
+    }
+  }
+  file->has_nominal = doc.contains("nominal");
+  if (file->has_nominal) {
+    KCRIG_RETURN_IF_ERROR(ReadCandidate(doc["nominal"], path, &r.nominal));
+  }
+  for (const nlohmann::json& c :
+       doc.value("candidates", nlohmann::json::array())) {
+    KCRIG_RETURN_IF_ERROR(ReadCandidate(c, path, &r.ranking.emplace_back()));
+  }
+  file->logs = ReadStrings(doc, "logs");
+  file->holdout = ReadStrings(doc, "holdout");
+  return Status::Ok();
+}
+
 }  // namespace
+
+Status ReadDiagnosisFile(const std::string& path, DiagnosisFile* file) {
+  *file = DiagnosisFile();
+  nlohmann::json doc;
+  KCRIG_RETURN_IF_ERROR(ReadJsonFile(path, &doc));
+  return GuardedRead(path,
+                     [&] { return ReadDiagnosisDocument(path, doc, file); });
+}
 
 std::string DiagnosisToJson(const DiagnosisResult& r,
                             const std::vector<std::string>& training_logs,

@@ -23,6 +23,20 @@ std::string DiagnosisToJson(const DiagnosisResult& result,
 
 std::string DiagnosisSummary(const DiagnosisResult& result);
 
+// diag.json read back as far as its readers (the report) use it: the
+// verdict, confidence, reason and scoring; the load-regime slices (name,
+// samples, score per channel); the nominal model and the candidates
+// (model, ok, score and gap closed when scored, BIC, fitted values); the
+// logs. Fields a hand-written file leaves out stay empty (no nominal model:
+// has_nominal false); a null number reads as NaN. A field of the wrong type
+// is an error naming the file and the field.
+struct DiagnosisFile {
+  std::vector<std::string> logs, holdout;
+  bool has_nominal = false;
+  DiagnosisResult result;
+};
+Status ReadDiagnosisFile(const std::string& path, DiagnosisFile* file);
+
 }  // namespace kcrig
 
 #endif  // KCRIG_DIAGNOSIS_DIAGNOSIS_IO_H_

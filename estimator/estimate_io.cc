@@ -173,10 +173,9 @@ std::string EstimationSummary(const EstimationResult& result,
   out += "  residual RMS:";
   for (int k = 0; k < 6; ++k) {
     if (!result.channel_used[k]) continue;
-    const bool angle = k >= 3;
     std::snprintf(line, sizeof(line), " %s %.4f %s", kChannelNames[k],
-                  result.residual_rms(k) * (angle ? 180.0 / M_PI : 1e3),
-                  angle ? "deg" : "mm");
+                  ChannelDisplayValue(k, result.residual_rms(k)),
+                  ChannelDisplayUnit(k));
     out += line;
   }
   out += "\n";

@@ -125,9 +125,16 @@ bool LeastSquaresProblem::Evaluate(const std::vector<double>& x, double* cost,
   return true;
 }
 
+// Within 0.1 % of a bound's own size, or of the box's width at a bound of
+// zero: a stiffness scale box [0.1, 10] flags 0.1001 and 9.99 (as the
+// estimator always did), an effect's [0, d] box flags 0.001 d.
 bool LeastSquaresProblem::AtBound(int i, double x_i) const {
-  const double tolerance = 1e-3 * (upper_[i] - lower_[i]);
-  return x_i - lower_[i] < tolerance || upper_[i] - x_i < tolerance;
+  const double width = upper_[i] - lower_[i];
+  auto tolerance = [width](double bound) {
+    return 1e-3 * (bound != 0 ? std::abs(bound) : width);
+  };
+  return x_i - lower_[i] < tolerance(lower_[i]) ||
+         upper_[i] - x_i < tolerance(upper_[i]);
 }
 
 }  // namespace kcrig

@@ -74,9 +74,9 @@ class LeastSquaresProblem {
   bool Evaluate(const std::vector<double>& x, double* cost,
                 Eigen::VectorXd* residuals, Eigen::MatrixXd* jacobian);
 
-  // Whether x_i is within 0.1 % of the box's width of one of its ends:
-  // there the box, not the data, set the value. (Relative to the width,
-  // so it holds for bounds at or below zero and in any affine scaling.)
+  // Whether x_i is within 0.1 % of one of its bounds (of the bound's own
+  // size; of the box's width at a bound of zero): there the box, not the
+  // data, set the value.
   bool AtBound(int i, double x_i) const;
 
  private:

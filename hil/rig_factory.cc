@@ -1,6 +1,5 @@
 #include "hil/rig_factory.h"
 
-#include <csignal>
 #include <filesystem>
 
 #include "io_drivers/can_rig.h"
@@ -8,15 +7,7 @@
 #include "records/can_bus_log.h"
 
 namespace kcrig {
-namespace {
-
-std::atomic<int> g_stop_signal{0};
-static_assert(std::atomic<int>::is_always_lock_free,
-              "the signal handler stores into it");
-
-extern "C" void OnStopSignal(int signal) { g_stop_signal.store(signal); }
-
-}  // namespace
+namespace {}  // namespace
 
 Status MakeRig(const std::string& uri, const RigConfig& rig_config,
                const std::string& log_dir, std::unique_ptr<RigInterface>* rig) {
@@ -41,18 +32,6 @@ Status MakeRig(const std::string& uri, const RigConfig& rig_config,
   if (!status.ok()) return status;
   *rig = std::make_unique<ModbusRig>(endpoint, map, rig_config.modbus);
   return Status::Ok();
-}
-
-const std::atomic<int>& InstallStopSignalHandlers() {
-  struct sigaction action {};
-  action.sa_handler = OnStopSignal;
-  // The first signal asks for the ramp-down; a second one acts as usual.
-  action.sa_flags = SA_RESETHAND;
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
-  std::signal(SIGPIPE, SIG_IGN);
-  return g_stop_signal;
 }
 
 }  // namespace kcrig

@@ -3,7 +3,6 @@
 #ifndef KCRIG_HIL_RIG_FACTORY_H_
 #define KCRIG_HIL_RIG_FACTORY_H_
 
-#include <atomic>
 #include <memory>
 #include <string>
 
@@ -17,10 +16,6 @@ namespace kcrig {
 // `log_dir`/can.log (none when `log_dir` is empty).
 Status MakeRig(const std::string& uri, const RigConfig& rig_config,
                const std::string& log_dir, std::unique_ptr<RigInterface>* rig);
-
-// Installs handlers for SIGINT and SIGTERM that store the signal number in
-// the returned flag (the loop ramps down when it is non-zero).
-const std::atomic<int>& InstallStopSignalHandlers();
 
 }  // namespace kcrig
 

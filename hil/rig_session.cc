@@ -110,7 +110,7 @@ RunLogger::Options LoggerOptionsFor(const RigConfig& rig_config,
   logger.expected_duration = profile.duration();
   logger.on_warning = options.on_warning;
   if (options.on_progress) {
-    logger.on_progress = [&options, &profile](double t) {
+    logger.on_progress = [&options, profile](double t) {
       options.on_progress(t, profile.Phase(t));
     };
   }

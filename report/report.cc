@@ -8,11 +8,12 @@
 #include <fstream>
 #include <sstream>
 
+#include "base/json_reader.h"
 #include "designer/campaign.h"
 #include "designer/criteria.h"
 #include "designer/criterion_surface.h"
-#include "designer/json_reader.h"
 #include "designer/kriging.h"
+#include "diagnosis/diagnosis_io.h"
 #include "diagnosis/effect_model.h"
 #include "estimator/estimate_io.h"
 #include "estimator/estimator.h"
@@ -416,33 +417,32 @@ fs::path LogPath(const fs::path& diag_file, const std::string& written) {
   return fs::exists(beside) ? beside : fs::path(written);
 }
 
+// A candidate's figures as the page shows them (null: not computed).
+Json CandidateRow(const CandidateScore& c) {
+  return {{"model", c.model},
+          {"score", Number(c.score)},
+          {"gap_closed", Number(c.gap_closed)},
+          {"bic", Number(c.bic)}};
+}
+
 Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
                      const ReportOptions& options, Json* out) {
-  Json diag;
-  Status status = ReadJsonFile(file, &diag);
-  if (!status.ok()) return status;
-  std::string verdict, confidence, reason;
-  for (Status s : {ReadField(diag, "verdict", file.string(), &verdict),
-                   ReadField(diag, "reason", file.string(), &reason)}) {
-    if (!s.ok()) return s;
-  }
-  confidence = diag.value("confidence", "");
+  DiagnosisFile diag;
+  KCRIG_RETURN_IF_ERROR(ReadDiagnosisFile(file.string(), &diag));
+  const DiagnosisResult& d = diag.result;
   Json result = {{"file", file.string()},
-                 {"verdict", verdict},
-                 {"confidence", confidence},
-                 {"reason", reason}};
+                 {"verdict", d.verdict},
+                 {"confidence", d.confidence},
+                 {"reason", d.reason}};
   // Residual energy by channel x load regime: the mean squared weighted
   // residual (1 = noise) per channel in each slice.
-  const Json& localisation = diag.value("localisation", Json::object());
   Json regimes = Json::array(), energy = Json::array();
-  for (const char* group : {"load_magnitude", "load_direction"}) {
-    for (const Json& slice : localisation.value(group, Json::array())) {
-      if (slice.value("samples", 0) == 0) continue;
-      regimes.push_back(slice.value("name", ""));
+  for (const std::vector<GapSlice>* group : {&d.magnitude, &d.direction}) {
+    for (const GapSlice& slice : *group) {
+      if (slice.samples == 0) continue;
+      regimes.push_back(slice.name);
       Json row = Json::array();
-      const Json& per = slice.value("score_per_channel", Json::object());
-      for (const char* c : kChannelNames)
-        row.push_back(per.value(c, Json(nullptr)));
+      for (int k = 0; k < 6; ++k) row.push_back(Number(slice.channel_score(k)));
       energy.push_back(row);
     }
   }
@@ -450,79 +450,61 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
   result["regimes"] = regimes;
   result["energy"] = energy;
   Json ranking = Json::array();
-  const Json* chosen = nullptr;
-  const Json candidates = diag.value("candidates", Json::array());
-  for (const Json& c : candidates) {
-    if (!c.value("ok", false)) continue;
-    ranking.push_back({{"model", c.value("model", "")},
-                       {"score", c.value("score", Json(nullptr))},
-                       {"gap_closed", c.value("gap_closed", Json(nullptr))},
-                       {"bic", c.value("bic", Json(nullptr))}});
-    if (c.value("model", "") == verdict ||
-        (chosen == nullptr && verdict == "unexplained")) {
+  const CandidateScore* chosen = nullptr;
+  for (const CandidateScore& c : d.ranking) {
+    if (!c.ok) continue;
+    ranking.push_back(CandidateRow(c));
+    if (c.model == d.verdict ||
+        (chosen == nullptr && d.verdict == "unexplained")) {
       chosen = &c;
     }
   }
-  if (diag.contains("nominal")) {
-    result["nominal_score"] = diag["nominal"].value("score", Json(nullptr));
-    result["nominal_bic"] = diag["nominal"].value("bic", Json(nullptr));
+  if (diag.has_nominal) {
+    result["nominal_score"] = Number(d.nominal.score);
+    result["nominal_bic"] = Number(d.nominal.bic);
   }
   result["ranking"] = ranking;
-  result["scoring"] = diag.value("scoring", "");
+  result["scoring"] = d.scoring;
   // Before / after on the held-out data (else the first training log).
-  std::vector<std::string> logs;
-  for (const char* key : {"holdout", "logs"}) {
-    for (const Json& l : diag.value(key, Json::array())) {
-      if (l.is_string()) logs.push_back(l.get<std::string>());
-    }
-    if (!logs.empty()) {
-      result["overlay_on"] =
-          std::string(key) == "holdout" ? "held-out log" : "training log";
-      break;
-    }
+  const bool on_holdout = !diag.holdout.empty();
+  const std::vector<std::string>& logs = on_holdout ? diag.holdout : diag.logs;
+  if (!logs.empty()) {
+    result["overlay_on"] = on_holdout ? "held-out log" : "training log";
   }
-  if (logs.empty() || chosen == nullptr || !diag.contains("nominal")) {
+  if (logs.empty() || chosen == nullptr || !diag.has_nominal) {
     *out = result;
     return Status::Ok();
   }
   const fs::path log = LogPath(file, logs[0]);
   Experiment e;
-  status = LoadExperiment(log.string(), config, options.dbc_file, &e);
-  if (!status.ok()) {
+  const Status loaded =
+      LoadExperiment(log.string(), config, options.dbc_file, &e);
+  if (!loaded.ok()) {
     // The diagnosis stands without its overlay: say why it is missing.
-    result["overlay_missing"] = status.message();
+    result["overlay_missing"] = loaded.message();
     *out = result;
     return Status::Ok();
   }
   // The estimator's default stiffness bounds, as the diagnosis uses them.
   const EstimatorOptions bounds;
-  auto simulate = [&](const Json& candidate, std::vector<Vec6<double>>* y) {
-    const std::string name = candidate.value("model", "nominal");
+  auto simulate = [&](const CandidateScore& candidate,
+                      std::vector<Vec6<double>>* y) {
     EffectModel model;
-    Status made = EffectModel::CreateNamed(
-        config.model, name, bounds.lower_scale, bounds.upper_scale, &model);
-    if (!made.ok()) return made;
-    const Json& parameters = candidate.value("parameters", Json::array());
-    if (static_cast<int>(parameters.size()) != model.num_parameters()) {
-      return Status::Error(file.string() + ": candidate " + name + " has " +
-                           std::to_string(parameters.size()) +
+    KCRIG_RETURN_IF_ERROR(EffectModel::CreateNamed(
+        config.model, candidate.model, bounds.lower_scale, bounds.upper_scale,
+        &model));
+    const std::vector<double>& values = candidate.fit.values;
+    if (static_cast<int>(values.size()) != model.num_parameters()) {
+      return Status::Error(file.string() + ": candidate " + candidate.model +
+                           " has " + std::to_string(values.size()) +
                            " parameters, the model " +
                            std::to_string(model.num_parameters()));
-    }
-    std::vector<double> values;
-    for (const Json& p : parameters) {
-      double v = 0;
-      Status s = ReadField(p, "value", file.string() + ": " + name, &v);
-      if (!s.ok()) return s;
-      values.push_back(v);
     }
     return SimulateEffectModel(model, values, e, config.experiment.step, y);
   };
   std::vector<Vec6<double>> before, after;
-  status = simulate(diag["nominal"], &before);
-  if (!status.ok()) return status;
-  status = simulate(*chosen, &after);
-  if (!status.ok()) return status;
+  KCRIG_RETURN_IF_ERROR(simulate(d.nominal, &before));
+  KCRIG_RETURN_IF_ERROR(simulate(*chosen, &after));
   Json overlay = TimeHistories(e, before, options.max_plot_samples);
   const Json with = TimeHistories(e, after, options.max_plot_samples);
   for (size_t k = 0; k < overlay["channels"].size(); ++k) {
@@ -532,8 +514,8 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
     overlay["channels"][k]["attributed_rms"] = with["channels"][k]["rms"];
   }
   overlay["log"] = log.filename().string();
-  overlay["attributed_model"] = chosen->value("model", "");
-  overlay["attributed"] = verdict != "unexplained";
+  overlay["attributed_model"] = chosen->model;
+  overlay["attributed"] = d.verdict != "unexplained";
   result["overlay"] = overlay;
   *out = result;
   return Status::Ok();

@@ -31,7 +31,7 @@ LoopResult ControlLoop::Run() {
   for (;;) {
     const CycleTimer::Wake wake = timer.WaitForNextCycle();
     cycle_start_ = wake.deadline + wake.latency;
-    timing_.wakeup.Record(wake.latency);
+    timing_.wakeup.Record(wake.wakeup_latency);
     const bool go_on = Cycle(wake.cycle, wake.skipped);
     timing_.cycle.Record(MonotonicNanoseconds() - cycle_start_);
     if (!go_on) break;

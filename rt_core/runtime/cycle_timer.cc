@@ -41,8 +41,8 @@ CycleTimer::Wake CycleTimer::WaitForNextCycle() {
     if (next_cycle_ <= last_cycle_) {
       missed = std::min(missed, last_cycle_ - next_cycle_);
     }
-    // The previous cycle started last_latency_ after its deadline, one
-    // period before next_deadline_: the deadlines already passed then.
+    // The machine woke the previous cycle last_latency_ late, one period
+    // before next_deadline_: the deadlines it had passed by then.
     const std::int64_t missed_waking =
         last_latency_ > period_ ? (last_latency_ - period_) / period_ + 1 : 0;
     skipped_late_ += std::min(missed, missed_waking);
@@ -60,7 +60,8 @@ CycleTimer::Wake CycleTimer::WaitForNextCycle() {
   wake.cycle = next_cycle_;
   wake.deadline = next_deadline_;
   wake.latency = woke - next_deadline_;
-  last_latency_ = wake.latency;
+  wake.wakeup_latency = woke - std::max(next_deadline_, now);
+  last_latency_ = wake.wakeup_latency;
   next_deadline_ += period_;
   ++next_cycle_;
   return wake;

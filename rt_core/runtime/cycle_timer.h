@@ -35,7 +35,11 @@ class CycleTimer {
     std::int64_t cycle = 0;     // index of the cycle that starts now
     std::int64_t deadline = 0;  // its nominal start [ns, monotonic]
     std::int64_t latency = 0;   // woke this long after the deadline [ns]
-    std::int64_t skipped = 0;   // deadlines missed since the last cycle
+    // How late the machine woke the loop [ns]: after the deadline, or after
+    // the call when the last cycle's deadline had passed already (the
+    // loop's own overrun is not the machine's latency).
+    std::int64_t wakeup_latency = 0;
+    std::int64_t skipped = 0;  // deadlines missed since the last cycle
   };
 
   // Sleeps until the next deadline that is still ahead (skipping those that
@@ -56,7 +60,7 @@ class CycleTimer {
   std::int64_t overruns_ = 0;
   std::int64_t skipped_ = 0;
   std::int64_t skipped_late_ = 0;
-  std::int64_t last_latency_ = 0;  // of the previous wake-up [ns]
+  std::int64_t last_latency_ = 0;  // previous wakeup_latency [ns]
 };
 
 // The machine's own wake-up latency, measured the way cyclictest does it:

@@ -1,9 +1,9 @@
 // Field-by-field reading of the JSON files the offline tools write
-// (design.json, campaign.json; the report's diag.json and timing.json until
-// their readers move beside their writers): every error names the file and
-// the field, and no JSON exception crosses a module boundary.
-#ifndef KCRIG_DESIGNER_JSON_READER_H_
-#define KCRIG_DESIGNER_JSON_READER_H_
+// (design.json, campaign.json, diag.json, timing.json), for the readers
+// beside their writers: every error names the file and the field, and no
+// JSON exception crosses a module boundary.
+#ifndef KCRIG_BASE_JSON_READER_H_
+#define KCRIG_BASE_JSON_READER_H_
 
 #include <cmath>
 #include <fstream>
@@ -60,4 +60,4 @@ Status GuardedRead(const std::string& path, Read&& read) {
 
 }  // namespace kcrig
 
-#endif  // KCRIG_DESIGNER_JSON_READER_H_
+#endif  // KCRIG_BASE_JSON_READER_H_
