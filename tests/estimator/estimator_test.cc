@@ -18,6 +18,16 @@ SyntheticSpec PaperInitialSpec(const KcrigConfig& config) {
           config.experiment.duration};
 }
 
+// The bushing stiffnesses of `truth`, each times `factor`: a start off it.
+std::vector<double> ScaledStiffnesses(const SuspensionParameters<double>& truth,
+                                      double factor) {
+  std::vector<double> values;
+  for (int i = 0; i < kNumBushings; ++i) {
+    values.push_back(truth.bushings[i].stiffness * factor);
+  }
+  return values;
+}
+
 // Acceptance 1: the paper's first estimation, noise-free, start 5 % off.
 TEST(EstimatorTest, ReidentifiesDistinctStiffnessesFromNoiseFreeData) {
   const KcrigConfig config = SourceConfig();
@@ -145,10 +155,7 @@ TEST(EstimatorTest, LogWithoutLoadCellUsesTheCommandedRamp) {
   for (size_t j = 0; j < log.samples.size(); j += 500) {
     EXPECT_LT((experiment.forces[j] - log.samples[j].force).norm(), 1e-9);
   }
-  std::vector<double> initial;
-  for (int i = 0; i < kNumBushings; ++i) {
-    initial.push_back(truth.bushings[i].stiffness * 1.05);
-  }
+  const std::vector<double> initial = ScaledStiffnesses(truth, 1.05);
   EstimationResult result;
   ASSERT_TRUE(Estimate(config.model, {experiment}, EstimatorOptions{}, initial,
                        config.experiment.step, &result)
@@ -183,10 +190,7 @@ TEST(EstimatorTest, AnAbortingCallbackInterruptsTheFit) {
   const SuspensionParameters<double> truth = DistinctBushingTruth(config.model);
   const std::vector<Experiment> experiments = {
       SyntheticExperiment(config, truth, PaperInitialSpec(config))};
-  std::vector<double> initial;
-  for (int i = 0; i < kNumBushings; ++i) {
-    initial.push_back(truth.bushings[i].stiffness * 1.05);
-  }
+  const std::vector<double> initial = ScaledStiffnesses(truth, 1.05);
   EstimatorOptions options;
   std::vector<IterationSummary> seen;
   options.callback = [&seen](const IterationSummary& summary) {
