@@ -12,12 +12,9 @@
 
 namespace kcrig {
 
-Status Screen(const SuspensionParameters<double>& nominal,
-              const std::vector<Experiment>& experiments,
-              const EstimatorOptions& estimator_options,
-              const ScreeningOptions& options, double integrator_step,
-              ScreeningResult* result) {
-  const auto start = std::chrono::steady_clock::now();
+namespace {
+
+Status CheckScreeningOptions(const ScreeningOptions& options) {
   if (!(options.range_low > 0 && options.range_low < 1.0 &&
         options.range_high > 1.0)) {
     return Status::Error("screening range must satisfy 0 < low < 1 < high");
@@ -25,40 +22,32 @@ Status Screen(const SuspensionParameters<double>& nominal,
   if (options.levels < 2 || options.trajectories < 2) {
     return Status::Error("screening needs >= 2 levels and >= 2 trajectories");
   }
-  std::vector<int> indices;
-  Status status = ResolveParameters(nominal, options.parameters, &indices);
-  if (!status.ok()) return status;
-  const int k = static_cast<int>(indices.size());
-  EstimatorOptions fit_options = estimator_options;
-  fit_options.parameters = options.parameters;
-  fit_options.lower_scale =
-      std::min(fit_options.lower_scale, options.range_low);
-  fit_options.upper_scale =
-      std::max(fit_options.upper_scale, options.range_high);
-  FitProblem problem(nominal, experiments, fit_options, integrator_step,
-                     indices);
-  *result = ScreeningResult();
-  result->names = options.parameters;
+  return Status::Ok();
+}
 
-  // Morris trajectories on the unit cube, u in {0, 1/(L-1), ..., 1}, with
-  // the usual step Delta = L / (2 (L - 1)); u maps to the scaled value
-  // low * (high / low)^u, so effects are per unit of log-range.
+// Morris trajectories on the unit cube, u in {0, 1/(L-1), ..., 1}, with the
+// usual step Delta = L / (2 (L - 1)); u maps to the scaled value
+// low * (high / low)^u, so effects are per unit of log-range. Returns the
+// elementary effects of each candidate.
+Status MorrisEffects(FitProblem* problem, const ScreeningOptions& options,
+                     int k, std::vector<std::vector<double>>* effects,
+                     int* evaluations) {
   const int levels = options.levels;
   const double delta = levels / (2.0 * (levels - 1));
   const int base_levels = levels / 2;  // starts where u + Delta <= 1 fits
   std::mt19937_64 rng(options.seed);
   std::uniform_int_distribution<int> pick_level(0, base_levels - 1);
-  auto to_scaled = [&](double u) {
-    return options.range_low *
-           std::pow(options.range_high / options.range_low, u);
-  };
   auto cost_at = [&](const std::vector<double>& u, double* cost) {
     std::vector<double> scaled(k);
-    for (int i = 0; i < k; ++i) scaled[i] = to_scaled(u[i]);
-    ++result->evaluations;
-    return problem.Evaluate(scaled, cost, nullptr, nullptr);
+    for (int i = 0; i < k; ++i) {
+      scaled[i] = options.range_low *
+                  std::pow(options.range_high / options.range_low, u[i]);
+    }
+    ++*evaluations;
+    if (problem->Evaluate(scaled, cost, nullptr, nullptr)) return Status::Ok();
+    return Status::Error("screening: the model fails inside the range");
   };
-  std::vector<std::vector<double>> effects(k);
+  effects->assign(k, {});
   for (int t = 0; t < options.trajectories; ++t) {
     std::vector<double> u(k);
     for (int i = 0; i < k; ++i) {
@@ -68,30 +57,34 @@ Status Screen(const SuspensionParameters<double>& nominal,
     std::iota(order.begin(), order.end(), 0);
     std::shuffle(order.begin(), order.end(), rng);
     double previous = 0;
-    if (!cost_at(u, &previous)) {
-      return Status::Error("screening: the model fails inside the range");
-    }
+    KCRIG_RETURN_IF_ERROR(cost_at(u, &previous));
     for (int i : order) {
       u[i] += delta;
       double cost = 0;
-      if (!cost_at(u, &cost)) {
-        return Status::Error("screening: the model fails inside the range");
-      }
-      effects[i].push_back((cost - previous) / delta);
+      KCRIG_RETURN_IF_ERROR(cost_at(u, &cost));
+      (*effects)[i].push_back((cost - previous) / delta);
       previous = cost;
     }
-    if (options.callback) {
-      IterationSummary summary;
-      summary.stage = "screening";
-      summary.done = result->evaluations;
-      summary.total = options.trajectories * (k + 1);
-      summary.fraction = static_cast<double>(summary.done) / summary.total;
-      if (options.callback(summary) == CallbackReturn::kAbort) {
-        return Interrupted("screening");
-      }
+    if (!options.callback) continue;
+    IterationSummary summary;
+    summary.stage = "screening";
+    summary.done = *evaluations;
+    summary.total = options.trajectories * (k + 1);
+    summary.fraction = static_cast<double>(summary.done) / summary.total;
+    if (options.callback(summary) == CallbackReturn::kAbort) {
+      return Interrupted("screening");
     }
   }
-  for (int i = 0; i < k; ++i) {
+  return Status::Ok();
+}
+
+// mu*, mu and sigma of each candidate's effects (in the given order), and
+// which ones are negligible beside the largest mu*.
+std::vector<ScreenedParameter> RankImpact(
+    const std::vector<std::vector<double>>& effects,
+    const ScreeningOptions& options) {
+  std::vector<ScreenedParameter> ranking;
+  for (size_t i = 0; i < effects.size(); ++i) {
     ScreenedParameter p;
     p.name = options.parameters[i];
     double sum = 0, sum_abs = 0;
@@ -105,23 +98,26 @@ Status Screen(const SuspensionParameters<double>& nominal,
     double variance = 0;
     for (double e : effects[i]) variance += (e - p.mu) * (e - p.mu);
     p.sigma = std::sqrt(variance / std::max(1.0, count - 1));
-    result->ranking.push_back(p);
+    ranking.push_back(p);
   }
   double largest = 0;
-  for (const ScreenedParameter& p : result->ranking) {
+  for (const ScreenedParameter& p : ranking) {
     largest = std::max(largest, p.mu_star);
   }
-  for (ScreenedParameter& p : result->ranking) {
+  for (ScreenedParameter& p : ranking) {
     p.negligible = p.mu_star < options.negligible_fraction * largest;
   }
+  return ranking;
+}
 
-  // Sensitivities at the nominal values.
-  Eigen::MatrixXd jacobian;
-  if (!problem.Evaluate(std::vector<double>(k, 1.0), nullptr, nullptr,
-                        &jacobian)) {
-    return Status::Error("screening: the model fails at the nominal values");
-  }
-  Eigen::MatrixXd centered = jacobian.rowwise() - jacobian.colwise().mean();
+// Correlation of the centred sensitivity columns; pairs beyond the
+// threshold are dependent.
+void FindDependentPairs(const Eigen::MatrixXd& jacobian,
+                        const ScreeningOptions& options,
+                        ScreeningResult* result) {
+  const int k = static_cast<int>(jacobian.cols());
+  const Eigen::MatrixXd centered =
+      jacobian.rowwise() - jacobian.colwise().mean();
   const Eigen::VectorXd norms = centered.colwise().norm();
   result->sensitivity_correlation.setIdentity(k, k);
   for (int i = 0; i < k; ++i) {
@@ -138,13 +134,18 @@ Status Screen(const SuspensionParameters<double>& nominal,
       }
     }
   }
+}
 
-  // Estimable subset: pivot order of the non-negligible columns, longest
-  // leading set whose standard errors (at the stated sigmas) stay within the
-  // estimator's practical limit.
+// Estimable subset: pivot order of the non-negligible columns, longest
+// leading set whose standard errors (at the stated sigmas) stay within the
+// estimator's practical limit. `ranking` is still in the given order.
+std::vector<std::string> EstimableSubset(
+    const Eigen::MatrixXd& jacobian,
+    const std::vector<ScreenedParameter>& ranking,
+    double max_relative_standard_error) {
   std::vector<int> candidates;
-  for (int i = 0; i < k; ++i) {
-    if (!result->ranking[i].negligible) candidates.push_back(i);
+  for (size_t i = 0; i < ranking.size(); ++i) {
+    if (!ranking[i].negligible) candidates.push_back(static_cast<int>(i));
   }
   Eigen::MatrixXd reduced(jacobian.rows(), candidates.size());
   for (size_t c = 0; c < candidates.size(); ++c) {
@@ -159,20 +160,60 @@ Status Screen(const SuspensionParameters<double>& nominal,
   for (size_t m = 1; m <= pivot_order.size(); ++m) {
     Eigen::MatrixXd subset(jacobian.rows(), m);
     for (size_t c = 0; c < m; ++c) subset.col(c) = jacobian.col(pivot_order[c]);
-    const Eigen::MatrixXd information = subset.transpose() * subset;
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(information);
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(subset.transpose() * subset);
     if (ldlt.info() != Eigen::Success) break;
     const Eigen::MatrixXd inverse = ldlt.solve(Eigen::MatrixXd::Identity(m, m));
     bool all_within = inverse.diagonal().minCoeff() > 0;
     for (size_t c = 0; c < m && all_within; ++c) {
-      all_within = std::sqrt(inverse(c, c)) <=
-                   estimator_options.max_relative_standard_error;
+      all_within = std::sqrt(inverse(c, c)) <= max_relative_standard_error;
     }
     if (all_within) accepted = m;
   }
+  std::vector<std::string> estimable;
   for (size_t c = 0; c < accepted; ++c) {
-    result->estimable.push_back(options.parameters[pivot_order[c]]);
+    estimable.push_back(ranking[pivot_order[c]].name);
   }
+  return estimable;
+}
+
+}  // namespace
+
+Status Screen(const SuspensionParameters<double>& nominal,
+              const std::vector<Experiment>& experiments,
+              const EstimatorOptions& estimator_options,
+              const ScreeningOptions& options, double integrator_step,
+              ScreeningResult* result) {
+  const auto start = std::chrono::steady_clock::now();
+  KCRIG_RETURN_IF_ERROR(CheckScreeningOptions(options));
+  std::vector<int> indices;
+  KCRIG_RETURN_IF_ERROR(
+      ResolveParameters(nominal, options.parameters, &indices));
+  const int k = static_cast<int>(indices.size());
+  EstimatorOptions fit_options = estimator_options;
+  fit_options.parameters = options.parameters;
+  fit_options.lower_scale =
+      std::min(fit_options.lower_scale, options.range_low);
+  fit_options.upper_scale =
+      std::max(fit_options.upper_scale, options.range_high);
+  FitProblem problem(nominal, experiments, fit_options, integrator_step,
+                     indices);
+  *result = ScreeningResult();
+  result->names = options.parameters;
+
+  std::vector<std::vector<double>> effects;
+  KCRIG_RETURN_IF_ERROR(
+      MorrisEffects(&problem, options, k, &effects, &result->evaluations));
+  result->ranking = RankImpact(effects, options);
+
+  // Dependence and estimability from the sensitivities at the nominal values.
+  Eigen::MatrixXd jacobian;
+  if (!problem.Evaluate(std::vector<double>(k, 1.0), nullptr, nullptr,
+                        &jacobian)) {
+    return Status::Error("screening: the model fails at the nominal values");
+  }
+  FindDependentPairs(jacobian, options, result);
+  result->estimable = EstimableSubset(
+      jacobian, result->ranking, estimator_options.max_relative_standard_error);
 
   std::stable_sort(result->ranking.begin(), result->ranking.end(),
                    [](const ScreenedParameter& a, const ScreenedParameter& b) {

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "nlohmann/json.hpp"
+#include "records/partial_file.h"
 
 namespace kcrig {
 namespace {
@@ -384,18 +385,13 @@ Status WriteFilesAtomically(
   return Status::Ok();
 }
 
-Status FinishStreamedRunLog(const std::string& partial_path,
-                            const std::string& csv_path, const RunLog& log) {
-  const std::string sidecar = SidecarPath(csv_path);
-  Status status = WriteFilesAtomically({{sidecar, FormatSidecar(log)}});
-  if (!status.ok()) return status;
-  if (std::rename(partial_path.c_str(), csv_path.c_str()) != 0) {
-    const std::string reason = std::strerror(errno);
-    std::remove(sidecar.c_str());
-    return Status::Error(csv_path + ": cannot move " + partial_path +
-                         " into place (" + reason + ")");
-  }
-  return Status::Ok();
+Status FinishStreamedRunLog(PartialFile* csv, const RunLog& log) {
+  KCRIG_RETURN_IF_ERROR(csv->Close());
+  const std::string sidecar = SidecarPath(csv->path());
+  KCRIG_RETURN_IF_ERROR(WriteFilesAtomically({{sidecar, FormatSidecar(log)}}));
+  const Status committed = csv->Commit();
+  if (!committed.ok()) std::remove(sidecar.c_str());
+  return committed;
 }
 
 Status WriteRunLog(const std::string& csv_path, const RunLog& log) {

@@ -19,6 +19,8 @@
 
 namespace kcrig {
 
+class PartialFile;
+
 struct LogSample {
   double t = 0;                                   // [s]
   Vec3<double> force = Vec3<double>::Zero();      // on the wheel [N]
@@ -82,11 +84,11 @@ std::string RunLogCsvHeader(const RunLog& log);
 void AppendRunLogCsvRow(const RunLog& log, const LogSample& sample,
                         std::string* csv);
 
-// Completes a streamed log: writes the sidecar of `log` (which holds the
-// same samples) and renames `partial_path` to `csv_path`. Until then only
-// the partial file exists, so a crash leaves no run.csv without sidecar.
-Status FinishStreamedRunLog(const std::string& partial_path,
-                            const std::string& csv_path, const RunLog& log);
+// Completes a streamed log: closes `csv`, writes the sidecar of `log` (which
+// holds the same samples) and commits `csv` under its final name. Until then
+// only the partial file exists, so a crash leaves no run.csv without
+// sidecar; when the commit fails the sidecar is removed again.
+Status FinishStreamedRunLog(PartialFile* csv, const RunLog& log);
 
 // Reads a run log and its sidecar, checking everything an estimator relies
 // on: the header has every channel, each row is complete and finite, time

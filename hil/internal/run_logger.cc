@@ -110,8 +110,7 @@ Status RunLogger::Finish(const std::string& log_dir) {
     return Status::Error(log_dir +
                          ": the run ended before two cycles were logged");
   }
-  KCRIG_RETURN_IF_ERROR(partial_.Close());
-  return FinishStreamedRunLog(partial_.partial_path(), options_.csv_path, log_);
+  return FinishStreamedRunLog(&partial_, log_);
 }
 
 }  // namespace kcrig
