@@ -10,6 +10,7 @@
 #include "apps/cli_util.h"
 #include "apps/progress.h"
 #include "designer/campaign.h"
+#include "diagnosis/diagnosis_io.h"
 #include "emulator/plant_config.h"
 #include "emulator/simulated_run.h"
 #include "estimator/estimate_io.h"
@@ -31,10 +32,14 @@ struct CampaignArgs {
   int budget = 100;
   double target_percent = 0;
   std::optional<std::uint64_t> seed;
+  std::vector<std::string> plant_effects;
   bool quiet = false;
   bool no_report = false;
   std::string out = "out/campaign";
 };
+
+// The model does not explain the logs and the diagnosis names no effect.
+constexpr int kExitUnexplained = 5;
 
 std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
   std::string out =
@@ -43,16 +48,24 @@ std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
   std::snprintf(cell, sizeof(cell), "  %4s %8s %7s", "iter", "phi[deg]",
                 "z_a[m]");
   out += cell;
-  for (const ParameterEstimate& p : iterations.front().estimate.parameters) {
+  // The stiffnesses (the nominal model's parameters); an adopted effect's
+  // parameters follow them in an estimate.
+  const CampaignIteration& first = iterations.front();
+  const std::vector<ParameterEstimate>& stiffnesses =
+      first.model == "nominal" ? first.estimate.parameters
+                               : first.nominal_estimate.parameters;
+  const size_t columns = stiffnesses.size();
+  for (const ParameterEstimate& p : stiffnesses) {
     std::snprintf(cell, sizeof(cell), " %18s", p.name.c_str());
     out += cell;
   }
-  out += "\n";
+  out += "  model: check\n";
   for (const CampaignIteration& it : iterations) {
     std::snprintf(cell, sizeof(cell), "  %4d %8.2f %7.3f", it.index,
                   it.experiment.phi / kDegree, it.experiment.z_a);
     out += cell;
-    for (const ParameterEstimate& p : it.estimate.parameters) {
+    for (size_t i = 0; i < columns; ++i) {
+      const ParameterEstimate& p = it.estimate.parameters[i];
       const double scale = DisplayScale(p);
       if (p.identifiable) {
         std::snprintf(cell, sizeof(cell), " %9.2f +-%6.2f", p.value * scale,
@@ -62,7 +75,27 @@ std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
       }
       out += cell;
     }
-    out += "\n";
+    out += "  " + it.model + ": " + CampaignCheck(it) +
+           (it.action.empty() ? "" : " -> " + it.action) + "\n";
+  }
+  const CampaignIteration& last = iterations.back();
+  for (size_t i = columns; i < last.estimate.parameters.size(); ++i) {
+    const ParameterEstimate& p = last.estimate.parameters[i];
+    std::snprintf(cell, sizeof(cell), "%.4g +- %.2g %s", p.value,
+                  0.5 * (p.ci95_high - p.ci95_low), p.unit.c_str());
+    out += "  adopted effect: " + p.name + " " + cell + "\n";
+  }
+  if (last.action == "stopped") {
+    out +=
+        "  the campaign stopped: the model does not explain the logs and "
+        "no effect of the library does (see the localisation above); the "
+        "estimates are not to be trusted\n";
+  } else if (CampaignCheck(last) != "ok") {
+    out +=
+        "  the final estimates are NOT to be trusted: the model does not "
+        "explain the logs (" +
+        CampaignCheck(last) + "); the intervals assume a correct model\n" +
+        InadequacyWarning(last.logs);
   }
   return out;
 }
@@ -83,11 +116,25 @@ int RunCampaignCommand(const CampaignArgs& args) {
     status = LoadPlantConfig(config.directory, config.model, &plant);
     if (!status.ok()) return fail(status);
     if (args.seed) plant.seed = *args.seed;
+    for (const std::string& effect : args.plant_effects) {
+      status = ParseEffect(effect, &plant.effects);
+      if (!status.ok()) {
+        return fail(Status::Error("--plant-effect " + status.message()));
+      }
+    }
     rig = [config, plant](const RampExcitation<double>& excitation, int run,
                           const std::string& csv_path) {
       return RunEmbeddedRig(config, plant, excitation, run, csv_path);
     };
     rig_text = "embedded emulated rig (plant.yaml)";
+    const std::vector<std::string> effects = DescribeEffects(plant.effects);
+    for (size_t i = 0; i < effects.size(); ++i) {
+      rig_text += (i == 0 ? ", plant effects: " : " ") + effects[i];
+    }
+  } else if (!args.plant_effects.empty()) {
+    return fail(Status::Error(
+        "--plant-effect: only the embedded rig (--rig sim) has a plant to "
+        "change; give a kcrig emulate rig its effects with emulate --effect"));
   } else if (args.rig.rfind("modbus-", 0) == 0 ||
              args.rig.rfind("can:", 0) == 0) {
     CampaignRig hil;
@@ -152,6 +199,11 @@ int RunCampaignCommand(const CampaignArgs& args) {
                               " complete iteration(s)");
   }
   if (!status.ok()) return fail(status);
+  const bool stopped =
+      !iterations.empty() && iterations.back().action == "stopped";
+  if (stopped) {
+    std::printf("%s\n", DiagnosisSummary(iterations.back().diagnosis).c_str());
+  }
   if (!args.no_report) {
     const std::string html =
         (std::filesystem::path(args.out) / "report.html").string();
@@ -178,7 +230,7 @@ int RunCampaignCommand(const CampaignArgs& args) {
                    status.message().c_str());
     }
   }
-  return 0;
+  return stopped ? kExitUnexplained : 0;
 }
 
 }  // namespace
@@ -213,6 +265,11 @@ void AddCampaignCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option_function<std::uint64_t>(
       "--seed", [args](const std::uint64_t& s) { args->seed = s; },
       "Sensor-noise seed of the embedded rig (default: plant.yaml)");
+  cmd->add_option(
+      "--plant-effect", args->plant_effects,
+      "Unmodelled effect of the embedded rig's plant, NAME[:k=v,...] "
+      "(repeatable; the syntax of simulate --effect; --rig sim only): "
+      "rehearse the campaign's adequacy checks without a rig");
   cmd->add_flag("--quiet", args->quiet, "No progress line");
   cmd->add_flag("--no-report", args->no_report,
                 "Do not write OUT/report.html at the end");

@@ -28,29 +28,6 @@ struct DiagnoseArgs {
   std::string out;
 };
 
-// The two candidates the data could not tell apart, as models at their
-// fitted values, and the experiment that discriminates them.
-Status DesignForAmbiguity(const KcrigConfig& config,
-                          const DiagnosisOptions& options,
-                          const DiagnosisResult& result,
-                          DiscriminatingDesign* design) {
-  EffectModel models[2];
-  std::vector<double> values[2];
-  const std::string names[2] = {result.ambiguous_a, result.ambiguous_b};
-  for (int i = 0; i < 2; ++i) {
-    Status status = EffectModel::CreateNamed(
-        config.model, names[i], options.estimator.lower_scale,
-        options.estimator.upper_scale, &models[i]);
-    if (!status.ok()) return status;
-    for (const CandidateScore& s : result.ranking) {
-      if (s.model == names[i]) values[i] = s.fit.values;
-    }
-  }
-  return DesignDiscriminatingExperiment(models[0], values[0], models[1],
-                                        values[1], config.experiment,
-                                        DiscriminationOptions(), design);
-}
-
 int RunDiagnose(const DiagnoseArgs& args) {
   const StopSignal stop;
   auto fail = [](const Status& status) {

@@ -66,10 +66,11 @@ int RunEmulate(const EmulateArgs& args) {
     status = LoadModbusMap(rig_config.modbus.map_file, &map);
     if (!status.ok()) return fail(status);
   }
-  PlantEffects effects;
+  PlantEffects effects = plant.effects;
   for (const std::string& effect : args.effects) {
     status = ParseEffect(effect, &effects);
-    if (!status.ok()) return fail(status);
+    if (!status.ok())
+      return fail(Status::Error("--effect " + status.message()));
   }
 
   // A real rig's servo controller is real-time too; without it the

@@ -19,6 +19,7 @@ namespace {
 struct EstimateArgs {
   std::string config_dir;
   std::vector<std::string> logs;
+  std::vector<std::string> holdout;
   std::string params;
   std::string channels;
   double init_scale = 1.0;
@@ -70,14 +71,23 @@ int RunEstimate(const EstimateArgs& args) {
     }
   }
 
-  std::vector<Experiment> experiments;
+  std::vector<Experiment> experiments, holdout;
   status = LoadLogs(args.logs, config, &experiments);
+  if (status.ok()) status = LoadLogs(args.holdout, config, &holdout);
+  if (status.ok()) status = CheckSameForceChannels(experiments, holdout);
   if (!status.ok()) return fail(status);
   EstimationResult result;
   status = Estimate(config.model, experiments, options, initial,
                     config.experiment.step, &result);
   if (stop.received()) return stop.Exit("estimate");
   if (!status.ok()) return fail(status);
+  HoldoutPrediction prediction;
+  if (!holdout.empty()) {
+    prediction.logs = args.holdout;
+    status = PredictExperiments(config.model, holdout, options, result,
+                                config.experiment.step, &prediction.adequacy);
+    if (!status.ok()) return fail(status);
+  }
   std::vector<ParameterProfile> profiles;
   if (args.profile) {
     status =
@@ -88,10 +98,12 @@ int RunEstimate(const EstimateArgs& args) {
   }
   if (!args.out.empty()) {
     status = WriteFilesAtomically(
-        {{args.out, EstimationResultToJson(result, args.logs, profiles)}});
+        {{args.out,
+          EstimationResultToJson(result, args.logs, profiles, prediction)}});
     if (!status.ok()) return fail(status);
   }
-  std::fputs(EstimationSummary(result, profiles).c_str(), stdout);
+  std::fputs(EstimationSummary(result, args.logs, profiles, prediction).c_str(),
+             stdout);
   if (!args.out.empty()) std::printf("  wrote %s\n", args.out.c_str());
   return 0;
 }
@@ -107,6 +119,10 @@ void AddEstimateCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--log", args->logs,
                   "Run log run.csv (repeatable: experiments fitted jointly)")
       ->required();
+  cmd->add_option("--holdout", args->holdout,
+                  "Run log not fitted but predicted with the estimate "
+                  "(repeatable): its prediction score per channel and tail "
+                  "probability");
   cmd->add_option("--params", args->params,
                   "Comma-separated parameters to estimate (default: "
                   "c_O1,c_O2,c_V1,c_V2,c_P)");

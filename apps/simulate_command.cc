@@ -130,7 +130,8 @@ int RunSimulate(const SimulateArgs& args) {
   if (!status.ok()) return fail(status);
   for (const std::string& effect : args.effects) {
     status = ParseEffect(effect, &run_options.effects);
-    if (!status.ok()) return fail(status);
+    if (!status.ok())
+      return fail(Status::Error("--effect " + status.message()));
   }
 
   RampExcitation<double> excitation;

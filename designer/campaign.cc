@@ -7,8 +7,11 @@
 #include <limits>
 #include <memory>
 
+#include "Eigen/QR"
 #include "base/json_reader.h"
 #include "designer/design_step.h"
+#include "designer/discrimination.h"
+#include "diagnosis/diagnosis_io.h"
 #include "estimator/estimate_io.h"
 #include "estimator/experiment.h"
 #include "nlohmann/json.hpp"
@@ -26,6 +29,27 @@ bool WithinTarget(const EstimationResult& estimate, double target) {
     if (!(half <= target * std::abs(p.value))) return false;
   }
   return true;
+}
+
+// Parameters [begin, end) of an estimate for campaign.json.
+nlohmann::ordered_json ParametersJson(const EstimationResult& estimate,
+                                      size_t begin, size_t end) {
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  for (size_t i = begin; i < end; ++i) {
+    const ParameterEstimate& p = estimate.parameters[i];
+    const bool finite = std::isfinite(p.log10_inverse_information);
+    list.push_back(
+        {{"name", p.name},
+         {"unit", p.unit},
+         {"value", p.value},
+         {"ci95", p.identifiable
+                      ? nlohmann::ordered_json{p.ci95_low, p.ci95_high}
+                      : nlohmann::ordered_json()},
+         {"log10_diag_inv_jtj",
+          finite ? nlohmann::ordered_json(p.log10_inverse_information)
+                 : nlohmann::ordered_json()}});
+  }
+  return list;
 }
 
 // One parameter of campaign.json's iteration `where`: name and value
@@ -129,116 +153,377 @@ Status ValidateCampaignOptions(const KcrigConfig& config,
   status = DesignObjective::Validate(bounds, options.objective);
   if (!status.ok()) return status;
   std::vector<int> indices;
-  return ResolveParameters(config.model, options.estimator.parameters,
-                           &indices);
+  KCRIG_RETURN_IF_ERROR(
+      ResolveParameters(config.model, options.estimator.parameters, &indices));
+  if (!options.close_loop) return Status::Ok();
+  // An adopted effect model holds the five bushings first, in this order.
+  EffectModel nominal;
+  KCRIG_RETURN_IF_ERROR(
+      EffectModel::Create(config.model, {}, 0.1, 10, &nominal));
+  std::vector<std::string> bushings;
+  for (const EffectParameter& p : nominal.parameters())
+    bushings.push_back(p.name);
+  if (options.estimator.parameters != bushings) {
+    return Status::Error(
+        "the campaign closes the loop with the diagnosis, whose model "
+        "estimates the five bushing stiffnesses: the estimated parameters "
+        "must be c_O1, c_O2, c_V1, c_V2, c_P");
+  }
+  return Status::Ok();
+}
+
+namespace {
+
+// The marginal information of the first `n` parameters (the bushings) with
+// the others (an adopted effect's) as nuisance: the Schur complement
+// I_cc - I_ce I_ee^+ I_ec, in the scaled parameters the designer uses.
+Eigen::MatrixXd StiffnessInformation(const Eigen::MatrixXd& information,
+                                     int n) {
+  const int m = static_cast<int>(information.rows()) - n;
+  if (m <= 0) return information;
+  const Eigen::MatrixXd ee = information.bottomRightCorner(m, m);
+  const Eigen::MatrixXd ce = information.topRightCorner(n, m);
+  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(ee);
+  return information.topLeftCorner(n, n) - ce * cod.solve(ce.transpose());
+}
+
+// One campaign over one state, an iteration in named stages: run the
+// experiment, predict it, fit, check, diagnose and act, design the next.
+class CampaignRun {
+ public:
+  CampaignRun(const KcrigConfig& config, const CampaignOptions& options,
+              const RigRunner& rig, const std::string& out_dir,
+              std::vector<CampaignIteration>* iterations)
+      : config_(config),
+        options_(options),
+        rig_(rig),
+        out_dir_(out_dir),
+        iterations_(iterations),
+        progress_(options.callback),
+        bounds_{config.experiment.phi_bounds, config.experiment.z_a_bounds},
+        next_{config.experiment.phi, config.experiment.z_a} {}
+
+  Status Run() {
+    iterations_->clear();
+    KCRIG_RETURN_IF_ERROR(ValidateCampaignOptions(config_, options_));
+    KCRIG_RETURN_IF_ERROR(ResolveParameters(
+        config_.model, options_.estimator.parameters, &indices_));
+    estimator_ = options_.estimator;
+    estimator_.callback = progress_.Nested();
+    current_ = ParameterValues(config_.model, indices_);
+    for (int k = 0; k <= options_.iterations; ++k) {
+      CampaignIteration it;
+      it.index = k;
+      KCRIG_RETURN_IF_ERROR(RunExperiment(&it));
+      if (k > 0) KCRIG_RETURN_IF_ERROR(Predict(&it));
+      KCRIG_RETURN_IF_ERROR(Fit(&it));
+      if (k > 0 && iterations_->back().model == it.model) {
+        CheckConsistency(iterations_->back().estimate, &it);
+      }
+      if (CampaignCheck(it) != "ok" && options_.close_loop) {
+        KCRIG_RETURN_IF_ERROR(DiagnoseAndAct(&it));
+      }
+      KCRIG_RETURN_IF_ERROR(WriteEstimate(it));
+      it.criterion_of_data =
+          EvaluateCriterion(options_.criterion, DesignPrior(it)).value;
+      const bool done =
+          k == options_.iterations || it.action == "stopped" ||
+          WithinTarget(it.estimate, options_.target_relative_halfwidth);
+      if (!done && it.action != "discriminate") {
+        KCRIG_RETURN_IF_ERROR(DesignNext(&it));
+      }
+      if (options_.on_iteration) options_.on_iteration(it);
+      iterations_->push_back(std::move(it));
+      if (done) break;
+    }
+    return Status::Ok();
+  }
+
+ private:
+  Status Stage(const std::string& text) {
+    return progress_.Report({text}) ? Status::Ok() : Interrupted("campaign");
+  }
+
+  std::string Dir(int k) const { return CampaignIterationDir(out_dir_, k); }
+
+  // Runs the next experiment (the designed one, or a discriminating one)
+  // and reads its log; the earlier logs are kept.
+  Status RunExperiment(CampaignIteration* it) {
+    namespace fs = std::filesystem;
+    const int k = it->index;
+    it->experiment = next_;
+    it->special_excitation = special_next_;
+    std::error_code error;
+    fs::create_directories(Dir(k), error);
+    if (error) {
+      return Status::Error(Dir(k) + ": cannot create (" + error.message() +
+                           ")");
+    }
+    const std::string csv = (fs::path(Dir(k)) / "run.csv").string();
+    char text[160];
+    std::snprintf(text, sizeof(text),
+                  "iteration %d: running the rig at phi %.2f deg, z_a %.3f m",
+                  k, next_.phi / kDegree, next_.z_a);
+    KCRIG_RETURN_IF_ERROR(Stage(text));
+    const RampExcitation<double> excitation =
+        special_next_ ? *special_next_
+                      : config_.experiment.Excitation(next_.phi, next_.z_a);
+    special_next_.reset();
+    KCRIG_RETURN_IF_ERROR(rig_(excitation, k, csv));
+    logs_.push_back(csv);
+    it->logs = logs_;
+    return LoadExperiment(csv, config_, "", &experiments_.emplace_back());
+  }
+
+  // The new log predicted by the previous estimate before it is fitted.
+  Status Predict(CampaignIteration* it) {
+    const CampaignIteration& previous = iterations_->back();
+    const std::vector<Experiment> newest = {experiments_.back()};
+    if (previous.model == "nominal") {
+      return PredictExperiments(config_.model, newest, estimator_,
+                                previous.estimate, config_.experiment.step,
+                                &it->prediction);
+    }
+    return PredictEffectModel(adopted_, adopted_fit_, newest,
+                              config_.experiment.step, estimator_.adequacy,
+                              &it->prediction);
+  }
+
+  // The nominal fit to all logs and, with an adopted effect, that model's
+  // fit (the iteration's estimate) beside it.
+  Status Fit(CampaignIteration* it) {
+    char text[160];
+    std::snprintf(text, sizeof(text), "iteration %d: estimating from %zu log%s",
+                  it->index, logs_.size(), logs_.size() == 1 ? "" : "s");
+    KCRIG_RETURN_IF_ERROR(Stage(text));
+    EstimationResult nominal;
+    KCRIG_RETURN_IF_ERROR(Estimate(config_.model, experiments_, estimator_,
+                                   current_, config_.experiment.step,
+                                   &nominal));
+    for (size_t i = 0; i < current_.size(); ++i) {
+      current_[i] = nominal.parameters[i].value;
+    }
+    if (adopted_name_.empty()) {
+      it->estimate = std::move(nominal);
+      return Status::Ok();
+    }
+    it->model = adopted_name_;
+    it->nominal_estimate = std::move(nominal);
+    return FitAdopted(it);
+  }
+
+  Status FitAdopted(CampaignIteration* it) {
+    EffectFit fit;
+    KCRIG_RETURN_IF_ERROR(FitModel(adopted_, adopted_fit_.values, &fit));
+    adopted_fit_ = std::move(fit);
+    it->estimate = adopted_fit_.result;
+    return Status::Ok();
+  }
+
+  Status FitModel(const EffectModel& model, const std::vector<double>& start,
+                  EffectFit* fit) {
+    EffectFitOptions options;
+    options.uncertainty = estimator_;
+    options.callback = progress_.Nested();
+    return FitEffectModel(model, experiments_, start, options,
+                          config_.experiment.step, fit);
+  }
+
+  // A check failed: diagnose the logs (the newest as hold-out when there
+  // are older ones) and act on the verdict.
+  Status DiagnoseAndAct(CampaignIteration* it) {
+    char text[160];
+    std::snprintf(text, sizeof(text), "iteration %d: diagnosing (%s)",
+                  it->index, CampaignCheck(*it).c_str());
+    KCRIG_RETURN_IF_ERROR(Stage(text));
+    std::vector<Experiment> training = experiments_, holdout;
+    if (training.size() > 1) {
+      holdout.push_back(training.back());
+      training.pop_back();
+    }
+    DiagnosisOptions options = options_.diagnosis;
+    options.estimator.lower_scale = estimator_.lower_scale;
+    options.estimator.upper_scale = estimator_.upper_scale;
+    options.callback = progress_.Nested();
+    it->diagnosed = true;
+    KCRIG_RETURN_IF_ERROR(Diagnose(config_.model, training, holdout, options,
+                                   config_.experiment.step, &it->diagnosis));
+    KCRIG_RETURN_IF_ERROR(WriteDiagnosis(*it, holdout.empty()));
+    const DiagnosisResult& d = it->diagnosis;
+    if (d.verdict == "none") {
+      it->action = "none";
+    } else if (d.verdict != "unexplained") {
+      return Adopt(d, holdout.empty(), it);
+    } else if (!d.ambiguous_a.empty()) {
+      return Discriminate(d, it);
+    } else if (holdout.empty()) {
+      // One log cannot tell most effects from the stiffnesses: design the
+      // next experiment and diagnose again with it as hold-out.
+      it->action = "undecided";
+    } else {
+      it->action = "stopped";
+    }
+    return Status::Ok();
+  }
+
+  // The attributed effect joins the model when the model with it explains
+  // all logs (refitted to them); else the verdict is as good as unexplained.
+  Status Adopt(const DiagnosisResult& d, bool one_log, CampaignIteration* it) {
+    EffectModel model;
+    KCRIG_RETURN_IF_ERROR(EffectModel::CreateNamed(
+        config_.model, d.verdict, estimator_.lower_scale,
+        estimator_.upper_scale, &model));
+    std::vector<double> start;
+    for (const CandidateScore& s : d.ranking) {
+      if (s.model == d.verdict && s.ok) start = s.fit.values;
+    }
+    EffectFit fit;
+    KCRIG_RETURN_IF_ERROR(FitModel(model, start, &fit));
+    if (!fit.result.adequacy.adequate) {
+      it->action = one_log ? "undecided" : "stopped";
+      it->rejected_adoption = fit.result.adequacy.reason;
+      return Status::Ok();
+    }
+    if (it->model == "nominal") it->nominal_estimate = it->estimate;
+    adopted_ = std::move(model);
+    adopted_name_ = d.verdict;
+    adopted_fit_ = std::move(fit);
+    it->action = "adopted";
+    it->model = adopted_name_;
+    it->estimate = adopted_fit_.result;
+    return Status::Ok();
+  }
+
+  Status Discriminate(const DiagnosisResult& d, CampaignIteration* it) {
+    DiscriminatingDesign design;
+    KCRIG_RETURN_IF_ERROR(
+        DesignForAmbiguity(config_, options_.diagnosis, d, &design));
+    special_next_ = design.excitation;
+    next_ = {design.excitation.phi, design.excitation.z_a};
+    it->action = "discriminate";
+    return Status::Ok();
+  }
+
+  Status WriteDiagnosis(const CampaignIteration& it, bool no_holdout) const {
+    const std::vector<std::string> training(
+        logs_.begin(), no_holdout ? logs_.end() : logs_.end() - 1);
+    const std::vector<std::string> holdout(
+        no_holdout ? logs_.end() : logs_.end() - 1, logs_.end());
+    return WriteFilesAtomically(
+        {{(std::filesystem::path(Dir(it.index)) / "diag.json").string(),
+          DiagnosisToJson(it.diagnosis, training, holdout, "")}});
+  }
+
+  Status WriteEstimate(const CampaignIteration& it) const {
+    return WriteFilesAtomically(
+        {{(std::filesystem::path(Dir(it.index)) / "est.json").string(),
+          EstimationResultToJson(it.estimate, logs_, {}, {})}});
+  }
+
+  // The information of the data about the stiffnesses: the estimate's, or
+  // with an adopted effect its Schur complement (the effect's parameters
+  // are nuisance: the criterion covers the stiffnesses, which the campaign
+  // is for).
+  Eigen::MatrixXd DesignPrior(const CampaignIteration& it) const {
+    return StiffnessInformation(it.estimate.information,
+                                static_cast<int>(indices_.size()));
+  }
+
+  Status DesignNext(CampaignIteration* it) {
+    char text[160];
+    std::snprintf(text, sizeof(text), "iteration %d: designing (%s, %s)",
+                  it->index, CriterionName(options_.criterion),
+                  options_.optimizer.c_str());
+    KCRIG_RETURN_IF_ERROR(Stage(text));
+    DesignStepOptions step;
+    step.names = options_.estimator.parameters;
+    // With an adopted effect: at its stiffnesses, the new experiment's
+    // information from the nominal model's sensitivities there (the
+    // designer has no sensitivities of the effect models).
+    step.values = current_;
+    if (!adopted_name_.empty()) {
+      step.values.assign(adopted_fit_.values.begin(),
+                         adopted_fit_.values.begin() + current_.size());
+    }
+    step.prior_information = DesignPrior(*it);
+    step.criterion = options_.criterion;
+    step.optimizer = options_.optimizer;
+    step.objective = options_.objective;
+    const std::string designing = text;
+    step.objective.callback = [&](const IterationSummary& batch) {
+      return progress_.Report(
+                 {designing + " | " + options_.optimizer + ": " + batch.stage,
+                  batch.fraction, batch.done, batch.total})
+                 ? CallbackReturn::kContinue
+                 : CallbackReturn::kAbort;
+    };
+    step.optimizer_options = options_.optimizer_options;
+    const Design start{
+        std::clamp(next_.phi, bounds_.phi.lower, bounds_.phi.upper),
+        std::clamp(next_.z_a, bounds_.z_a.lower, bounds_.z_a.upper)};
+    KCRIG_RETURN_IF_ERROR(DesignStep(config_, step, start, &it->design));
+    it->designed = true;
+    KCRIG_RETURN_IF_ERROR(WriteFilesAtomically(
+        {{(std::filesystem::path(Dir(it->index)) / "design.json").string(),
+          DesignRunsToJson(options_.criterion, {it->design})}}));
+    next_ = it->design.result.best;
+    return Status::Ok();
+  }
+
+  void CheckConsistency(const EstimationResult& previous,
+                        CampaignIteration* it) const {
+    for (size_t i = 0; i < it->estimate.parameters.size(); ++i) {
+      const ParameterEstimate& now = it->estimate.parameters[i];
+      const ParameterEstimate& before = previous.parameters[i];
+      const double se = std::hypot(now.standard_error, before.standard_error);
+      if (!std::isfinite(se) || !(se > 0)) continue;
+      const double z = std::abs(now.value - before.value) / se;
+      if (z > it->consistency_z) {
+        it->consistency_z = z;
+        it->least_consistent = now.name;
+      }
+    }
+    it->consistent = it->consistency_z <= options_.max_consistency_z;
+  }
+
+  const KcrigConfig& config_;
+  const CampaignOptions& options_;
+  const RigRunner& rig_;
+  const std::string out_dir_;
+  std::vector<CampaignIteration>* iterations_;
+  ProgressReporter progress_;
+  const DesignBounds bounds_;
+  EstimatorOptions estimator_;
+  std::vector<int> indices_;
+  std::vector<double> current_;  // the nominal fit's stiffnesses
+  std::vector<std::string> logs_;
+  std::vector<Experiment> experiments_;  // one per log, in order
+  Design next_;
+  std::optional<RampExcitation<double>> special_next_;
+  // The adopted effect model ("" none) and its latest fit.
+  std::string adopted_name_;
+  EffectModel adopted_;
+  EffectFit adopted_fit_;
+};
+
+}  // namespace
+
+std::string CampaignCheck(const CampaignIteration& it) {
+  std::string word;
+  if (!it.estimate.adequacy.adequate) word = "inadequate fit";
+  if (it.prediction.assessed && !it.prediction.adequate) {
+    word += (word.empty() ? "" : ", ") + std::string("mispredicted");
+  }
+  if (!it.consistent) {
+    word += (word.empty() ? "" : ", ") + std::string("inconsistent");
+  }
+  return word.empty() ? "ok" : word;
 }
 
 Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
                    const RigRunner& rig, const std::string& out_dir,
                    std::vector<CampaignIteration>* iterations) {
-  namespace fs = std::filesystem;
-  iterations->clear();
-  Status status = ValidateCampaignOptions(config, options);
-  if (!status.ok()) return status;
-  const DesignBounds bounds{config.experiment.phi_bounds,
-                            config.experiment.z_a_bounds};
-  std::vector<int> indices;
-  status =
-      ResolveParameters(config.model, options.estimator.parameters, &indices);
-  if (!status.ok()) return status;
-  ProgressReporter progress(options.callback);
-  auto stage = [&progress](const std::string& text) {
-    return progress.Report({text}) ? Status::Ok() : Interrupted("campaign");
-  };
-  EstimatorOptions estimator = options.estimator;
-  estimator.callback = progress.Nested();
-
-  std::vector<double> current = ParameterValues(config.model, indices);
-  Design design{config.experiment.phi, config.experiment.z_a};
-  std::vector<std::string> logs;
-  std::vector<Experiment> experiments;  // one per log, in order
-  for (int k = 0; k <= options.iterations; ++k) {
-    CampaignIteration it;
-    it.index = k;
-    it.experiment = design;
-    const fs::path dir = CampaignIterationDir(out_dir, k);
-    std::error_code error;
-    fs::create_directories(dir, error);
-    if (error) {
-      return Status::Error(dir.string() + ": cannot create (" +
-                           error.message() + ")");
-    }
-    const std::string csv = (dir / "run.csv").string();
-    char text[160];
-    std::snprintf(text, sizeof(text),
-                  "iteration %d: running the rig at phi %.2f deg, z_a %.3f m",
-                  k, design.phi / kDegree, design.z_a);
-    KCRIG_RETURN_IF_ERROR(stage(text));
-    status = rig(config.experiment.Excitation(design.phi, design.z_a), k, csv);
-    if (!status.ok()) return status;
-    logs.push_back(csv);
-    it.logs = logs;
-
-    std::snprintf(text, sizeof(text), "iteration %d: estimating from %zu log%s",
-                  k, logs.size(), logs.size() == 1 ? "" : "s");
-    KCRIG_RETURN_IF_ERROR(stage(text));
-    // Only the new log is read; the earlier ones are kept.
-    status = LoadExperiment(csv, config, "", &experiments.emplace_back());
-    if (!status.ok()) return status;
-    status = Estimate(config.model, experiments, estimator, current,
-                      config.experiment.step, &it.estimate);
-    if (!status.ok()) return status;
-    status =
-        WriteFilesAtomically({{(dir / "est.json").string(),
-                               EstimationResultToJson(it.estimate, logs, {})}});
-    if (!status.ok()) return status;
-    for (size_t i = 0; i < current.size(); ++i) {
-      current[i] = it.estimate.parameters[i].value;
-    }
-    it.criterion_of_data =
-        EvaluateCriterion(options.criterion, it.estimate.information).value;
-
-    const bool done =
-        k == options.iterations ||
-        WithinTarget(it.estimate, options.target_relative_halfwidth);
-    if (!done) {
-      std::snprintf(text, sizeof(text), "iteration %d: designing (%s, %s)", k,
-                    CriterionName(options.criterion),
-                    options.optimizer.c_str());
-      KCRIG_RETURN_IF_ERROR(stage(text));
-      DesignStepOptions step;
-      step.names = options.estimator.parameters;
-      step.values = current;
-      step.prior_information = it.estimate.information;
-      step.criterion = options.criterion;
-      step.optimizer = options.optimizer;
-      step.objective = options.objective;
-      const std::string designing = text;
-      step.objective.callback = [&](const IterationSummary& batch) {
-        return progress.Report(
-                   {designing + " | " + options.optimizer + ": " + batch.stage,
-                    batch.fraction, batch.done, batch.total})
-                   ? CallbackReturn::kContinue
-                   : CallbackReturn::kAbort;
-      };
-      step.optimizer_options = options.optimizer_options;
-      const Design start{
-          std::clamp(design.phi, bounds.phi.lower, bounds.phi.upper),
-          std::clamp(design.z_a, bounds.z_a.lower, bounds.z_a.upper)};
-      status = DesignStep(config, step, start, &it.design);
-      if (!status.ok()) return status;
-      it.designed = true;
-      status = WriteFilesAtomically(
-          {{(dir / "design.json").string(),
-            DesignRunsToJson(options.criterion, {it.design})}});
-      if (!status.ok()) return status;
-      design = it.design.result.best;
-    }
-    if (options.on_iteration) options.on_iteration(it);
-    iterations->push_back(std::move(it));
-    if (done) break;
-  }
-  return Status::Ok();
+  return CampaignRun(config, options, rig, out_dir, iterations).Run();
 }
 
 std::string CampaignToJson(Criterion criterion,
@@ -248,25 +533,51 @@ std::string CampaignToJson(Criterion criterion,
   doc["criterion"] = CriterionName(criterion);
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
   for (const CampaignIteration& it : iterations) {
-    nlohmann::ordered_json parameters = nlohmann::ordered_json::array();
-    for (const ParameterEstimate& p : it.estimate.parameters) {
-      parameters.push_back(
-          {{"name", p.name},
-           {"unit", p.unit},
-           {"value", p.value},
-           {"ci95", p.identifiable
-                        ? nlohmann::ordered_json{p.ci95_low, p.ci95_high}
-                        : nlohmann::ordered_json()},
-           {"log10_diag_inv_jtj", p.log10_inverse_information}});
-    }
+    // The stiffnesses (the campaign's parameters) apart from an adopted
+    // effect's, so that every iteration lists the same `parameters`.
+    const size_t stiffnesses = it.model == "nominal"
+                                   ? it.estimate.parameters.size()
+                                   : it.nominal_estimate.parameters.size();
     nlohmann::ordered_json entry = {
         {"iteration", it.index},
         {"logs", it.logs},
         {"experiment",
          {{"phi_deg", it.experiment.phi / kDegree},
           {"z_a", it.experiment.z_a}}},
-        {"parameters", parameters},
+        {"model", it.model},
+        {"parameters", ParametersJson(it.estimate, 0, stiffnesses)},
+        {"effect_parameters", ParametersJson(it.estimate, stiffnesses,
+                                             it.estimate.parameters.size())},
+        {"nominal_parameters",
+         ParametersJson(it.nominal_estimate, 0,
+                        it.nominal_estimate.parameters.size())},
+        {"check", CampaignCheck(it)},
+        {"adequacy",
+         nlohmann::ordered_json::parse(AdequacyToJson(it.estimate.adequacy))},
+        {"prediction",
+         it.prediction.assessed
+             ? nlohmann::ordered_json::parse(AdequacyToJson(it.prediction))
+             : nlohmann::ordered_json()},
+        {"consistency",
+         {{"max_z", it.consistency_z},
+          {"parameter", it.least_consistent},
+          {"consistent", it.consistent}}},
+        {"diagnosis",
+         it.diagnosed
+             ? nlohmann::ordered_json{{"verdict", it.diagnosis.verdict},
+                                      {"confidence", it.diagnosis.confidence},
+                                      {"reason", it.diagnosis.reason},
+                                      {"gap_source", it.diagnosis.gap_source},
+                                      {"action", it.action}}
+             : nlohmann::ordered_json()},
         {"criterion_of_data", it.criterion_of_data}};
+    if (it.special_excitation) {
+      const RampExcitation<double>& e = *it.special_excitation;
+      entry["experiment"]["excitation"] = {{"fmax_n", e.fmax},
+                                           {"tf_s", e.duration},
+                                           {"hold_s", e.hold},
+                                           {"return_s", e.return_duration}};
+    }
     if (it.designed) {
       const OptimizationResult& r = it.design.result;
       entry["next_design"] = {{"optimizer", r.optimizer},
@@ -297,6 +608,50 @@ Status ReadCampaign(const std::string& out_dir, Criterion* criterion,
       file, [&] { return ReadCampaignJson(out_dir, criterion, iterations); });
 }
 
+namespace {
+
+// What the diagnosis said and what the campaign did about it.
+std::string DiagnosisAction(const CampaignIteration& it) {
+  const DiagnosisResult& d = it.diagnosis;
+  std::string out = "  checks failed (" + CampaignCheck(it) +
+                    "): diagnosis verdict " + d.verdict +
+                    (d.confidence.empty() ? "" : " (" + d.confidence + ")") +
+                    ": " + d.reason + "\n";
+  if (it.action == "adopted") {
+    out += "  -> adopted: the model is now nominal + " + it.model +
+           ", refitted to all logs:\n" +
+           EstimationSummary(it.estimate, it.logs, {}, {});
+  } else if (it.action == "discriminate") {
+    out += "  -> " + d.ambiguous_a + " and " + d.ambiguous_b +
+           " explain the logs alike: the next experiment is the one that "
+           "tells them apart\n";
+  } else if (!it.rejected_adoption.empty()) {
+    out += "  -> not adopted: the model with " + d.verdict +
+           " does not explain the logs either (" + it.rejected_adoption + ")" +
+           (it.action == "stopped"
+                ? "; the campaign stops designing (the intervals above are "
+                  "not to be trusted)\n"
+                : "; the next experiment is designed as usual and the "
+                  "diagnosis repeated with it as hold-out\n");
+  } else if (it.action == "undecided") {
+    out +=
+        "  -> one log cannot tell the effect from the stiffnesses: the "
+        "next experiment is designed as usual and the diagnosis repeated "
+        "with it as hold-out\n";
+  } else if (it.action == "stopped") {
+    out +=
+        "  -> no effect of the library explains the gap: the campaign "
+        "stops designing (the intervals above are not to be trusted)\n";
+  } else {
+    out +=
+        "  -> the diagnosis finds no gap beyond the noise: the campaign "
+        "goes on with the nominal model\n";
+  }
+  return out;
+}
+
+}  // namespace
+
 std::string CampaignIterationSummary(const CampaignIteration& it,
                                      Criterion criterion) {
   char line[256];
@@ -307,7 +662,29 @@ std::string CampaignIterationSummary(const CampaignIteration& it,
                 it.index, it.experiment.phi / kDegree, it.experiment.z_a,
                 it.logs.size(), it.logs.size() == 1 ? "" : "s");
   out += line;
-  out += EstimationSummary(it.estimate, {});
+  if (it.model != "nominal" && it.action != "adopted") {
+    out += "  model: nominal + " + it.model + " (adopted earlier)\n";
+  }
+  if (it.prediction.assessed) {
+    out +=
+        "  prediction of this experiment by the previous estimate, before "
+        "its fit: " +
+        AdequacyLine(it.prediction) + "\n";
+  }
+  // The fit the checks judged: the nominal one when an effect was adopted
+  // here (the adopted fit follows with the diagnosis).
+  out += EstimationSummary(
+      it.action == "adopted" ? it.nominal_estimate : it.estimate, it.logs, {},
+      {});
+  if (!it.least_consistent.empty()) {
+    std::snprintf(line, sizeof(line),
+                  "  consistency with the previous estimate: largest change "
+                  "%.1f combined standard errors (%s)%s\n",
+                  it.consistency_z, it.least_consistent.c_str(),
+                  it.consistent ? "" : ": the earlier intervals did not hold");
+    out += line;
+  }
+  if (it.diagnosed) out += DiagnosisAction(it);
   std::snprintf(line, sizeof(line), "  criterion %s of the data so far: %.6g\n",
                 CriterionName(criterion), it.criterion_of_data);
   out += line;

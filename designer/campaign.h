@@ -4,16 +4,24 @@
 // (sequential design: Phi(I_data + I(v))), run it on the rig, add the log,
 // repeat until every 95 % interval is narrow enough or the iterations are
 // spent. The rig is anything that turns a design into a log.
+//
+// The model is never trusted blindly: every iteration checks the fit's
+// adequacy, the prediction of the new experiment by the previous estimate
+// and the consistency of the estimates with the previous intervals. When a
+// check fails, the logs are diagnosed and the verdict acted on (an effect
+// adopted into the model, a discriminating experiment next, or a stop).
 #ifndef KCRIG_DESIGNER_CAMPAIGN_H_
 #define KCRIG_DESIGNER_CAMPAIGN_H_
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "base/iteration_callback.h"
 #include "designer/design_io.h"
 #include "designer/optimizers.h"
+#include "diagnosis/diagnosis.h"
 #include "estimator/estimator.h"
 #include "rt_core/model/model_config.h"
 
@@ -40,6 +48,18 @@ struct CampaignOptions {
   ObjectiveOptions objective;
   OptimizerOptions optimizer_options;
   EstimatorOptions estimator;
+  // An estimate that moves by more than this many combined standard errors
+  // from the previous iteration's says the intervals were not to be trusted
+  // (4: a false alarm on five parameters about once in 3000 iterations).
+  double max_consistency_z = 4;
+  // When an iteration fails a check (fit, prediction, consistency), the
+  // campaign diagnoses its logs (the newest as hold-out) and acts on the
+  // verdict: an attributed effect is adopted into the model of the
+  // following iterations, two tied candidates get the discriminating
+  // experiment next, `unexplained` stops the campaign. Needs the estimator's
+  // parameters to be the five bushing stiffnesses (the diagnosis' model).
+  bool close_loop = true;
+  DiagnosisOptions diagnosis;
   // Asked at each stage ("iteration 1: designing (D, kriging)"), after each
   // batch of a design ("<stage> | kriging: 24/100 evaluations, ...") and
   // with the stage again during each estimate; kAbort stops the campaign
@@ -54,11 +74,45 @@ struct CampaignIteration {
   int index = 0;
   std::vector<std::string> logs;  // all logs the estimate used
   Design experiment;              // of the newest log
-  EstimationResult estimate;
+  // Its excitation when it was not the campaign's usual ramp at
+  // `experiment` (a discriminating experiment), else empty.
+  std::optional<RampExcitation<double>> special_excitation;
+  // The model of `estimate`: "nominal", or an adopted effect ("a" or "a+b",
+  // whose parameters follow the bushings' in `estimate`).
+  std::string model = "nominal";
+  EstimationResult estimate;  // its adequacy: of the fit to all logs
+  // With an adopted effect, the nominal model's fit to the same logs, for
+  // comparison (empty parameters otherwise).
+  EstimationResult nominal_estimate;
+  // The newest log predicted by the previous iteration's estimate before
+  // it was fitted: a true hold-out (designed, not fitted). Not assessed at
+  // iteration 0.
+  Adequacy prediction;
+  // The largest change of an estimate from the previous iteration's, in
+  // combined standard errors (0 at iteration 0), and whose it is.
+  double consistency_z = 0;
+  std::string least_consistent;
+  bool consistent = true;  // consistency_z <= max_consistency_z
+  // The diagnosis run because a check failed, and what the campaign did:
+  // "adopted" (its effect is `model` from here on), "discriminate" (the
+  // next experiment tells two candidates apart), "undecided" (unexplained
+  // on one log: the next experiment is designed as usual and the diagnosis
+  // repeated), "stopped" (unexplained: no more designs), "none" (the
+  // diagnosis found no gap).
+  bool diagnosed = false;
+  DiagnosisResult diagnosis;
+  std::string action;
+  // Why the diagnosis' effect was not adopted: the model with it fails the
+  // fit's adequacy too ("" when adopted or none was attributed).
+  std::string rejected_adoption;
   bool designed = false;         // false on the last iteration
   double criterion_of_data = 0;  // Phi(I_data)
   DesignRun design;              // Phi(I_data + I(v)) from v0 to v*
 };
+
+// "ok", or which checks an iteration failed ("inadequate fit",
+// "mispredicted", "inconsistent", comma-separated).
+std::string CampaignCheck(const CampaignIteration& iteration);
 
 // The options' errors before anything runs: iterations, target width,
 // optimizer name, budget, design bounds, parameter names.

@@ -115,4 +115,25 @@ std::string DiscriminatingDesignToJson(const DiscriminatingDesign& design) {
   return doc.dump();
 }
 
+Status DesignForAmbiguity(const KcrigConfig& config,
+                          const DiagnosisOptions& options,
+                          const DiagnosisResult& result,
+                          DiscriminatingDesign* design) {
+  EffectModel models[2];
+  std::vector<double> values[2];
+  const std::string names[2] = {result.ambiguous_a, result.ambiguous_b};
+  for (int i = 0; i < 2; ++i) {
+    Status status = EffectModel::CreateNamed(
+        config.model, names[i], options.estimator.lower_scale,
+        options.estimator.upper_scale, &models[i]);
+    if (!status.ok()) return status;
+    for (const CandidateScore& s : result.ranking) {
+      if (s.model == names[i]) values[i] = s.fit.values;
+    }
+  }
+  return DesignDiscriminatingExperiment(models[0], values[0], models[1],
+                                        values[1], config.experiment,
+                                        DiscriminationOptions(), design);
+}
+
 }  // namespace kcrig

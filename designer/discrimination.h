@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "base/status.h"
+#include "diagnosis/diagnosis.h"
 #include "diagnosis/effect_model.h"
 #include "rt_core/model/model_config.h"
 
@@ -51,6 +52,14 @@ Status DesignDiscriminatingExperiment(const EffectModel& a,
                                       const ExperimentConfig& experiment,
                                       const DiscriminationOptions& options,
                                       DiscriminatingDesign* design);
+
+// The two candidates a diagnosis could not tell apart (result.ambiguous_a
+// and _b), as models at their fitted values, and the experiment that
+// discriminates them.
+Status DesignForAmbiguity(const KcrigConfig& config,
+                          const DiagnosisOptions& options,
+                          const DiagnosisResult& result,
+                          DiscriminatingDesign* design);
 
 // The design as a JSON object for diag.json (angles in deg, with the
 // `kcrig run` / `kcrig simulate` options that perform it).

@@ -21,6 +21,7 @@
 #include "base/iteration_callback.h"
 #include "base/status.h"
 #include "diagnosis/effect_model.h"
+#include "estimator/adequacy.h"
 #include "estimator/experiment.h"
 
 namespace kcrig {
@@ -143,6 +144,15 @@ struct DiagnosisResult {
   double chi2_p = 1;
   double ljung_box_p = 1;  // smallest, Bonferroni-corrected
   bool gap = false;
+  // Where the gap showed: "training" (the nominal fit's residual),
+  // "prediction" (only in the nominal fit's prediction of the hold-out
+  // logs: an effect absorbed by biased stiffnesses; the hold-out then joined
+  // the training logs and the candidates were cross-validated), "" without
+  // a gap.
+  std::string gap_source;
+  // The hold-out logs predicted by the nominal fit to the training logs
+  // (assessed only when the training fit showed no gap).
+  Adequacy prediction;
   // Where the gap lies (nominal fit, training logs).
   std::vector<GapSlice> channels;   // x .. caster
   std::vector<GapSlice> magnitude;  // near_zero, low, mid, high |F|

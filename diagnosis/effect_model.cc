@@ -401,8 +401,9 @@ Status FitEffectModel(const EffectModel& model,
 
   // The weighted Jacobian at the solution, for the uncertainty.
   double cost = 0;
+  Eigen::VectorXd residuals;
   Eigen::MatrixXd jacobian;
-  problem.Evaluate(theta, &cost, nullptr, &jacobian);
+  problem.Evaluate(theta, &cost, &residuals, &jacobian);
 
   *fit = EffectFit();
   fit->model = model.Name();
@@ -426,10 +427,59 @@ Status FitEffectModel(const EffectModel& model,
   result.converged = summary.converged;
   result.termination = summary.message;
   std::fill(result.channel_used.begin(), result.channel_used.end(), true);
+  const std::vector<int> all_channels = {0, 1, 2, 3, 4, 5};
+  const std::vector<std::vector<Vec6<double>>> weighted =
+      SplitResiduals(experiments, all_channels, residuals);
+  result.adequacy = AssessAdequacy(experiments, weighted, all_channels, n,
+                                   options.uncertainty.adequacy);
+  result.residual_rms = ResidualRms(experiments, weighted);
   AnalyzeUncertainty(jacobian, options.uncertainty, &result);
   result.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
+  return Status::Ok();
+}
+
+Status WeightedResiduals(const EffectModel& model,
+                         const std::vector<double>& values, const Experiment& e,
+                         double step, std::vector<Vec6<double>>* weighted) {
+  std::vector<Vec6<double>> sensed;
+  const Status status = SimulateEffectModel(model, values, e, step, &sensed);
+  if (!status.ok()) return status;
+  weighted->resize(sensed.size());
+  for (size_t j = 0; j < sensed.size(); ++j) {
+    (*weighted)[j] =
+        Observed(e, j)
+            ? Vec6<double>((sensed[j] - e.measured[j]).cwiseQuotient(e.sigma))
+            : Vec6<double>::Zero();
+  }
+  return Status::Ok();
+}
+
+Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
+                          const std::vector<Experiment>& experiments,
+                          double integrator_step,
+                          const AdequacyOptions& options,
+                          Adequacy* prediction) {
+  const int n = model.num_parameters();
+  if (static_cast<int>(fit.values.size()) != n ||
+      fit.result.information.rows() != n) {
+    return Status::Error("the fit does not belong to the " + model.Name() +
+                         " model");
+  }
+  std::vector<double> lower, upper, theta(n);
+  ThetaBox(model, &lower, &upper);
+  for (int i = 0; i < n; ++i) theta[i] = model.ToTheta(i, fit.values[i]);
+  EffectProblem problem(model, experiments, integrator_step, lower, upper);
+  Eigen::VectorXd residuals;
+  Eigen::MatrixXd jacobian;
+  if (!problem.Evaluate(theta, nullptr, &residuals, &jacobian)) {
+    return Status::Error("the " + model.Name() +
+                         " model cannot be evaluated at the fit");
+  }
+  *prediction =
+      AssessPredictionResiduals(experiments, {0, 1, 2, 3, 4, 5}, residuals,
+                                jacobian, fit.result.information, options);
   return Status::Ok();
 }
 

@@ -17,6 +17,7 @@
 
 #include "base/iteration_callback.h"
 #include "base/status.h"
+#include "estimator/adequacy.h"
 #include "estimator/estimator.h"
 #include "estimator/experiment.h"
 #include "rt_core/model/plant_effects.h"
@@ -129,6 +130,20 @@ Status FitEffectModel(const EffectModel& model,
                       const std::vector<double>& initial,
                       const EffectFitOptions& options, double integrator_step,
                       EffectFit* fit);
+
+// Weighted residuals (sensed - measured) / sigma per sample (zero where
+// not observed) of `model` at `values` on one experiment.
+Status WeightedResiduals(const EffectModel& model,
+                         const std::vector<double>& values, const Experiment& e,
+                         double step, std::vector<Vec6<double>>* weighted);
+
+// Predicts `experiments`, which `fit` (of `model`) has not seen: the
+// prediction's adequacy against the sensor noise over all six channels,
+// the fit's own uncertainty accounted for (AssessPredictionResiduals).
+Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
+                          const std::vector<Experiment>& experiments,
+                          double integrator_step,
+                          const AdequacyOptions& options, Adequacy* prediction);
 
 // One Gauss-Newton step from `values` (a fit to more data) on
 // `experiments`, within the parameter bounds: the standard one-step

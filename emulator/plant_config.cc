@@ -8,6 +8,29 @@
 #include "rt_core/model/model_config.h"
 
 namespace kcrig {
+namespace {
+
+// The optional `effects` list, each entry in the --effect syntax.
+Status ReadEffects(const YamlReader& reader, const YAML::Node& root,
+                   PlantEffects* effects) {
+  const YAML::Node list = root["effects"];
+  if (!list) return Status::Ok();
+  if (!list.IsSequence()) {
+    return reader.Error(list, "effects",
+                        "expected a list of effects NAME[:k=v,...]");
+  }
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string key = "effects[" + std::to_string(i) + "]";
+    if (!list[i].IsScalar()) {
+      return reader.Error(list[i], key, "expected NAME[:k=v,...]");
+    }
+    const Status status = ParseEffect(list[i].as<std::string>(), effects);
+    if (!status.ok()) return reader.Error(list[i], key, status.message());
+  }
+  return Status::Ok();
+}
+
+}  // namespace
 
 Status LoadPlantConfig(const std::string& directory,
                        const SuspensionParameters<double>& model,
@@ -84,6 +107,7 @@ Status LoadPlantConfig(const std::string& directory,
                                         &plant->load_cell_sigma, false));
   KCRIG_RETURN_IF_ERROR(reader.Positive(load_cell, "load_cell", "resolution",
                                         &plant->load_cell_resolution, false));
+  KCRIG_RETURN_IF_ERROR(ReadEffects(reader, root, &plant->effects));
   return ValidateModel(plant->model, file);
 }
 

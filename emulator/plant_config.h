@@ -6,6 +6,7 @@
 #include <string>
 
 #include "base/status.h"
+#include "rt_core/model/plant_effects.h"
 #include "rt_core/model/suspension_parameters.h"
 
 namespace kcrig {
@@ -34,10 +35,14 @@ struct PlantConfig {
   double angle_resolution = 1e-6;                     // [rad]
   double load_cell_sigma = 0.5;                       // [N]
   double load_cell_resolution = 0.1;                  // [N]
+  // Unmodelled effects of the true plant (plant.yaml's optional `effects`,
+  // a list in the --effect syntax; kcrig emulate --effect and kcrig
+  // campaign --plant-effect add to them).
+  PlantEffects effects;
 };
 
 // Reads `directory`/plant.yaml over `model` (true_parameters: NAME: VALUE
-// overrides; sensors: noise, seed).
+// overrides; sensors: noise, seed; effects: ["NAME:k=v,...", ...]).
 Status LoadPlantConfig(const std::string& directory,
                        const SuspensionParameters<double>& model,
                        PlantConfig* plant);

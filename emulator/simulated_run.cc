@@ -76,6 +76,7 @@ Status RunEmbeddedRig(const KcrigConfig& config, const PlantConfig& plant,
   options.seed = plant.seed + static_cast<std::uint64_t>(run);
   options.transport = "embedded emulated rig (--rig sim)";
   options.geometry = GeometryFingerprint(config.model);
+  options.effects = plant.effects;
   RunLog log;
   const Status status =
       SimulateRun(plant.model, ramp, config.experiment, options, &log);

@@ -35,9 +35,9 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
                    const ExperimentConfig& experiment,
                    const SimulatedRunOptions& options, RunLog* log);
 
-// One experiment of the embedded emulated rig (`--rig sim`): `plant` under
-// `ramp` at the config's rate, sensor noise as plant.yaml says with seed
-// plant.seed + run, written to `csv_path` (and its sidecar).
+// One experiment of the embedded emulated rig (`--rig sim`): `plant` with
+// its effects under `ramp` at the config's rate, sensor noise as plant.yaml
+// says with seed plant.seed + run, written to `csv_path` (and its sidecar).
 Status RunEmbeddedRig(const KcrigConfig& config, const PlantConfig& plant,
                       const RampExcitation<double>& ramp, int run,
                       const std::string& csv_path);

@@ -25,6 +25,19 @@ nlohmann::ordered_json Matrix(const Eigen::MatrixXd& m) {
   return rows;
 }
 
+// "    score (1 = noise): x 1.00 ..." per used channel.
+std::string ChannelScores(const Adequacy& a) {
+  std::string out = "    score per channel (1 = noise):";
+  char item[48];
+  for (int k = 0; k < 6; ++k) {
+    if (!a.channels[k].used) continue;
+    std::snprintf(item, sizeof(item), " %s %.3g", kChannelNames[k],
+                  a.channels[k].score);
+    out += item;
+  }
+  return out + "\n";
+}
+
 }  // namespace
 
 double DisplayScale(const ParameterEstimate& p) {
@@ -35,9 +48,51 @@ std::string DisplayUnit(const ParameterEstimate& p) {
   return p.unit == "N/m" ? "N/mm" : p.unit;
 }
 
+std::string AdequacyToJson(const Adequacy& a) {
+  nlohmann::ordered_json doc;
+  doc["verdict"] = a.adequate ? "adequate" : "inadequate";
+  doc["reason"] = a.reason;
+  doc["chi2"] = Number(a.chi_square);
+  doc["dof"] = Number(a.dof);
+  doc["chi2_p"] = Number(a.p_value);
+  doc["score"] = Number(a.score);
+  doc["ljung_box_p"] = Number(a.whiteness_p);
+  nlohmann::ordered_json channels;
+  for (int k = 0; k < 6; ++k) {
+    const ChannelAdequacy& c = a.channels[k];
+    if (!c.used) continue;
+    channels[kChannelNames[k]] = {{"score", Number(c.score)},
+                                  {"ljung_box_p", Number(c.whiteness_p)},
+                                  {"samples", c.samples}};
+  }
+  doc["channels"] = channels;
+  return doc.dump();
+}
+
+std::string AdequacyLine(const Adequacy& a) {
+  if (!a.adequate) return "INADEQUATE: " + a.reason;
+  char line[200];
+  std::snprintf(line, sizeof(line),
+                "adequate: chi2/dof %.3f (p %.2g), residual white (Ljung-Box "
+                "p %.2g)",
+                a.dof > 0 ? a.chi_square / a.dof : 0.0, a.p_value,
+                a.whiteness_p);
+  return line;
+}
+
+std::string InadequacyWarning(const std::vector<std::string>& logs) {
+  std::string command = "kcrig diagnose";
+  for (const std::string& log : logs) command += " --log " + log;
+  return "  the model does not explain these logs: the intervals above assume "
+         "a correct model and are not to be trusted; find the unmodelled "
+         "effect with: " +
+         command + "\n";
+}
+
 std::string EstimationResultToJson(
     const EstimationResult& result, const std::vector<std::string>& logs,
-    const std::vector<ParameterProfile>& profiles) {
+    const std::vector<ParameterProfile>& profiles,
+    const HoldoutPrediction& holdout) {
   nlohmann::ordered_json doc;
   doc["format"] = "kcrig estimate 1";
   doc["logs"] = logs;
@@ -82,6 +137,13 @@ std::string EstimationResultToJson(
   doc["seconds"] = result.seconds;
   doc["converged"] = result.converged;
   doc["termination"] = result.termination;
+  doc["adequacy"] =
+      nlohmann::ordered_json::parse(AdequacyToJson(result.adequacy));
+  if (!holdout.logs.empty()) {
+    doc["prediction"] = {{"logs", holdout.logs},
+                         {"adequacy", nlohmann::ordered_json::parse(
+                                          AdequacyToJson(holdout.adequacy))}};
+  }
   if (!profiles.empty()) {
     nlohmann::ordered_json list = nlohmann::ordered_json::array();
     for (const ParameterProfile& p : profiles) {
@@ -100,7 +162,9 @@ std::string EstimationResultToJson(
 }
 
 std::string EstimationSummary(const EstimationResult& result,
-                              const std::vector<ParameterProfile>& profiles) {
+                              const std::vector<std::string>& logs,
+                              const std::vector<ParameterProfile>& profiles,
+                              const HoldoutPrediction& holdout) {
   std::string out;
   char line[256];
   std::snprintf(line, sizeof(line),
@@ -179,6 +243,24 @@ std::string EstimationSummary(const EstimationResult& result,
     out += line;
   }
   out += "\n";
+  out += "  model " + AdequacyLine(result.adequacy) + "\n";
+  out += ChannelScores(result.adequacy);
+  if (!holdout.logs.empty()) {
+    out += "  hold-out prediction " + AdequacyLine(holdout.adequacy) + "\n";
+    out += ChannelScores(holdout.adequacy);
+  }
+  if (!result.adequacy.adequate) out += InadequacyWarning(logs);
+  if (result.adequacy.adequate && !holdout.adequacy.adequate &&
+      !holdout.logs.empty()) {
+    std::string command = "kcrig diagnose";
+    for (const std::string& log : logs) command += " --log " + log;
+    for (const std::string& log : holdout.logs) command += " --holdout " + log;
+    out +=
+        "  the fit explains its logs but mispredicts the hold-out: an "
+        "effect absorbed by biased parameters; the intervals are not to be "
+        "trusted; find it with: " +
+        command + "\n";
+  }
   return out;
 }
 

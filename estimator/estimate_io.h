@@ -19,15 +19,39 @@ namespace kcrig {
 double DisplayScale(const ParameterEstimate& p);
 std::string DisplayUnit(const ParameterEstimate& p);
 
-// `profiles` may be empty (not computed).
+// Logs a fit has not seen, predicted with its estimate (kcrig estimate
+// --holdout). Without logs there is none.
+struct HoldoutPrediction {
+  std::vector<std::string> logs;
+  Adequacy adequacy;
+};
+
+// `profiles` may be empty (not computed), `holdout` too.
 std::string EstimationResultToJson(
     const EstimationResult& result, const std::vector<std::string>& logs,
-    const std::vector<ParameterProfile>& profiles);
+    const std::vector<ParameterProfile>& profiles,
+    const HoldoutPrediction& holdout);
 
 // A short human summary: estimates with 95 % intervals (N/mm for
-// stiffnesses) and log10 diag((J^T J)^-1) as a text bar chart (paper Fig. 4).
+// stiffnesses) and log10 diag((J^T J)^-1) as a text bar chart (paper Fig. 4),
+// then the adequacy of the fit to `logs` and of the hold-out's prediction.
+// An inadequate model is said in one plain line, with the diagnosis to run.
 std::string EstimationSummary(const EstimationResult& result,
-                              const std::vector<ParameterProfile>& profiles);
+                              const std::vector<std::string>& logs,
+                              const std::vector<ParameterProfile>& profiles,
+                              const HoldoutPrediction& holdout);
+
+// An adequacy assessment as one JSON object (est.json, diag.json,
+// campaign.json): verdict, reason, chi-square, dof, p, score, whiteness and
+// per channel score and Ljung-Box p.
+std::string AdequacyToJson(const Adequacy& adequacy);
+
+// "adequate: chi2/dof ..." or "INADEQUATE: <reason>", one line, no newline.
+std::string AdequacyLine(const Adequacy& adequacy);
+
+// The plain warning printed under an inadequate fit to `logs`: the
+// intervals assume a correct model, and the diagnosis to run.
+std::string InadequacyWarning(const std::vector<std::string>& logs);
 
 // What a designer needs from an est.json: the estimated parameters, their
 // values and, when present, the information matrix J^T J of the data.

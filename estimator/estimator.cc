@@ -232,28 +232,16 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   result->num_residuals = m;
   result->sigma_hat = m > n ? std::sqrt(2.0 * result->cost / (m - n)) : 0.0;
 
-  // Residual RMS per channel in SI units.
-  const size_t channels = options.channels.size();
-  Vec6<double> sum_squares = Vec6<double>::Zero();
-  Vec6<double> counts = Vec6<double>::Zero();
-  int row = 0;
-  for (const Experiment& experiment : experiments) {
-    for (size_t j = 0; j < experiment.measured.size(); ++j) {
-      const bool seen = Observed(experiment, j);
-      for (size_t c = 0; c < channels; ++c, ++row) {
-        const int k = options.channels[c];
-        if (!seen) continue;
-        const double r = residuals(row) * experiment.sigma(k);
-        sum_squares(k) += r * r;
-        counts(k) += 1;
-      }
-    }
-  }
+  // Residual RMS per channel in SI units, and the fit's adequacy.
+  const std::vector<std::vector<Vec6<double>>> weighted =
+      SplitResiduals(experiments, options.channels, residuals);
+  result->adequacy = AssessAdequacy(experiments, weighted, options.channels, n,
+                                    options.adequacy);
   for (int k = 0; k < 6; ++k) {
-    result->channel_used[k] = counts(k) > 0;
-    result->residual_rms(k) =
-        counts(k) > 0 ? std::sqrt(sum_squares(k) / counts(k)) : 0.0;
+    const ChannelAdequacy& c = result->adequacy.channels[k];
+    result->channel_used[k] = c.used && c.samples > 0;
   }
+  result->residual_rms = ResidualRms(experiments, weighted);
 
   for (int i = 0; i < n; ++i) {
     ParameterEstimate& p = result->parameters[i];
@@ -264,6 +252,37 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   result->seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
+  return Status::Ok();
+}
+
+Status PredictExperiments(const SuspensionParameters<double>& nominal,
+                          const std::vector<Experiment>& experiments,
+                          const EstimatorOptions& options,
+                          const EstimationResult& result,
+                          double integrator_step, Adequacy* prediction) {
+  if (experiments.empty()) return Status::Error("no experiments to predict");
+  std::vector<int> indices;
+  KCRIG_RETURN_IF_ERROR(
+      ResolveParameters(nominal, options.parameters, &indices));
+  if (result.parameters.size() != indices.size()) {
+    return Status::Error("the estimate does not hold the options' parameters");
+  }
+  std::vector<double> scaled;
+  for (const ParameterEstimate& p : result.parameters) {
+    scaled.push_back(p.value / p.nominal);
+  }
+  FitProblem problem(nominal, experiments, options, integrator_step, indices);
+  Eigen::VectorXd residuals;
+  Eigen::MatrixXd jacobian;
+  if (!problem.Evaluate(scaled, nullptr, &residuals, &jacobian)) {
+    return Status::Error("the model cannot be evaluated at the estimate");
+  }
+  if (result.information.rows() != jacobian.cols()) {
+    return Status::Error("the estimate has no information matrix");
+  }
+  *prediction =
+      AssessPredictionResiduals(experiments, options.channels, residuals,
+                                jacobian, result.information, options.adequacy);
   return Status::Ok();
 }
 

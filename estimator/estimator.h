@@ -11,6 +11,7 @@
 #include "Eigen/Core"
 #include "base/iteration_callback.h"
 #include "base/status.h"
+#include "estimator/adequacy.h"
 #include "estimator/experiment.h"
 #include "rt_core/model/channels.h"
 #include "rt_core/model/suspension_parameters.h"
@@ -48,6 +49,8 @@ struct EstimatorOptions {
   double max_relative_standard_error = 0.1;
   // Condition numbers above this are reported as ill-conditioned.
   double ill_conditioned_above = 1e6;
+  // The tests of the fit's adequacy (and of a prediction's).
+  AdequacyOptions adequacy;
   // Asked after every Levenberg-Marquardt iteration of Estimate and after
   // every point of a profile likelihood; kAbort stops them with
   // Interrupted(). Optional.
@@ -90,6 +93,10 @@ struct EstimationResult {
   int num_residuals = 0;
   double cost = 0;       // 0.5 * sum of squared weighted residuals
   double sigma_hat = 0;  // sqrt(2 cost / (m - n)); ~1 when sigmas are right
+  // Whether the model explains the fitted logs down to the sensor noise.
+  // When not, the intervals (which assume a correct model) are not to be
+  // trusted.
+  Adequacy adequacy;
   int iterations = 0;
   double seconds = 0;
   bool converged = false;
@@ -103,6 +110,16 @@ Status Estimate(const SuspensionParameters<double>& nominal,
                 const EstimatorOptions& options,
                 const std::vector<double>& initial, double integrator_step,
                 EstimationResult* result);
+
+// Predicts `experiments`, which the fit `result` has not seen, with its
+// parameter values: the prediction's adequacy against the sensor noise
+// (score per channel, chi-square tail, whiteness). Same options and
+// integrator step as the fit.
+Status PredictExperiments(const SuspensionParameters<double>& nominal,
+                          const std::vector<Experiment>& experiments,
+                          const EstimatorOptions& options,
+                          const EstimationResult& result,
+                          double integrator_step, Adequacy* prediction);
 
 // The uncertainty and identifiability part of Estimate, for a weighted
 // Jacobian (scaled parameters) at a solution: fills singular values, rank,

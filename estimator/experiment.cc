@@ -133,4 +133,22 @@ Status LoadExperiments(const std::vector<std::string>& paths,
   return Status::Ok();
 }
 
+Status CheckSameForceChannels(const std::vector<Experiment>& training,
+                              const std::vector<Experiment>& holdout) {
+  if (training.empty()) return Status::Ok();
+  const Experiment& first = training.front();
+  for (const std::vector<Experiment>* set : {&training, &holdout}) {
+    for (const Experiment& e : *set) {
+      if (e.measured_force == first.measured_force) continue;
+      const Experiment& with = e.measured_force ? e : first;
+      const Experiment& without = e.measured_force ? first : e;
+      return Status::Error(
+          without.source + " has no load-cell force columns (Fx,Fy,Fz) but " +
+          with.source +
+          " has: logs with different channel sets cannot be used together");
+    }
+  }
+  return Status::Ok();
+}
+
 }  // namespace kcrig

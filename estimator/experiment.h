@@ -66,6 +66,13 @@ Status LoadExperiment(const std::string& path, const KcrigConfig& config,
 Experiment PlannedExperiment(const RampExcitation<double>& ramp,
                              const ExperimentConfig& config);
 
+// Logs fitted, predicted or scored under one model must drive it with the
+// same force channels (all the load cell's, or all the commanded
+// excitation): an error naming two logs of `training` and `holdout` that
+// differ.
+Status CheckSameForceChannels(const std::vector<Experiment>& training,
+                              const std::vector<Experiment>& holdout);
+
 // LoadExperiment for each path, in order.
 Status LoadExperiments(const std::vector<std::string>& paths,
                        const KcrigConfig& config, const std::string& dbc_file,

@@ -1,6 +1,7 @@
-// The residual statistics of the diagnosis: weighted residuals of a
-// candidate model, their score against the noise floor, the chi-square tail,
-// Ljung-Box whiteness and lagged correlation.
+// The residual statistics of the diagnosis: the score of weighted residuals
+// against the noise floor and lagged correlation (the chi-square and
+// whiteness tests are the estimator's adequacy tests, the weighted residuals
+// of a candidate effect_model.h's).
 #ifndef KCRIG_DIAGNOSIS_INTERNAL_RESIDUAL_STATISTICS_H_
 #define KCRIG_DIAGNOSIS_INTERNAL_RESIDUAL_STATISTICS_H_
 
@@ -8,15 +9,10 @@
 
 #include "base/status.h"
 #include "diagnosis/effect_model.h"
+#include "estimator/adequacy.h"
 #include "estimator/experiment.h"
 
 namespace kcrig {
-
-// Weighted residuals (sensed - measured) / sigma per sample (zero where
-// not observed) of a model at `values`.
-Status WeightedResiduals(const EffectModel& model,
-                         const std::vector<double>& values, const Experiment& e,
-                         double step, std::vector<Vec6<double>>* weighted);
 
 // Accumulates the mean squared weighted residual and the per-channel RMS
 // [m, rad] over several logs.
@@ -39,22 +35,9 @@ struct ScoreSum {
   }
 };
 
-// Ljung-Box Q of one channel's residual over the observed samples.
-double LjungBox(const std::vector<double>& x, int lags);
-
-// Whether residuals are white: the smallest Ljung-Box p-value over the
-// channels of all logs, Bonferroni-corrected for their number.
-double WhitenessP(const std::vector<Experiment>& logs,
-                  const std::vector<std::vector<Vec6<double>>>& residuals,
-                  int lags);
-
 // Pearson correlation of a[j] with b[j - lag] over the overlap.
 double LaggedCorrelation(const std::vector<double>& a,
                          const std::vector<double>& b, int lag);
-
-// P(chi-square with `dof` degrees of freedom > x): the regularized upper
-// incomplete gamma Q(dof/2, x/2).
-double ChiSquareUpperTail(double x, double dof);
 
 }  // namespace kcrig
 

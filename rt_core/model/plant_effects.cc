@@ -72,9 +72,8 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
   const std::string_view name = text.substr(0, colon);
   bool* enabled = EnabledFlag(name, effects);
   if (enabled == nullptr) {
-    return Status::Error("--effect " + std::string(text) +
-                         ": unknown effect '" + std::string(name) +
-                         "' (one of " + Names() + ")");
+    return Status::Error(std::string(text) + ": unknown effect '" +
+                         std::string(name) + "' (one of " + Names() + ")");
   }
   PlantEffects parsed = *effects;
   std::vector<Key> keys = KeysOf(name, &parsed);
@@ -86,7 +85,7 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
     rest = comma == std::string_view::npos ? "" : rest.substr(comma + 1);
     const size_t equals = item.find('=');
     const std::string where =
-        "--effect " + std::string(text) + ": '" + std::string(item) + "'";
+        std::string(text) + ": '" + std::string(item) + "'";
     if (equals == std::string_view::npos) {
       return Status::Error(where + ": expected key=value");
     }

@@ -113,7 +113,8 @@ using PlantEffects = BasicPlantEffects<double>;
 
 // Turns on one effect from "NAME" or "NAME:key=value,key=value" (keys as in
 // the table above: d; force, sigma; c3; tau, dead_time; k; x, y, z, toe,
-// camber, caster, scale). Errors are one line naming the offending part.
+// camber, caster, scale). Errors are one line naming the offending part
+// (the caller leads them with where the text came from: "--effect ").
 Status ParseEffect(std::string_view text, PlantEffects* effects);
 
 // The enabled effects with all their parameters, in the --effect syntax

@@ -111,6 +111,30 @@ TEST_F(DesignCampaignCliTest, CampaignWritesEveryIterationAndNarrowsIntervals) {
               first["ci95"][1].get<double>() - first["ci95"][0].get<double>())
         << last["name"];
   }
+  // The plant is the model: every check passes and nothing is diagnosed.
+  for (const nlohmann::json& it : doc["iterations"]) {
+    EXPECT_EQ(it["model"], "nominal");
+    EXPECT_EQ(it["adequacy"]["verdict"], "adequate") << it["adequacy"];
+    EXPECT_EQ(it["check"], "ok");
+    EXPECT_TRUE(it["diagnosis"].is_null());
+  }
+  EXPECT_TRUE(doc["iterations"][0]["prediction"].is_null());
+  EXPECT_EQ(doc["iterations"][1]["prediction"]["verdict"], "adequate");
+  EXPECT_LT(doc["iterations"][1]["consistency"]["max_z"].get<double>(), 4);
+  EXPECT_EQ(r.output.find("not to be trusted"), std::string::npos) << r.output;
+}
+
+TEST_F(DesignCampaignCliTest, PlantEffectErrorsAreOneLine) {
+  for (const char* options :
+       {"--plant-effect wobble", "--plant-effect rig_compliance:k=-1",
+        "--plant-effect rig_compliance --rig modbus-tcp://127.0.0.1:1"}) {
+    const CliResult r = RunKcrig(std::string("campaign ") + options +
+                                 " --out " + Path("campaign"));
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_EQ(CountLines(r.output), 1) << r.output;
+    EXPECT_NE(r.output.find("--plant-effect"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(Path("campaign"))) << options;
+  }
 }
 
 TEST_F(DesignCampaignCliTest, CampaignBadOptionsAreOneLineBeforeAnything) {

@@ -96,6 +96,50 @@ TEST_F(EstimateCliTest, ScreenWritesRankingAndProposal) {
   EXPECT_FALSE(fs::exists(Path("bad.json")));
 }
 
+// One ramp near one direction fitted, one in another predicted: with a
+// rig compliance in the plant the fit looks fine but mispredicts the
+// hold-out, and the output says so and names the diagnosis; without it
+// both are adequate.
+TEST_F(EstimateCliTest, HoldoutPredictionCatchesAnAbsorbedEffect) {
+  for (const std::string effect : {"", " --effect rig_compliance:k=2e7"}) {
+    for (const char* name : {"a", "h"}) {
+      const std::string phi = std::string(name) == "a" ? "85" : "0";
+      const CliResult sim = RunKcrig(
+          "simulate --duration 1 --noise --seed " +
+          std::string(name == std::string("a") ? "1" : "2") + " --phi " + phi +
+          effect + " --out " + Path(std::string(name) + ".csv"));
+      ASSERT_EQ(sim.exit_code, 0) << sim.output;
+    }
+    const CliResult r =
+        RunKcrig("estimate --log " + Path("a.csv") + " --holdout " +
+                 Path("h.csv") + " --out " + Path("est.json"));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const nlohmann::json est =
+        nlohmann::json::parse(std::ifstream(Path("est.json")));
+    ASSERT_TRUE(est.contains("adequacy"));
+    ASSERT_TRUE(est.contains("prediction"));
+    EXPECT_EQ(est["prediction"]["logs"][0], Path("h.csv"));
+    const nlohmann::json& prediction = est["prediction"]["adequacy"];
+    if (effect.empty()) {
+      EXPECT_EQ(est["adequacy"]["verdict"], "adequate") << r.output;
+      EXPECT_EQ(prediction["verdict"], "adequate") << r.output;
+      EXPECT_EQ(r.output.find("not to be trusted"), std::string::npos);
+    } else {
+      EXPECT_EQ(prediction["verdict"], "inadequate") << r.output;
+      EXPECT_GT(prediction["score"].get<double>(), 1.2) << r.output;
+      EXPECT_NE(r.output.find("not to be trusted"), std::string::npos)
+          << r.output;
+      EXPECT_NE(r.output.find("kcrig diagnose --log " + Path("a.csv")),
+                std::string::npos)
+          << r.output;
+    }
+    for (const char* channel : {"x", "toe", "caster"}) {
+      EXPECT_TRUE(prediction["channels"][channel]["score"].is_number())
+          << channel;
+    }
+  }
+}
+
 TEST_F(EstimateCliTest, BadInputFailsCleanly) {
   Simulate("");
   const std::string log = " --log " + Path("run.csv");
@@ -114,6 +158,9 @@ TEST_F(EstimateCliTest, BadInputFailsCleanly) {
                      "not among the estimated parameters");
   ExpectCleanFailure(RunKcrig("estimate" + log + " --init-scale 20" + out),
                      "outside the bounds");
+  ExpectCleanFailure(
+      RunKcrig("estimate" + log + " --holdout " + Path("none.csv") + out),
+      "none.csv: cannot open");
   // A corrupt log: a NaN in the middle.
   {
     std::ifstream in(Path("run.csv"));
