@@ -11,7 +11,6 @@
 #include "hil/rig_config.h"
 #include "hil/rig_factory.h"
 #include "hil/rig_session.h"
-#include "nlohmann/json.hpp"
 #include "records/run_log.h"
 #include "rt_core/model/model_config.h"
 #include "rt_core/runtime/cycle_timer.h"
@@ -109,63 +108,54 @@ int RunTimingCheck(const TimingCheckArgs& args) {
     std::fprintf(stderr, "kcrig timing-check: warning: %s\n", warning.c_str());
   }
 
-  // The statistics again from timing.json's numbers: one source.
-  nlohmann::ordered_json doc =
-      nlohmann::ordered_json::parse(result.timing_json);
+  // The statistics printed are timing.json's: one source.
+  TimingFile timing = result.timing;
   std::printf("kcrig timing-check: %.0f Hz for %.1f s, transport %s\n",
               1.0 / rig_config.period, args.duration,
               rig ? rig->Describe().c_str() : "none (model only)");
   std::printf("  %-22s %8s %8s %8s %8s %8s %9s  [us]\n", "phase", "min", "mean",
               "p50", "p99", "p99.9", "max");
-  const auto& phases = doc["phases"];
   for (const char* name : {"wakeup", "read", "compute", "write", "cycle"}) {
-    const auto& p = phases[name];
-    std::printf("  %-22s %8.1f %8.1f %8.1f %8.1f %8.1f %9.1f\n", name,
-                p["min_us"].get<double>(), p["mean_us"].get<double>(),
-                p["p50_us"].get<double>(), p["p99_us"].get<double>(),
-                p["p999_us"].get<double>(), p["max_us"].get<double>());
+    const TimingPhase& p = timing.phases[name];
+    std::printf("  %-22s %8.1f %8.1f %8.1f %8.1f %8.1f %9.1f\n", name, p.min_us,
+                p.mean_us, p.p50_us, p.p99_us, p.p999_us, p.max_us);
   }
   if (args.baseline > 0) {
     PrintRow("baseline wake-up", baseline);
-    const double ratio =
-        baseline.Percentile(0.99) > 0
-            ? static_cast<double>(phases["wakeup"]["p99_us"].get<double>() *
-                                  1e3) /
-                  static_cast<double>(baseline.Percentile(0.99))
-            : 0.0;
+    const double kcrig_p99 = timing.phases["wakeup"].p99_us;
+    const double ratio = baseline.Percentile(0.99) > 0
+                             ? kcrig_p99 * 1e3 / baseline.Percentile(0.99)
+                             : 0.0;
     std::printf(
         "  wake-up p99: kcrig %.1f us vs the machine's baseline %.1f us "
         "(ratio %.2f; cyclictest-like, same priority and period)\n",
-        phases["wakeup"]["p99_us"].get<double>(),
-        baseline.Percentile(0.99) * 1e-3, ratio);
-    doc["baseline_wakeup"] = {
-        {"method",
-         "clock_nanosleep TIMER_ABSTIME loop without work, same priority and "
-         "period (as cyclictest -m -i)"},
-        {"duration_s", args.baseline},
-        {"sched_fifo", baseline_realtime.fifo},
-        {"count", baseline.count()},
-        {"min_us", baseline.min() * 1e-3},
-        {"mean_us", baseline.mean() * 1e-3},
-        {"p50_us", baseline.Percentile(0.5) * 1e-3},
-        {"p99_us", baseline.Percentile(0.99) * 1e-3},
-        {"p999_us", baseline.Percentile(0.999) * 1e-3},
-        {"max_us", baseline.max() * 1e-3},
-        {"kcrig_to_baseline_p99", ratio}};
+        kcrig_p99, baseline.Percentile(0.99) * 1e-3, ratio);
+    timing.has_baseline = true;
+    TimingBaseline& b = timing.baseline;
+    b.duration_s = args.baseline;
+    b.sched_fifo = baseline_realtime.fifo;
+    b.wakeup.count = baseline.count();
+    b.wakeup.min_us = baseline.min() * 1e-3;
+    b.wakeup.mean_us = baseline.mean() * 1e-3;
+    b.wakeup.p50_us = baseline.Percentile(0.5) * 1e-3;
+    b.wakeup.p99_us = baseline.Percentile(0.99) * 1e-3;
+    b.wakeup.p999_us = baseline.Percentile(0.999) * 1e-3;
+    b.wakeup.max_us = baseline.max() * 1e-3;
+    b.kcrig_to_baseline_p99 = ratio;
   }
   std::printf(
       "  overruns %lld (cycles skipped %lld, of them %lld by late wake-ups)\n",
       static_cast<long long>(result.loop.overruns),
       static_cast<long long>(result.loop.skipped_cycles),
       static_cast<long long>(result.loop.skipped_by_late_wakeup));
-  const bool within = doc["budget"]["within"].get<bool>();
-  for (const auto& violation : doc["budget"]["violations"]) {
-    std::printf("  over budget: %s\n", violation.get<std::string>().c_str());
+  const bool within = timing.within_budget;
+  for (const std::string& violation : timing.violations) {
+    std::printf("  over budget: %s\n", violation.c_str());
   }
   std::printf("  budget (rig.yaml timing_budget): %s\n",
               within ? "within" : "EXCEEDED");
   if (!args.out.empty()) {
-    status = WriteFilesAtomically({{args.out, doc.dump(2) + "\n"}});
+    status = WriteFilesAtomically({{args.out, TimingFileToJson(timing)}});
     if (!status.ok()) return fail(status);
     std::printf("  wrote %s\n", args.out.c_str());
   }

@@ -92,6 +92,25 @@ Status ReadIteration(const nlohmann::json& node, const std::string& where,
   it->logs = node.value("logs", std::vector<std::string>());
   it->criterion_of_data = node.value("criterion_of_data", 0.0);
   it->designed = node.contains("next_design");
+  // The model checks (campaign.json files written before them have none).
+  it->model = node.value("model", "nominal");
+  const nlohmann::json adequacy = node.value("adequacy", nlohmann::json());
+  it->estimate.adequacy.adequate =
+      !adequacy.is_object() || adequacy.value("verdict", "") == "adequate";
+  const nlohmann::json prediction = node.value("prediction", nlohmann::json());
+  it->prediction.assessed = prediction.is_object();
+  it->prediction.adequate =
+      it->prediction.assessed && prediction.value("verdict", "") == "adequate";
+  const nlohmann::json consistency =
+      node.value("consistency", nlohmann::json());
+  it->consistent =
+      !consistency.is_object() || consistency.value("consistent", true);
+  const nlohmann::json diagnosis = node.value("diagnosis", nlohmann::json());
+  if (diagnosis.is_object()) {
+    it->diagnosed = true;
+    it->diagnosis.verdict = diagnosis.value("verdict", "");
+    it->action = diagnosis.value("action", "");
+  }
   for (size_t i = 0; i < parameters.size(); ++i) {
     KCRIG_RETURN_IF_ERROR(ReadParameter(
         parameters[i], where + ".parameters[" + std::to_string(i) + "]",

@@ -15,19 +15,19 @@ namespace {
 
 constexpr std::size_t kRingCapacity = 1 << 16;  // 65 s at 1 kHz
 
-nlohmann::ordered_json PhaseJson(const TimingStatistics& s) {
-  nlohmann::ordered_json histogram = nlohmann::ordered_json::array();
+TimingPhase Phase(const TimingStatistics& s) {
+  TimingPhase p;
+  p.count = s.count();
+  p.min_us = s.min() * 1e-3;
+  p.mean_us = s.mean() * 1e-3;
+  p.p50_us = s.Percentile(0.5) * 1e-3;
+  p.p99_us = s.Percentile(0.99) * 1e-3;
+  p.p999_us = s.Percentile(0.999) * 1e-3;
+  p.max_us = s.max() * 1e-3;
   for (const auto& [lower, count] : s.Histogram()) {
-    histogram.push_back({lower * 1e-3, count});
+    p.histogram_us.emplace_back(lower * 1e-3, count);
   }
-  return {{"count", s.count()},
-          {"min_us", s.min() * 1e-3},
-          {"mean_us", s.mean() * 1e-3},
-          {"p50_us", s.Percentile(0.5) * 1e-3},
-          {"p99_us", s.Percentile(0.99) * 1e-3},
-          {"p999_us", s.Percentile(0.999) * 1e-3},
-          {"max_us", s.max() * 1e-3},
-          {"histogram_us", histogram}};
+  return p;
 }
 
 std::string Channel(int k) {
@@ -187,36 +187,33 @@ std::string HilJson(const RigConfig& rig_config,
 
 }  // namespace
 
-std::string TimingJson(const LoopTiming& timing, const LoopResult& loop,
-                       const RealtimeReport& realtime, double period,
-                       const TimingBudget& budget, bool with_transport) {
-  std::vector<std::string> violations;
-  const bool within =
-      WithinBudget(timing, period, budget, with_transport, &violations);
-  nlohmann::ordered_json doc;
-  doc["format"] = "kcrig timing 1";
-  doc["period_us"] = period * 1e6;
-  doc["cycles"] = loop.cycles;
-  doc["overruns"] = loop.overruns;
-  doc["skipped_cycles"] = loop.skipped_cycles;
-  doc["skipped_by_late_wakeup"] = loop.skipped_by_late_wakeup;
-  doc["dropped_log_records"] = loop.dropped_records;
-  doc["realtime"] = {{"sched_fifo", realtime.fifo},
-                     {"cpu_affinity", realtime.affinity},
-                     {"memory_locked", realtime.locked},
-                     {"no_cpu_idle", realtime.no_cpu_idle},
-                     {"warnings", realtime.warnings}};
-  doc["phases"] = {{"wakeup", PhaseJson(timing.wakeup)},
-                   {"read", PhaseJson(timing.read)},
-                   {"compute", PhaseJson(timing.compute)},
-                   {"write", PhaseJson(timing.write)},
-                   {"cycle", PhaseJson(timing.cycle)}};
-  doc["budget"] = {{"compute_p999_fraction", budget.compute_p999_fraction},
-                   {"wakeup_p99_us", budget.wakeup_p99 * 1e6},
-                   {"cycle_p999_fraction", budget.cycle_p999_fraction},
-                   {"within", within},
-                   {"violations", violations}};
-  return doc.dump(2) + "\n";
+TimingFile MakeTimingFile(const LoopTiming& timing, const LoopResult& loop,
+                          const RealtimeReport& realtime, double period,
+                          const TimingBudget& budget, bool with_transport) {
+  TimingFile t;
+  t.period_us = period * 1e6;
+  t.cycles = loop.cycles;
+  t.overruns = loop.overruns;
+  t.skipped_cycles = loop.skipped_cycles;
+  t.skipped_by_late_wakeup = loop.skipped_by_late_wakeup;
+  t.dropped_log_records = loop.dropped_records;
+  t.sched_fifo = realtime.fifo;
+  t.cpu_affinity = realtime.affinity;
+  t.memory_locked = realtime.locked;
+  t.no_cpu_idle = realtime.no_cpu_idle;
+  t.realtime_warnings = realtime.warnings;
+  t.phases = {{"wakeup", Phase(timing.wakeup)},
+              {"read", Phase(timing.read)},
+              {"compute", Phase(timing.compute)},
+              {"write", Phase(timing.write)},
+              {"cycle", Phase(timing.cycle)}};
+  t.budget_checked = true;
+  t.compute_p999_fraction = budget.compute_p999_fraction;
+  t.wakeup_p99_us = budget.wakeup_p99 * 1e6;
+  t.cycle_p999_fraction = budget.cycle_p999_fraction;
+  t.within_budget =
+      WithinBudget(timing, period, budget, with_transport, &t.violations);
+  return t;
 }
 
 bool WithinBudget(const LoopTiming& timing, double period,
@@ -318,8 +315,8 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   RunLog& log = logger.log();
   result->filled_rows = logger.filled_rows();
   result->logged_rows = static_cast<std::int64_t>(log.samples.size());
-  result->timing_json = TimingJson(loop.timing(), lr, result->realtime, period,
-                                   rig_config.budget, rig != nullptr);
+  result->timing = MakeTimingFile(loop.timing(), lr, result->realtime, period,
+                                  rig_config.budget, rig != nullptr);
   if (options.log_dir.empty()) return Status::Ok();
 
   RunMetadata& m = log.metadata;
@@ -333,7 +330,7 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   KCRIG_RETURN_IF_ERROR(logger.Finish(options.log_dir));
   return WriteFilesAtomically(
       {{(std::filesystem::path(options.log_dir) / "timing.json").string(),
-        result->timing_json}});
+        TimingFileToJson(result->timing)}});
 }
 
 }  // namespace kcrig

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "hil/rig_config.h"
+#include "records/timing_file.h"
 #include "rt_core/model/model_config.h"
 #include "rt_core/runtime/control_loop.h"
 #include "rt_core/runtime/realtime.h"
@@ -45,7 +46,7 @@ struct RigSessionResult {
   std::int64_t filled_rows = 0;  // of them, cycles skipped by overruns
   bool completed = false;        // the run profile ran to its end
   std::string trip_message;      // one line when tripped
-  std::string timing_json;       // what timing.json holds
+  TimingFile timing;             // what timing.json holds
 };
 
 // The excitation against the safety limits of rig.yaml: finite direction,
@@ -61,12 +62,12 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
                      RigInterface* rig, const RigSessionOptions& options,
                      RigSessionResult* result);
 
-// timing.json: per phase (wakeup, read, compute, write, cycle) min, mean,
-// p50, p99, p99.9, max [us] and a histogram; overruns; the real-time set-up
-// and its warnings; the budget and whether it held.
-std::string TimingJson(const LoopTiming& timing, const LoopResult& loop,
-                       const RealtimeReport& realtime, double period,
-                       const TimingBudget& budget, bool with_transport);
+// timing.json's content: per phase (wakeup, read, compute, write, cycle)
+// min, mean, p50, p99, p99.9, max [us] and a histogram; overruns; the
+// real-time set-up and its warnings; the budget and whether it held.
+TimingFile MakeTimingFile(const LoopTiming& timing, const LoopResult& loop,
+                          const RealtimeReport& realtime, double period,
+                          const TimingBudget& budget, bool with_transport);
 
 // Whether the timing is within `budget`; `violations` gets one line per
 // violated item.

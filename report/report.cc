@@ -20,6 +20,7 @@
 #include "estimator/experiment.h"
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"
+#include "records/timing_file.h"
 #include "report/report_page.h"
 #include "rt_core/model/channels.h"
 #include "rt_core/model/plant_effects.h"
@@ -153,7 +154,9 @@ Json EstimatesJson(const std::vector<CampaignIteration>& iterations) {
   for (const CampaignIteration& it : iterations) {
     labels.push_back("iteration " + std::to_string(it.index) + " (" +
                      std::to_string(it.logs.size()) + " log" +
-                     (it.logs.size() == 1 ? "" : "s") + ")");
+                     (it.logs.size() == 1 ? "" : "s") + "; " + it.model +
+                     " model: " + CampaignCheck(it) +
+                     (it.action.empty() ? "" : ", " + it.action) + ")");
     Json l = Json::array(), v = Json::array(), lo = Json::array(),
          hi = Json::array();
     for (const ParameterEstimate& p : it.estimate.parameters) {
@@ -521,55 +524,45 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
   return Status::Ok();
 }
 
-Json HistogramJson(const Json& phase) {
+Json HistogramJson(const TimingPhase& phase) {
   Json x = Json::array(), y = Json::array();
-  for (const Json& bin : phase.value("histogram_us", Json::array())) {
-    if (!bin.is_array() || bin.size() != 2) continue;
-    x.push_back(bin[0]);
-    y.push_back(bin[1]);
+  for (const auto& [lower, count] : phase.histogram_us) {
+    x.push_back(lower);
+    y.push_back(count);
   }
   return {{"us", x},
           {"count", y},
-          {"p50_us", phase.value("p50_us", Json(nullptr))},
-          {"p99_us", phase.value("p99_us", Json(nullptr))},
-          {"p999_us", phase.value("p999_us", Json(nullptr))},
-          {"max_us", phase.value("max_us", Json(nullptr))}};
+          {"p50_us", Number(phase.p50_us)},
+          {"p99_us", Number(phase.p99_us)},
+          {"p999_us", Number(phase.p999_us)},
+          {"max_us", Number(phase.max_us)}};
 }
 
+// A timing.json as the page draws it: histograms against the budget.
 Status TimingJson(const fs::path& root, const fs::path& file, Json* out) {
-  Json doc;
-  Status status = ReadJsonFile(file, &doc);
-  if (!status.ok()) return status;
-  double period = 0;
-  Json phases;
-  for (Status s : {ReadField(doc, "period_us", file.string(), &period),
-                   ReadField(doc, "phases", file.string(), &phases)}) {
-    if (!s.ok()) return s;
-  }
-  const Json& budget = doc.value("budget", Json::object());
+  TimingFile timing;
+  KCRIG_RETURN_IF_ERROR(ReadTimingFile(file.string(), &timing));
   Json budget_us = Json::object();
-  if (budget.contains("wakeup_p99_us")) {
-    budget_us["wakeup"] = budget["wakeup_p99_us"];
-  }
-  if (budget.contains("compute_p999_fraction")) {
-    budget_us["compute"] =
-        budget["compute_p999_fraction"].get<double>() * period;
-  }
-  if (budget.contains("cycle_p999_fraction")) {
-    budget_us["cycle"] = budget["cycle_p999_fraction"].get<double>() * period;
+  if (timing.budget_checked) {
+    budget_us["wakeup"] = timing.wakeup_p99_us;
+    budget_us["compute"] = timing.compute_p999_fraction * timing.period_us;
+    budget_us["cycle"] = timing.cycle_p999_fraction * timing.period_us;
   }
   Json histograms = Json::object();
   for (const char* phase : {"wakeup", "compute", "cycle"}) {
-    if (phases.contains(phase))
-      histograms[phase] = HistogramJson(phases[phase]);
+    const auto found = timing.phases.find(phase);
+    if (found != timing.phases.end()) {
+      histograms[phase] = HistogramJson(found->second);
+    }
   }
   *out = {{"source", fs::relative(file, root).string()},
-          {"period_us", period},
-          {"cycles", doc.value("cycles", 0)},
-          {"overruns", doc.value("overruns", 0)},
-          {"skipped_cycles", doc.value("skipped_cycles", 0)},
-          {"within_budget", budget.value("within", Json(nullptr))},
-          {"violations", budget.value("violations", Json::array())},
+          {"period_us", timing.period_us},
+          {"cycles", timing.cycles},
+          {"overruns", timing.overruns},
+          {"skipped_cycles", timing.skipped_cycles},
+          {"within_budget",
+           timing.budget_checked ? Json(timing.within_budget) : Json(nullptr)},
+          {"violations", timing.violations},
           {"budget_us", budget_us},
           {"histograms", histograms}};
   return Status::Ok();
@@ -661,7 +654,7 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
   Json timings = Json::array();
   for (const fs::path& file : timing_files) {
     Json t;
-    status = GuardedRead(file, [&] { return TimingJson(root, file, &t); });
+    status = TimingJson(root, file, &t);
     if (!status.ok()) return status;
     timings.push_back(t);
   }
