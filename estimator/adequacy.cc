@@ -142,6 +142,27 @@ Adequacy AssessPredictionResiduals(const std::vector<Experiment>& logs,
                           channels, options);
 }
 
+void AddDiscretisationError(const std::vector<Experiment>& logs,
+                            const std::vector<std::vector<Vec6<double>>>& error,
+                            Adequacy* adequacy) {
+  adequacy->discretisation = 0;
+  for (int k = 0; k < 6; ++k) {
+    ChannelAdequacy& c = adequacy->channels[k];
+    if (!c.used) continue;
+    double sum = 0;
+    long count = 0;
+    for (size_t l = 0; l < logs.size(); ++l) {
+      for (double e : ObservedSeries(logs[l], error[l], k)) {
+        sum += e * e;
+        ++count;
+      }
+    }
+    c.discretisation = count > 0 ? std::sqrt(sum / count) : 0;
+    adequacy->discretisation =
+        std::max(adequacy->discretisation, c.discretisation);
+  }
+}
+
 double LjungBox(const std::vector<double>& x, int lags) {
   const size_t n = x.size();
   if (n <= static_cast<size_t>(lags)) return 0;

@@ -30,6 +30,9 @@ struct ChannelAdequacy {
   double score = 0;        // mean (r / sigma)^2; 1 is the sensor noise
   double whiteness_p = 1;  // Ljung-Box, Bonferroni over the logs
   long samples = 0;
+  // RMS of the model's own discretisation error [sigma]; the tests above
+  // are on the residual without it (0 where not estimated).
+  double discretisation = 0;
 };
 
 struct Adequacy {
@@ -44,6 +47,12 @@ struct Adequacy {
   bool adequate = true;
   // Why not, in one line ("" when adequate).
   std::string reason;
+  // The largest per-channel RMS of the model's discretisation error
+  // [sigma] (AddDiscretisationError; 0 where not estimated), and whether
+  // the residual judged is the model's continuous-time limit's (the
+  // discretisation error set apart) rather than the model's at its step.
+  double discretisation = 0;
+  bool continuous_limit = false;
 };
 
 // Assesses the weighted residuals weighted[l][j] = (model - measured) /
@@ -79,6 +88,12 @@ Adequacy AssessPredictionResiduals(const std::vector<Experiment>& logs,
                                    const Eigen::MatrixXd& jacobian,
                                    const Eigen::MatrixXd& information,
                                    const AdequacyOptions& options);
+
+// Records the model's discretisation error (weighted, per log and sample)
+// per channel and its largest channel RMS in `adequacy`.
+void AddDiscretisationError(const std::vector<Experiment>& logs,
+                            const std::vector<std::vector<Vec6<double>>>& error,
+                            Adequacy* adequacy);
 
 // A least-squares residual vector laid out (experiment, sample, channel of
 // `channels`) as weighted[l][j](k), zero in the channels not in it.

@@ -57,27 +57,37 @@ std::string AdequacyToJson(const Adequacy& a) {
   doc["chi2_p"] = Number(a.p_value);
   doc["score"] = Number(a.score);
   doc["ljung_box_p"] = Number(a.whiteness_p);
+  doc["discretisation_rms_sigma"] = Number(a.discretisation);
+  doc["judged"] = a.continuous_limit ? "continuous_limit" : "model_step";
   nlohmann::ordered_json channels;
   for (int k = 0; k < 6; ++k) {
     const ChannelAdequacy& c = a.channels[k];
     if (!c.used) continue;
-    channels[kChannelNames[k]] = {{"score", Number(c.score)},
-                                  {"ljung_box_p", Number(c.whiteness_p)},
-                                  {"samples", c.samples}};
+    channels[kChannelNames[k]] = {
+        {"score", Number(c.score)},
+        {"ljung_box_p", Number(c.whiteness_p)},
+        {"discretisation_rms_sigma", Number(c.discretisation)},
+        {"samples", c.samples}};
   }
   doc["channels"] = channels;
   return doc.dump();
 }
 
 std::string AdequacyLine(const Adequacy& a) {
-  if (!a.adequate) return "INADEQUATE: " + a.reason;
+  char discretisation[120] = "";
+  if (a.discretisation > 0) {
+    std::snprintf(discretisation, sizeof(discretisation),
+                  "; the model's discretisation error %.2f sigma RMS at most%s",
+                  a.discretisation, a.continuous_limit ? ", set apart" : "");
+  }
+  if (!a.adequate) return "INADEQUATE: " + a.reason + discretisation;
   char line[200];
   std::snprintf(line, sizeof(line),
                 "adequate: chi2/dof %.3f (p %.2g), residual white (Ljung-Box "
                 "p %.2g)",
                 a.dof > 0 ? a.chi_square / a.dof : 0.0, a.p_value,
                 a.whiteness_p);
-  return line;
+  return line + std::string(discretisation);
 }
 
 std::string InadequacyWarning(const std::vector<std::string>& logs) {
