@@ -75,7 +75,7 @@ std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
       }
       out += cell;
     }
-    out += "  " + it.model + ": " + CampaignCheck(it) +
+    out += "  " + it.model + ": " + it.failed_checks +
            (it.action.empty() ? "" : " -> " + it.action) + "\n";
   }
   const CampaignIteration& last = iterations.back();
@@ -88,8 +88,13 @@ std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
   if (last.action == "stopped") {
     out +=
         "  the campaign stopped: the model does not explain the logs and "
-        "no effect of the library does (see the localisation above); the "
-        "estimates are not to be trusted\n";
+        "no effect of the library does (" +
+        (last.rejected_adoption.empty()
+             ? std::string("the diagnosis left the gap unexplained")
+             : "the attributed effect's model fails too: " +
+                   last.rejected_adoption) +
+        "; the localisation follows); the estimates are not to be "
+        "trusted\n";
   } else if (CampaignCheck(last) != "ok") {
     out +=
         "  the final estimates are NOT to be trusted: the model does not "

@@ -21,9 +21,13 @@
 namespace kcrig {
 namespace {
 
-bool WithinTarget(const EstimationResult& estimate, double target) {
+// Whether the first `count` parameters (the stiffnesses; an adopted
+// effect's follow them) are within the target half-width.
+bool WithinTarget(const EstimationResult& estimate, size_t count,
+                  double target) {
   if (!(target > 0)) return false;
-  for (const ParameterEstimate& p : estimate.parameters) {
+  for (size_t i = 0; i < count && i < estimate.parameters.size(); ++i) {
+    const ParameterEstimate& p = estimate.parameters[i];
     if (!p.identifiable) return false;
     const double half = 0.5 * (p.ci95_high - p.ci95_low);
     if (!(half <= target * std::abs(p.value))) return false;
@@ -94,6 +98,7 @@ Status ReadIteration(const nlohmann::json& node, const std::string& where,
   it->designed = node.contains("next_design");
   // The model checks (campaign.json files written before them have none).
   it->model = node.value("model", "nominal");
+  it->failed_checks = node.value("check", "ok");
   const nlohmann::json adequacy = node.value("adequacy", nlohmann::json());
   it->estimate.adequacy.adequate =
       !adequacy.is_object() || adequacy.value("verdict", "") == "adequate";
@@ -239,15 +244,16 @@ class CampaignRun {
       if (k > 0 && iterations_->back().model == it.model) {
         CheckConsistency(iterations_->back().estimate, &it);
       }
-      if (CampaignCheck(it) != "ok" && options_.close_loop) {
+      it.failed_checks = CampaignCheck(it);
+      if (it.failed_checks != "ok" && options_.close_loop) {
         KCRIG_RETURN_IF_ERROR(DiagnoseAndAct(&it));
       }
       KCRIG_RETURN_IF_ERROR(WriteEstimate(it));
       it.criterion_of_data =
           EvaluateCriterion(options_.criterion, DesignPrior(it)).value;
-      const bool done =
-          k == options_.iterations || it.action == "stopped" ||
-          WithinTarget(it.estimate, options_.target_relative_halfwidth);
+      const bool done = k == options_.iterations || it.action == "stopped" ||
+                        WithinTarget(it.estimate, indices_.size(),
+                                     options_.target_relative_halfwidth);
       if (!done && it.action != "discriminate") {
         KCRIG_RETURN_IF_ERROR(DesignNext(&it));
       }
@@ -353,7 +359,7 @@ class CampaignRun {
   Status DiagnoseAndAct(CampaignIteration* it) {
     char text[160];
     std::snprintf(text, sizeof(text), "iteration %d: diagnosing (%s)",
-                  it->index, CampaignCheck(*it).c_str());
+                  it->index, it->failed_checks.c_str());
     KCRIG_RETURN_IF_ERROR(Stage(text));
     std::vector<Experiment> training = experiments_, holdout;
     if (training.size() > 1) {
@@ -415,8 +421,10 @@ class CampaignRun {
 
   Status Discriminate(const DiagnosisResult& d, CampaignIteration* it) {
     DiscriminatingDesign design;
-    KCRIG_RETURN_IF_ERROR(
-        DesignForAmbiguity(config_, options_.diagnosis, d, &design));
+    DiagnosisOptions options = options_.diagnosis;
+    options.estimator.lower_scale = estimator_.lower_scale;
+    options.estimator.upper_scale = estimator_.upper_scale;
+    KCRIG_RETURN_IF_ERROR(DesignForAmbiguity(config_, options, d, &design));
     special_next_ = design.excitation;
     next_ = {design.excitation.phi, design.excitation.z_a};
     it->action = "discriminate";
@@ -494,7 +502,15 @@ class CampaignRun {
     for (size_t i = 0; i < it->estimate.parameters.size(); ++i) {
       const ParameterEstimate& now = it->estimate.parameters[i];
       const ParameterEstimate& before = previous.parameters[i];
-      const double se = std::hypot(now.standard_error, before.standard_error);
+      // The new fit contains the old data: for nested efficient estimates
+      // Var(new - old) = se_old^2 - se_new^2. After a change of model (or
+      // when the new interval is not narrower) both count in full.
+      const double nested = before.standard_error * before.standard_error -
+                            now.standard_error * now.standard_error;
+      const double se =
+          nested > 0.01 * before.standard_error * before.standard_error
+              ? std::sqrt(nested)
+              : std::hypot(now.standard_error, before.standard_error);
       if (!std::isfinite(se) || !(se > 0)) continue;
       const double z = std::abs(now.value - before.value) / se;
       if (z > it->consistency_z) {
@@ -530,6 +546,9 @@ class CampaignRun {
 std::string CampaignCheck(const CampaignIteration& it) {
   std::string word;
   if (!it.estimate.adequacy.adequate) word = "inadequate fit";
+  // The prediction and the consistency were of the model an adoption
+  // replaced.
+  if (it.action == "adopted") return word.empty() ? "ok" : word;
   if (it.prediction.assessed && !it.prediction.adequate) {
     word += (word.empty() ? "" : ", ") + std::string("mispredicted");
   }
@@ -570,7 +589,7 @@ std::string CampaignToJson(Criterion criterion,
         {"nominal_parameters",
          ParametersJson(it.nominal_estimate, 0,
                         it.nominal_estimate.parameters.size())},
-        {"check", CampaignCheck(it)},
+        {"check", it.failed_checks},
         {"adequacy",
          nlohmann::ordered_json::parse(AdequacyToJson(it.estimate.adequacy))},
         {"prediction",
@@ -632,7 +651,7 @@ namespace {
 // What the diagnosis said and what the campaign did about it.
 std::string DiagnosisAction(const CampaignIteration& it) {
   const DiagnosisResult& d = it.diagnosis;
-  std::string out = "  checks failed (" + CampaignCheck(it) +
+  std::string out = "  checks failed (" + it.failed_checks +
                     "): diagnosis verdict " + d.verdict +
                     (d.confidence.empty() ? "" : " (" + d.confidence + ")") +
                     ": " + d.reason + "\n";
@@ -664,7 +683,8 @@ std::string DiagnosisAction(const CampaignIteration& it) {
   } else {
     out +=
         "  -> the diagnosis finds no gap beyond the noise: the campaign "
-        "goes on with the nominal model\n";
+        "goes on with the " +
+        it.model + " model\n";
   }
   return out;
 }

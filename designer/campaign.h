@@ -50,7 +50,7 @@ struct CampaignOptions {
   EstimatorOptions estimator;
   // An estimate that moves by more than this many combined standard errors
   // from the previous iteration's says the intervals were not to be trusted
-  // (4: a false alarm on five parameters about once in 3000 iterations).
+  // (combined for nested estimates: Var(new - old) = se_old^2 - se_new^2).
   double max_consistency_z = 4;
   // When an iteration fails a check (fit, prediction, consistency), the
   // campaign diagnoses its logs (the newest as hold-out) and acts on the
@@ -93,6 +93,9 @@ struct CampaignIteration {
   double consistency_z = 0;
   std::string least_consistent;
   bool consistent = true;  // consistency_z <= max_consistency_z
+  // The checks the iteration's first fit failed, as CampaignCheck said
+  // before the campaign acted on them ("ok" when none).
+  std::string failed_checks = "ok";
   // The diagnosis run because a check failed, and what the campaign did:
   // "adopted" (its effect is `model` from here on), "discriminate" (the
   // next experiment tells two candidates apart), "undecided" (unexplained
@@ -110,8 +113,9 @@ struct CampaignIteration {
   DesignRun design;              // Phi(I_data + I(v)) from v0 to v*
 };
 
-// "ok", or which checks an iteration failed ("inadequate fit",
-// "mispredicted", "inconsistent", comma-separated).
+// "ok", or which checks an iteration's estimate fails ("inadequate fit",
+// "mispredicted", "inconsistent", comma-separated); after an adoption only
+// the adopted fit's adequacy (the checks that led to it: `failed_checks`).
 std::string CampaignCheck(const CampaignIteration& iteration);
 
 // The options' errors before anything runs: iterations, target width,

@@ -403,7 +403,10 @@ Status FitEffectModel(const EffectModel& model,
   double cost = 0;
   Eigen::VectorXd residuals;
   Eigen::MatrixXd jacobian;
-  problem.Evaluate(theta, &cost, &residuals, &jacobian);
+  if (!problem.Evaluate(theta, &cost, &residuals, &jacobian)) {
+    return Status::Error("the " + model.Name() +
+                         " model cannot be evaluated at its fit");
+  }
 
   *fit = EffectFit();
   fit->model = model.Name();
@@ -469,7 +472,10 @@ Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
   }
   std::vector<double> lower, upper, theta(n);
   ThetaBox(model, &lower, &upper);
-  for (int i = 0; i < n; ++i) theta[i] = model.ToTheta(i, fit.values[i]);
+  for (int i = 0; i < n; ++i) {
+    // A value on its bound may round a hair outside it.
+    theta[i] = std::clamp(model.ToTheta(i, fit.values[i]), lower[i], upper[i]);
+  }
   EffectProblem problem(model, experiments, integrator_step, lower, upper);
   Eigen::VectorXd residuals;
   Eigen::MatrixXd jacobian;

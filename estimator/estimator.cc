@@ -323,7 +323,9 @@ Status PredictExperiments(const SuspensionParameters<double>& nominal,
   }
   std::vector<double> scaled;
   for (const ParameterEstimate& p : result.parameters) {
-    scaled.push_back(p.value / p.nominal);
+    // A value on its bound may round a hair outside it.
+    scaled.push_back(std::clamp(p.value / p.nominal, options.lower_scale,
+                                options.upper_scale));
   }
   FitProblem problem(nominal, experiments, options, integrator_step, indices);
   Eigen::VectorXd residuals;

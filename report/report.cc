@@ -155,7 +155,7 @@ Json EstimatesJson(const std::vector<CampaignIteration>& iterations) {
     labels.push_back("iteration " + std::to_string(it.index) + " (" +
                      std::to_string(it.logs.size()) + " log" +
                      (it.logs.size() == 1 ? "" : "s") + "; " + it.model +
-                     " model: " + CampaignCheck(it) +
+                     " model: " + it.failed_checks +
                      (it.action.empty() ? "" : ", " + it.action) + ")");
     Json l = Json::array(), v = Json::array(), lo = Json::array(),
          hi = Json::array();
