@@ -35,6 +35,7 @@ struct CampaignArgs {
   std::vector<std::string> plant_effects;
   bool quiet = false;
   bool no_report = false;
+  bool no_diagnose = false;
   std::string out = "out/campaign";
 };
 
@@ -163,6 +164,7 @@ int RunCampaignCommand(const CampaignArgs& args) {
   options.optimizer = args.optimizer;
   options.objective.budget = args.budget;
   options.target_relative_halfwidth = args.target_percent / 100.0;
+  options.close_loop = !args.no_diagnose;
 
   status = ValidateCampaignOptions(config, options);
   if (!status.ok()) return fail(status);
@@ -276,6 +278,10 @@ void AddCampaignCommand(CLI::App* app, std::function<int()>* run) {
       "(repeatable; the syntax of simulate --effect; --rig sim only): "
       "rehearse the campaign's adequacy checks without a rig");
   cmd->add_flag("--quiet", args->quiet, "No progress line");
+  cmd->add_flag("--no-diagnose", args->no_diagnose,
+                "Check the model every iteration but do not diagnose or act "
+                "on a failed check (it is reported; the campaign goes on "
+                "with the nominal model)");
   cmd->add_flag("--no-report", args->no_report,
                 "Do not write OUT/report.html at the end");
   cmd->add_option("--out", args->out, "Output folder")->capture_default_str();

@@ -451,11 +451,18 @@ TEST_F(VcanTest, InterfaceDownEndsInTheSafeState) {
 
 TEST_F(VcanTest, CampaignRunsItsExperimentsOverCan) {
   StartEmulator();
+  // The transport is under test, not the model: a guest under TCG skips
+  // and stales enough cycles that a check may fail (and is reported), and
+  // a diagnosis in the guest would take minutes.
   const CliResult r = RunKcrig("campaign --config " + config_ +
                                " --rig can:vcan0 --iterations 1 --budget 12 "
-                               "--quiet --no-report --out " +
+                               "--quiet --no-report --no-diagnose --out " +
                                Path("campaign"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json campaign = ReadJson(Path("campaign") + "/campaign.json");
+  ASSERT_EQ(campaign["iterations"].size(), 2u);
+  EXPECT_TRUE(campaign["iterations"][1]["adequacy"].contains("verdict"));
+  EXPECT_TRUE(campaign["iterations"][1]["diagnosis"].is_null());
   for (const char* file :
        {"iteration_0/run.csv", "iteration_0/can.log", "iteration_1/can.log",
         "iteration_1/est.json", "campaign.json"}) {
