@@ -16,8 +16,6 @@
 namespace kcrig {
 namespace {
 
-const std::vector<int> kAllChannels = {0, 1, 2, 3, 4, 5};
-
 // The information criteria of a fit with chi-square `chi2`, k parameters
 // and m residuals.
 void InformationCriteria(double chi2, int k, int m, CandidateScore* s) {

@@ -430,10 +430,9 @@ Status FitEffectModel(const EffectModel& model,
   result.converged = summary.converged;
   result.termination = summary.message;
   std::fill(result.channel_used.begin(), result.channel_used.end(), true);
-  const std::vector<int> all_channels = {0, 1, 2, 3, 4, 5};
   const std::vector<std::vector<Vec6<double>>> weighted =
-      SplitResiduals(experiments, all_channels, residuals);
-  result.adequacy = AssessAdequacy(experiments, weighted, all_channels, n,
+      SplitResiduals(experiments, kAllChannels, residuals);
+  result.adequacy = AssessAdequacy(experiments, weighted, kAllChannels, n,
                                    options.uncertainty.adequacy);
   result.residual_rms = ResidualRms(experiments, weighted);
   AnalyzeUncertainty(jacobian, options.uncertainty, &result);
@@ -484,8 +483,8 @@ Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
                          " model cannot be evaluated at the fit");
   }
   *prediction =
-      AssessPredictionResiduals(experiments, {0, 1, 2, 3, 4, 5}, residuals,
-                                jacobian, fit.result.information, options);
+      AssessPredictionResiduals(experiments, kAllChannels, residuals, jacobian,
+                                fit.result.information, options);
   return Status::Ok();
 }
 

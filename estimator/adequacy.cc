@@ -243,18 +243,27 @@ Adequacy AssessPrediction(
     const std::vector<std::vector<Vec6<double>>>& decorrelated,
     const std::vector<int>& channels, const AdequacyOptions& options) {
   Adequacy a = AssessAdequacy(logs, decorrelated, channels, 0, options);
-  const Adequacy raw = AssessAdequacy(logs, predicted, channels, 0, options);
-  double chi_square = 0;
+  // The chi-square r . (I + J C J^T)^-1 r, and the raw prediction's scores.
+  double chi_square = 0, raw = 0;
+  Vec6<double> raw_per_channel = Vec6<double>::Zero();
   for (size_t l = 0; l < logs.size(); ++l) {
     for (size_t j = 0; j < predicted[l].size(); ++j) {
       if (!Observed(logs[l], j)) continue;
-      for (int k : channels)
+      for (int k : channels) {
         chi_square += predicted[l][j](k) * decorrelated[l][j](k);
+        raw_per_channel(k) += predicted[l][j](k) * predicted[l][j](k);
+      }
     }
   }
+  long residuals = 0;
+  for (int k : channels) {
+    ChannelAdequacy& c = a.channels[k];
+    c.score = c.samples > 0 ? raw_per_channel(k) / c.samples : 0;
+    raw += raw_per_channel(k);
+    residuals += c.samples;
+  }
   a.chi_square = chi_square;
-  a.score = raw.score;
-  for (int k : channels) a.channels[k].score = raw.channels[k].score;
+  a.score = residuals > 0 ? raw / static_cast<double>(residuals) : 0;
   Decide(options, &a);
   return a;
 }

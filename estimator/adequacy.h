@@ -17,6 +17,9 @@
 
 namespace kcrig {
 
+// Every channel, x .. caster: what the diagnosis' effect models fit.
+inline const std::vector<int> kAllChannels = {0, 1, 2, 3, 4, 5};
+
 struct AdequacyOptions {
   // A test whose p-value is below this says `inadequate`. Small, because
   // the residual counts are large and a false alarm costs a diagnosis run.
