@@ -20,6 +20,7 @@ struct SimulateArgs {
   // Unset means "the config's default".
   ExcitationArgs excitation;
   std::optional<double> rate;
+  std::optional<double> plant_step;  // the model's integrator.step if unset
   std::vector<std::string> sets;
   std::vector<std::string> effects;
   bool noise = false;
@@ -139,7 +140,14 @@ int RunSimulate(const SimulateArgs& args) {
   status = ResolveExcitation(args, config.experiment, &excitation, &rate);
   if (!status.ok()) return fail(status);
 
+  if (args.plant_step &&
+      !(*args.plant_step > 0 && *args.plant_step <= config.experiment.step)) {
+    return fail(
+        Status::Error("--plant-step: must be within (0, integrator.step = " +
+                      std::to_string(config.experiment.step) + " s]"));
+  }
   run_options.rate = rate;
+  run_options.step = args.plant_step.value_or(0);
   run_options.noise = args.noise;
   run_options.seed = args.seed;
   RunLog log;
@@ -167,6 +175,11 @@ void AddSimulateCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option_function<double>(
       "--rate", [args](const double& rate) { args->rate = rate; },
       "Sample rate [Hz]");
+  cmd->add_option_function<double>(
+      "--plant-step", [args](const double& step) { args->plant_step = step; },
+      "Integration step of the simulated plant [s] (default: the "
+      "model's integrator.step; finer is closer to a continuous rig, as the "
+      "emulator's rig.step)");
   cmd->add_option("--set", args->sets,
                   "Override a model parameter, NAME=VALUE in SI (repeatable)");
   cmd->add_flag("--noise", args->noise,

@@ -5,7 +5,8 @@
 //    its optimum, D and A (counters: evaluations, optimum, criterion);
 //  - the noise of Phi_A along a line through the initial design, ECnoise,
 //    with exact and with forward-difference (1e-6) sensitivities;
-//  - a whole 3-iteration campaign on the embedded rig.
+//  - whole campaigns on the embedded rig, without an effect and adopting
+//    one (issue #17).
 // Run: build/bin/designer_bench --benchmark_format=json
 #include <cmath>
 #include <filesystem>
@@ -19,6 +20,7 @@
 #include "emulator/simulated_run.h"
 #include "rt_core/model/channels.h"
 #include "rt_core/model/model_config.h"
+#include "rt_core/model/plant_effects.h"
 
 namespace kcrig {
 namespace {
@@ -138,10 +140,17 @@ BENCHMARK_CAPTURE(BM_CriterionNoise, forward_differences_1e_6, true)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-void BM_Campaign3Iterations(benchmark::State& state) {
+// A whole campaign on the embedded rig: `iterations` designed experiments
+// after the first, the plant with `effect` ("" for none), the checks acting
+// on their verdicts or not (`close_loop`).
+void BM_Campaign(benchmark::State& state, int iterations,
+                 const std::string& effect, bool close_loop) {
   const Setup& s = TheSetup();
   PlantConfig plant;
   if (!LoadPlantConfig(KCRIG_BENCH_CONFIG_DIR, s.config.model, &plant).ok()) {
+    std::abort();
+  }
+  if (!effect.empty() && !ParseEffect(effect, &plant.effects).ok()) {
     std::abort();
   }
   const std::string dir =
@@ -151,15 +160,38 @@ void BM_Campaign3Iterations(benchmark::State& state) {
                             const std::string& csv) {
     return RunEmbeddedRig(s.config, plant, excitation, run, csv);
   };
+  CampaignOptions options;
+  options.iterations = iterations;
+  options.close_loop = close_loop;
+  std::string model;
   for (auto _ : state) {
-    std::vector<CampaignIteration> iterations;
-    if (!RunCampaign(s.config, CampaignOptions(), rig, dir, &iterations).ok()) {
+    std::vector<CampaignIteration> iterations_run;
+    if (!RunCampaign(s.config, options, rig, dir, &iterations_run).ok()) {
       std::abort();
     }
+    model = iterations_run.back().model;
   }
+  state.SetLabel("final model " + model);
   std::filesystem::remove_all(dir);
 }
-BENCHMARK(BM_Campaign3Iterations)->Unit(benchmark::kMillisecond)->UseRealTime();
+// The main job (`kcrig campaign`: 3 designed experiments after the first).
+BENCHMARK_CAPTURE(BM_Campaign, default_no_effect, 3, "", true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+// Issue #17's figures: 3 experiments, without an effect (checks acting and
+// not: their cost when nothing fails), and one that adopts an effect.
+BENCHMARK_CAPTURE(BM_Campaign, 3_experiments_no_effect, 2, "", true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_Campaign, 3_experiments_no_effect_no_diagnose, 2, "",
+                  false)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_Campaign, 3_experiments_rig_compliance_adopted, 2,
+                  "rig_compliance:k=2e7", true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
 
 }  // namespace
 }  // namespace kcrig

@@ -14,19 +14,20 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
                    const ExperimentConfig& experiment,
                    const SimulatedRunOptions& options, RunLog* log) {
   SimulationOptions simulation;
-  simulation.step = experiment.step;
-  const double ratio = 1.0 / (options.rate * experiment.step);
+  simulation.step = options.step > 0 ? options.step : experiment.step;
+  const double ratio = 1.0 / (options.rate * simulation.step);
   simulation.steps_per_sample = static_cast<int>(std::lround(ratio));
   if (!(options.rate > 0) || simulation.steps_per_sample < 1 ||
       std::abs(ratio - simulation.steps_per_sample) > 1e-9 * ratio) {
     return Status::Error(
         "--rate " + std::to_string(options.rate) +
-        ": the sample period must be a whole multiple of the integrator step " +
-        std::to_string(experiment.step) + " s (integrator.step)");
+        ": the sample period must be a whole multiple of the plant's "
+        "integration step " +
+        std::to_string(simulation.step) + " s");
   }
   const long num_samples =
       std::lround(std::floor(ramp.EndTime() * options.rate + 1e-9)) + 1;
-  RigPlant rig(plant, options.effects, experiment.step);
+  RigPlant rig(plant, options.effects, simulation.step);
   const Status settled = rig.Settle(ramp.LoadAt(0.0).force, ramp.z_a);
   if (!settled.ok()) return settled;
   *log = RunLog();
@@ -50,9 +51,9 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
   long step_index = 0;
   for (long j = 0; j < num_samples; ++j) {
     for (int s = 0; j > 0 && s < simulation.steps_per_sample; ++s) {
-      rig.Step(ramp.LoadAt(++step_index * experiment.step).force);
+      rig.Step(ramp.LoadAt(++step_index * simulation.step).force);
     }
-    const double t = step_index * experiment.step;
+    const double t = step_index * simulation.step;
     if (!rig.Finite(simulation.divergence_limit)) {
       return Status::Error("simulation diverged at t = " + std::to_string(t) +
                            " s (state beyond the model's range)");
@@ -72,6 +73,7 @@ Status RunEmbeddedRig(const KcrigConfig& config, const PlantConfig& plant,
                       const std::string& csv_path) {
   SimulatedRunOptions options;
   options.rate = config.experiment.rate;
+  options.step = plant.step;
   options.noise = plant.noise;
   options.seed = plant.seed + static_cast<std::uint64_t>(run);
   options.transport = "embedded emulated rig (--rig sim)";

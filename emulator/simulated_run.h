@@ -16,9 +16,13 @@
 namespace kcrig {
 
 struct SimulatedRunOptions {
-  double rate = 1000;      // log rate [Hz]; 1/rate a multiple of the step
-  bool noise = false;      // add the experiment's sensor noise
-  std::uint64_t seed = 1;  // of the noise
+  double rate = 1000;  // log rate [Hz]; 1/rate a multiple of the step
+  // The plant's integration step [s]; 0: the model's (experiment.step). A
+  // rig is continuous: the embedded rig steps finer than the model, as
+  // `kcrig emulate` does (plant.yaml's rig.step).
+  double step = 0;
+  bool noise = false;                    // add the experiment's sensor noise
+  std::uint64_t seed = 1;                // of the noise
   std::string transport = "simulation";  // recorded in the sidecar
   PlantEffects effects;                  // unmodelled effects of the plant
   // GeometryFingerprint of the configured model, recorded in the sidecar.
@@ -36,8 +40,9 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
                    const SimulatedRunOptions& options, RunLog* log);
 
 // One experiment of the embedded emulated rig (`--rig sim`): `plant` with
-// its effects under `ramp` at the config's rate, sensor noise as plant.yaml
-// says with seed plant.seed + run, written to `csv_path` (and its sidecar).
+// its effects under `ramp` at the config's rate, stepped at plant.yaml's
+// rig.step, sensor noise as plant.yaml says with seed plant.seed + run,
+// written to `csv_path` (and its sidecar).
 Status RunEmbeddedRig(const KcrigConfig& config, const PlantConfig& plant,
                       const RampExcitation<double>& ramp, int run,
                       const std::string& csv_path);

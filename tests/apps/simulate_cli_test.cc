@@ -137,7 +137,11 @@ TEST_F(SimulateCliTest, NanParameterFailsCleanly) {
 
 TEST_F(SimulateCliTest, InconsistentRateAndEffectsFailCleanly) {
   ExpectCleanFailure(RunKcrig("simulate --rate 300 --out " + Out()),
-                     "whole multiple of the integrator step");
+                     "whole multiple of the plant's integration step 0.001");
+  ExpectCleanFailure(RunKcrig("simulate --plant-step 3e-4 --out " + Out()),
+                     "whole multiple of the plant's integration step 0.0003");
+  ExpectCleanFailure(RunKcrig("simulate --plant-step 2e-3 --out " + Out()),
+                     "--plant-step: must be within (0, integrator.step");
   ExpectCleanFailure(
       RunKcrig("simulate --effect hysteresis:force=-3 --out " + Out()),
       "'force=-3': must be a finite number > 0");
