@@ -5,6 +5,7 @@
 #define KCRIG_BASE_YAML_READER_H_
 
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <utility>
 #include <vector>
@@ -30,7 +31,7 @@ class YamlReader {
                            ": malformed YAML: " + e.msg);
     }
     if (!root->IsMap()) return Status::Error(file_ + ": expected a mapping");
-    return Status::Ok();
+    return CheckDuplicateKeys(*root, "");
   }
 
   Status Child(const YAML::Node& parent, const std::string& parent_key,
@@ -66,6 +67,19 @@ class YamlReader {
     if (strictly ? !(*out > 0) : !(*out >= 0)) {
       return Error(parent[key], Join(parent_key, key),
                    strictly ? "must be > 0" : "must be >= 0");
+    }
+    return Status::Ok();
+  }
+
+  // Number within [lower, upper] (the documented range of a setting).
+  Status InRange(const YAML::Node& parent, const std::string& parent_key,
+                 const std::string& key, double lower, double upper,
+                 double* out) const {
+    KCRIG_RETURN_IF_ERROR(Number(parent, parent_key, key, out));
+    if (!(*out >= lower && *out <= upper)) {
+      return Error(
+          parent[key], Join(parent_key, key),
+          "must be within [" + Format(lower) + ", " + Format(upper) + "]");
     }
     return Status::Ok();
   }
@@ -145,6 +159,40 @@ class YamlReader {
  private:
   static std::string Join(const std::string& a, const std::string& b) {
     return a.empty() ? b : a + "." + b;
+  }
+
+  static std::string Format(double value) {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%g", value);
+    return text;
+  }
+
+  // yaml-cpp keeps both entries of a repeated key and reads the first: a
+  // second "ramp_down_time" further down would be silently ignored.
+  Status CheckDuplicateKeys(const YAML::Node& node,
+                            const std::string& path) const {
+    if (node.IsSequence()) {
+      for (size_t i = 0; i < node.size(); ++i) {
+        KCRIG_RETURN_IF_ERROR(
+            CheckDuplicateKeys(node[i], path + "[" + std::to_string(i) + "]"));
+      }
+    }
+    if (!node.IsMap()) return Status::Ok();
+    std::vector<std::pair<std::string, int>> seen;
+    for (auto it = node.begin(); it != node.end(); ++it) {
+      const std::string key = it->first.IsScalar() ? it->first.Scalar() : "?";
+      const int line = it->first.Mark().line + 1;
+      for (const auto& [other, other_line] : seen) {
+        if (other == key) {
+          return Error(it->first, Join(path, key),
+                       "duplicate key (first at line " +
+                           std::to_string(other_line) + ")");
+        }
+      }
+      seen.emplace_back(key, line);
+      KCRIG_RETURN_IF_ERROR(CheckDuplicateKeys(it->second, Join(path, key)));
+    }
+    return Status::Ok();
   }
 
   std::string Where(const YAML::Node& node) const {

@@ -170,8 +170,22 @@ class DiagnosisRun {
     KCRIG_RETURN_IF_ERROR(ModelResiduals(
         nominal_model_, nominal_score.fit.values, training_, &residuals_));
     const int n_nominal = nominal_model_.num_parameters();
-    const Adequacy fit = AssessAdequacy(training_, residuals_, kAllChannels,
-                                        n_nominal, AdequacyTests());
+    // A continuous rig is not the model's 1 ms scheme: the model's own
+    // discretisation error must not pass for a gap.
+    std::vector<std::vector<Vec6<double>>> error, limit = residuals_;
+    KCRIG_RETURN_IF_ERROR(DiscretisationError(
+        nominal_model_, nominal_score.fit.values, training_, step_, &error));
+    for (size_t l = 0; l < limit.size(); ++l) {
+      for (size_t j = 0; j < limit[l].size(); ++j) limit[l][j] -= error[l][j];
+    }
+    const Adequacy fit =
+        BetterOfStepAndLimit(AssessAdequacy(training_, residuals_, kAllChannels,
+                                            n_nominal, AdequacyTests()),
+                             AssessAdequacy(training_, limit, kAllChannels,
+                                            n_nominal, AdequacyTests()),
+                             training_, error);
+    result_->discretisation = fit.discretisation;
+    result_->continuous_limit = fit.continuous_limit;
     m_ = static_cast<int>(fit.dof) + n_nominal;
     result_->chi2 = fit.chi_square;
     result_->dof = static_cast<int>(fit.dof);

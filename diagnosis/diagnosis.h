@@ -143,6 +143,11 @@ struct DiagnosisResult {
   int dof = 0;
   double chi2_p = 1;
   double ljung_box_p = 1;  // smallest, Bonferroni-corrected
+  // The nominal model's own discretisation error [sigma, largest channel
+  // RMS] and whether the gap test judged its continuous-time limit (the
+  // error set apart: the logs come from a continuous rig, not the scheme).
+  double discretisation = 0;
+  bool continuous_limit = false;
   bool gap = false;
   // Where the gap showed: "training" (the nominal fit's residual),
   // "prediction" (only in the nominal fit's prediction of the hold-out

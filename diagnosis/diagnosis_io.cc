@@ -173,6 +173,8 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
                 {"chi2_p", Number(r.chi2_p)},
                 {"ljung_box_p", Number(r.ljung_box_p)},
                 {"score", Number(r.dof > 0 ? r.chi2 / r.dof : 0)},
+                {"discretisation_sigma", Number(r.discretisation)},
+                {"continuous_limit", r.continuous_limit},
                 {"source", r.gap_source}};
   if (r.prediction.assessed) {
     doc["holdout_prediction"] = Json::parse(AdequacyToJson(r.prediction));
@@ -285,8 +287,11 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
   char line[400];
   auto add = [&out, &line] { out += line; };
   std::snprintf(line, sizeof(line),
-                "gap test: chi2/dof %.3f (p %.2g), Ljung-Box p %.2g -> %s\n",
+                "gap test: chi2/dof %.3f (p %.2g), Ljung-Box p %.2g%s -> %s\n",
                 r.dof > 0 ? r.chi2 / r.dof : 0.0, r.chi2_p, r.ljung_box_p,
+                r.continuous_limit ? " (the model's discretisation error set "
+                                     "apart)"
+                                   : "",
                 r.gap_source == "prediction"
                     ? "a gap beyond the sensor noise (training and hold-out "
                       "logs fitted together)"

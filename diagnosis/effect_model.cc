@@ -458,6 +458,28 @@ Status WeightedResiduals(const EffectModel& model,
   return Status::Ok();
 }
 
+Status DiscretisationError(const EffectModel& model,
+                           const std::vector<double>& values,
+                           const std::vector<Experiment>& experiments,
+                           double step,
+                           std::vector<std::vector<Vec6<double>>>* error) {
+  error->assign(experiments.size(), {});
+  for (size_t l = 0; l < experiments.size(); ++l) {
+    Experiment finer = experiments[l];
+    finer.steps_per_sample *= 2;
+    std::vector<Vec6<double>> at_step, at_half;
+    KCRIG_RETURN_IF_ERROR(
+        WeightedResiduals(model, values, experiments[l], step, &at_step));
+    KCRIG_RETURN_IF_ERROR(
+        WeightedResiduals(model, values, finer, 0.5 * step, &at_half));
+    (*error)[l].resize(at_step.size());
+    for (size_t j = 0; j < at_step.size(); ++j) {
+      (*error)[l][j] = 2.0 * (at_step[j] - at_half[j]);
+    }
+  }
+  return Status::Ok();
+}
+
 Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
                           const std::vector<Experiment>& experiments,
                           double integrator_step,
@@ -482,9 +504,29 @@ Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
     return Status::Error("the " + model.Name() +
                          " model cannot be evaluated at the fit");
   }
-  *prediction =
-      AssessPredictionResiduals(experiments, kAllChannels, residuals, jacobian,
-                                fit.result.information, options);
+  std::vector<std::vector<Vec6<double>>> error;
+  KCRIG_RETURN_IF_ERROR(DiscretisationError(model, fit.values, experiments,
+                                            integrator_step, &error));
+  // The same layout as the problem's residual vector.
+  Eigen::VectorXd discretisation(residuals.size());
+  Eigen::Index at = 0;
+  for (size_t l = 0; l < experiments.size(); ++l) {
+    for (const Vec6<double>& e : error[l]) {
+      discretisation.segment<6>(at) = e;
+      at += 6;
+    }
+  }
+  if (at != residuals.size()) {
+    return Status::Error("the " + model.Name() +
+                         " model's residual layout is not per sample");
+  }
+  auto assess = [&](const Eigen::VectorXd& r) {
+    return AssessPredictionResiduals(experiments, kAllChannels, r, jacobian,
+                                     fit.result.information, options);
+  };
+  *prediction = BetterOfStepAndLimit(assess(residuals),
+                                     assess(residuals - discretisation),
+                                     experiments, error);
   return Status::Ok();
 }
 

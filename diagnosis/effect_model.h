@@ -137,9 +137,19 @@ Status WeightedResiduals(const EffectModel& model,
                          const std::vector<double>& values, const Experiment& e,
                          double step, std::vector<Vec6<double>>* weighted);
 
+// The model's own discretisation error at `values` on each experiment,
+// weighted as WeightedResiduals: Richardson's estimate 2 (y_h - y_h/2) of
+// the first-order scheme, from one more simulation at half the step.
+Status DiscretisationError(const EffectModel& model,
+                           const std::vector<double>& values,
+                           const std::vector<Experiment>& experiments,
+                           double step,
+                           std::vector<std::vector<Vec6<double>>>* error);
+
 // Predicts `experiments`, which `fit` (of `model`) has not seen: the
 // prediction's adequacy against the sensor noise over all six channels,
-// the fit's own uncertainty accounted for (AssessPredictionResiduals).
+// the fit's own uncertainty accounted for (AssessPredictionResiduals), at
+// the model's step or its continuous-time limit (BetterOfStepAndLimit).
 Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
                           const std::vector<Experiment>& experiments,
                           double integrator_step,

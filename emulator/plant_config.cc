@@ -77,14 +77,15 @@ Status LoadPlantConfig(const std::string& directory,
                                         &plant->angle_resolution, false));
   YAML::Node actuator, rig, load_cell;
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "actuator", &actuator));
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(actuator, "actuator", "tau", &plant->actuator_tau));
-  KCRIG_RETURN_IF_ERROR(reader.Positive(actuator, "actuator", "dead_time",
-                                        &plant->actuator_dead_time, false));
-  KCRIG_RETURN_IF_ERROR(reader.Positive(actuator, "actuator", "force_max",
-                                        &plant->actuator_force_max));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(actuator, "actuator", "tau", 1e-5, 1,
+                                       &plant->actuator_tau));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(actuator, "actuator", "dead_time", 0,
+                                       0.1, &plant->actuator_dead_time));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(actuator, "actuator", "force_max", 1,
+                                       1e5, &plant->actuator_force_max));
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "rig", &rig));
-  KCRIG_RETURN_IF_ERROR(reader.Positive(rig, "rig", "step", &plant->step));
+  KCRIG_RETURN_IF_ERROR(
+      reader.InRange(rig, "rig", "step", 1e-6, 1e-3, &plant->step));
   KCRIG_RETURN_IF_ERROR(
       reader.Integer(rig, "rig", "priority", 0, 99, &plant->priority));
   if (rig["cpu"]) {  // optional: older plant.yaml files have no rig.cpu
@@ -92,16 +93,11 @@ Status LoadPlantConfig(const std::string& directory,
         reader.Integer(rig, "rig", "cpu", -1, 1023, &plant->cpu));
   }
   KCRIG_RETURN_IF_ERROR(
-      reader.Positive(rig, "rig", "travel_max", &plant->travel_max));
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(rig, "rig", "command_timeout", &plant->command_timeout));
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(rig, "rig", "ramp_down_time", &plant->ramp_down_time));
-  if (plant->step > 1e-3) {
-    return reader.Error(rig["step"], "rig.step",
-                        "must be <= 0.001 s (the plant runs finer than the "
-                        "controller)");
-  }
+      reader.InRange(rig, "rig", "travel_max", 1e-4, 0.5, &plant->travel_max));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(rig, "rig", "command_timeout", 1e-3, 1,
+                                       &plant->command_timeout));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(rig, "rig", "ramp_down_time", 1e-3, 10,
+                                       &plant->ramp_down_time));
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "load_cell", &load_cell));
   KCRIG_RETURN_IF_ERROR(reader.Positive(load_cell, "load_cell", "sigma",
                                         &plant->load_cell_sigma, false));

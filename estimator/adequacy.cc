@@ -163,6 +163,15 @@ void AddDiscretisationError(const std::vector<Experiment>& logs,
   }
 }
 
+Adequacy BetterOfStepAndLimit(
+    Adequacy at_step, Adequacy limit, const std::vector<Experiment>& logs,
+    const std::vector<std::vector<Vec6<double>>>& discretisation) {
+  limit.continuous_limit = true;
+  Adequacy& better = limit.chi_square < at_step.chi_square ? limit : at_step;
+  AddDiscretisationError(logs, discretisation, &better);
+  return better;
+}
+
 double LjungBox(const std::vector<double>& x, int lags) {
   const size_t n = x.size();
   if (n <= static_cast<size_t>(lags)) return 0;

@@ -98,6 +98,15 @@ void AddDiscretisationError(const std::vector<Experiment>& logs,
                             const std::vector<std::vector<Vec6<double>>>& error,
                             Adequacy* adequacy);
 
+// The model judged at its step (`at_step`) or at its continuous-time limit
+// (`limit`: the same test on the residual less the discretisation error),
+// whichever explains the data better: data from the model's own scheme are
+// matched by the former, a continuous rig by the latter. The chosen one,
+// with the discretisation error (weighted, per log and sample) recorded.
+Adequacy BetterOfStepAndLimit(
+    Adequacy at_step, Adequacy limit, const std::vector<Experiment>& logs,
+    const std::vector<std::vector<Vec6<double>>>& discretisation);
+
 // A least-squares residual vector laid out (experiment, sample, channel of
 // `channels`) as weighted[l][j](k), zero in the channels not in it.
 std::vector<std::vector<Vec6<double>>> SplitResiduals(

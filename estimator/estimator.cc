@@ -56,25 +56,17 @@ Status DiscretisationError(const SuspensionParameters<double>& nominal,
   return Status::Ok();
 }
 
-// The adequacy of the model at its step or of its continuous-time limit
-// (the residual less the discretisation error), whichever explains the data
-// better: data simulated at the model's own step are matched by the
-// former, a continuous rig by the latter. The discretisation error is
-// recorded either way.
+// BetterOfStepAndLimit with `assess` applied to the residual vector at the
+// step and less its discretisation error.
 template <typename Assess>
-Adequacy BetterOfStepAndLimit(const std::vector<Experiment>& experiments,
-                              const std::vector<int>& channels,
-                              const Eigen::VectorXd& residuals,
-                              const Eigen::VectorXd& discretisation,
-                              Assess assess) {
-  Adequacy at_step = assess(residuals);
-  Adequacy limit = assess(residuals - discretisation);
-  limit.continuous_limit = true;
-  Adequacy& better = limit.chi_square < at_step.chi_square ? limit : at_step;
-  AddDiscretisationError(experiments,
-                         SplitResiduals(experiments, channels, discretisation),
-                         &better);
-  return better;
+Adequacy AssessStepAndLimit(const std::vector<Experiment>& experiments,
+                            const std::vector<int>& channels,
+                            const Eigen::VectorXd& residuals,
+                            const Eigen::VectorXd& discretisation,
+                            Assess assess) {
+  return BetterOfStepAndLimit(
+      assess(residuals), assess(residuals - discretisation), experiments,
+      SplitResiduals(experiments, channels, discretisation));
 }
 
 }  // namespace
@@ -284,7 +276,7 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   KCRIG_RETURN_IF_ERROR(DiscretisationError(nominal, experiments, options,
                                             integrator_step, indices, scaled,
                                             residuals, &discretisation));
-  result->adequacy = BetterOfStepAndLimit(
+  result->adequacy = AssessStepAndLimit(
       experiments, options.channels, residuals, discretisation,
       [&](const Eigen::VectorXd& r) {
         return AssessAdequacy(experiments,
@@ -341,12 +333,12 @@ Status PredictExperiments(const SuspensionParameters<double>& nominal,
                                             integrator_step, indices, scaled,
                                             residuals, &discretisation));
   *prediction =
-      BetterOfStepAndLimit(experiments, options.channels, residuals,
-                           discretisation, [&](const Eigen::VectorXd& r) {
-                             return AssessPredictionResiduals(
-                                 experiments, options.channels, r, jacobian,
-                                 result.information, options.adequacy);
-                           });
+      AssessStepAndLimit(experiments, options.channels, residuals,
+                         discretisation, [&](const Eigen::VectorXd& r) {
+                           return AssessPredictionResiduals(
+                               experiments, options.channels, r, jacobian,
+                               result.information, options.adequacy);
+                         });
   return Status::Ok();
 }
 

@@ -60,6 +60,11 @@ std::string TripMessage(const LoopResult& loop, double period,
     case TripCause::kTransportFault:
       what += " (" + transport_fault + ")";
       break;
+    case TripCause::kForceTracking:
+      what += std::string(" (F") + "xyz"[std::clamp(loop.trip_channel, 0, 2)] +
+              ": the load cell does not follow the command; another master "
+              "or a failed actuator?)";
+      break;
     case TripCause::kSignal:
       what += std::string(" (") +
               (loop.signal == 15  ? "SIGTERM"

@@ -126,6 +126,12 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
           !(measurement_.status & kRigEnabled)) {
         cause = TripCause::kRigFault;
       }
+      int axis = -1;
+      if (cause == TripCause::kNone &&
+          safety_.ForceOffCommand(measurement_.force, &axis)) {
+        cause = TripCause::kForceTracking;
+        channel = axis;
+      }
       if (cause != TripCause::kNone &&
           safety_.state() == SafetyState::kNormal) {
         result_.trip_channel = channel;
@@ -160,7 +166,7 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
   // Excitation through the safety limits.
   const Vec3<double> wanted = options_.excitation.fmax *
                               profile_.Level(t + options_.period) * direction_;
-  const Vec3<double> command = safety_.Limit(wanted);
+  const Vec3<double> command = safety_.Limit(wanted, cycle);
   result_.limited_commands = safety_.limited_commands();
   command_.force = command;
   command_.z_a = options_.excitation.z_a;

@@ -5,9 +5,61 @@
 
 namespace kcrig {
 
+namespace {
+
+// Every limit has a range a rig can honour: a ramp-down of days, a travel
+// limit of kilometres or a force limit beyond any actuator is a typo, and
+// a typo here hurts the rig.
+Status LoadSafetyLimits(const YamlReader& reader, const YAML::Node& root,
+                        double period, SafetyLimits* limits) {
+  YAML::Node safety;
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "safety", &safety));
+  SafetyLimits& l = *limits;
+  double angle_max_deg = 0, error_angle_max_deg = 0;
+  KCRIG_RETURN_IF_ERROR(
+      reader.InRange(safety, "safety", "force_max", 1, 1e5, &l.force_max));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(safety, "safety", "force_rate_max", 1,
+                                       1e7, &l.force_rate_max));
+  KCRIG_RETURN_IF_ERROR(
+      reader.InRange(safety, "safety", "travel_max", 1e-4, 0.5, &l.travel_max));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(safety, "safety", "angle_max_deg", 0.01,
+                                       45, &angle_max_deg));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(safety, "safety", "error_position_max",
+                                       1e-6, 0.5, &l.error_position_max));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(safety, "safety", "error_angle_max_deg",
+                                       1e-4, 45, &error_angle_max_deg));
+  KCRIG_RETURN_IF_ERROR(reader.Integer(safety, "safety", "watchdog_cycles", 1,
+                                       100000, &l.watchdog_cycles));
+  if (l.watchdog_cycles * period > 1.0) {
+    return reader.Error(safety["watchdog_cycles"], "safety.watchdog_cycles",
+                        "must be at most 1 s of cycles (loop.period)");
+  }
+  KCRIG_RETURN_IF_ERROR(reader.InRange(safety, "safety", "ramp_down_time",
+                                       period, 10, &l.ramp_down_time));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(safety, "safety", "force_error_max", 1,
+                                       1e5, &l.force_error_max));
+  KCRIG_RETURN_IF_ERROR(reader.Integer(safety, "safety", "force_error_cycles",
+                                       1, 100000, &l.force_error_cycles));
+  if (l.force_error_cycles * period > 1.0) {
+    return reader.Error(safety["force_error_cycles"],
+                        "safety.force_error_cycles",
+                        "must be at most 1 s of cycles (loop.period)");
+  }
+  l.angle_max = angle_max_deg * kDegree;
+  l.error_angle_max = error_angle_max_deg * kDegree;
+  if (l.force_max / l.ramp_down_time > l.force_rate_max) {
+    return reader.Error(safety["ramp_down_time"], "safety.ramp_down_time",
+                        "a trip at force_max would ramp down faster than "
+                        "force_rate_max allows");
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status LoadLoopConfig(const YamlReader& reader, const YAML::Node& root,
                       LoopConfig* config) {
-  YAML::Node loop, realtime, profile, safety;
+  YAML::Node loop, realtime, profile;
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "loop", &loop));
   KCRIG_RETURN_IF_ERROR(
       reader.Positive(loop, "loop", "period", &config->period));
@@ -26,42 +78,15 @@ Status LoadLoopConfig(const YamlReader& reader, const YAML::Node& root,
                                        &config->realtime.no_cpu_idle));
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "run_profile", &profile));
   RunProfileTimes& p = config->profile;
+  KCRIG_RETURN_IF_ERROR(reader.InRange(profile, "run_profile", "tare",
+                                       config->period, 60, &p.tare));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(profile, "run_profile", "lead_in",
+                                       config->period, 60, &p.lead_in));
   KCRIG_RETURN_IF_ERROR(
-      reader.Positive(profile, "run_profile", "tare", &p.tare));
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(profile, "run_profile", "lead_in", &p.lead_in));
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(profile, "run_profile", "settle", &p.settle, false));
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(profile, "run_profile", "ramp_down", &p.ramp_down));
-
-  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "safety", &safety));
-  SafetyLimits& l = config->safety;
-  double angle_max_deg = 0, error_angle_max_deg = 0;
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(safety, "safety", "force_max", &l.force_max));
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(safety, "safety", "force_rate_max", &l.force_rate_max));
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(safety, "safety", "travel_max", &l.travel_max));
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(safety, "safety", "angle_max_deg", &angle_max_deg));
-  KCRIG_RETURN_IF_ERROR(reader.Positive(safety, "safety", "error_position_max",
-                                        &l.error_position_max));
-  KCRIG_RETURN_IF_ERROR(reader.Positive(safety, "safety", "error_angle_max_deg",
-                                        &error_angle_max_deg));
-  KCRIG_RETURN_IF_ERROR(reader.Integer(safety, "safety", "watchdog_cycles", 1,
-                                       100000, &l.watchdog_cycles));
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(safety, "safety", "ramp_down_time", &l.ramp_down_time));
-  l.angle_max = angle_max_deg * kDegree;
-  l.error_angle_max = error_angle_max_deg * kDegree;
-  if (l.force_max / l.ramp_down_time > l.force_rate_max) {
-    return reader.Error(safety["ramp_down_time"], "safety.ramp_down_time",
-                        "a trip at force_max would ramp down faster than "
-                        "force_rate_max allows");
-  }
-
+      reader.InRange(profile, "run_profile", "settle", 0, 60, &p.settle));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(profile, "run_profile", "ramp_down",
+                                       config->period, 60, &p.ramp_down));
+  return LoadSafetyLimits(reader, root, config->period, &config->safety);
   return Status::Ok();
 }
 

@@ -25,6 +25,8 @@ const char* TripCauseName(TripCause cause) {
       return "invalid_measurement";
     case TripCause::kTransportFault:
       return "transport_fault";
+    case TripCause::kForceTracking:
+      return "force_tracking";
   }
   return "unknown";
 }
@@ -60,10 +62,24 @@ void SafetyMonitor::Trip(TripCause cause, std::int64_t cycle) {
   cause_ = cause;
   trip_cycle_ = cycle;
   ramp_start_ = last_;
-  ramp_cycles_done_ = 0;
 }
 
-Vec3<double> SafetyMonitor::Limit(const Vec3<double>& wanted) {
+bool SafetyMonitor::ForceOffCommand(const Vec3<double>& measured, int* axis) {
+  if (state_ != SafetyState::kNormal) return false;
+  double worst = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double off = std::abs(measured(k) - last_(k));
+    if (off > worst) {
+      worst = off;
+      *axis = k;
+    }
+  }
+  force_off_ = worst > limits_.force_error_max ? force_off_ + 1 : 0;
+  return force_off_ >= limits_.force_error_cycles;
+}
+
+Vec3<double> SafetyMonitor::Limit(const Vec3<double>& wanted,
+                                  std::int64_t cycle) {
   if (state_ == SafetyState::kNormal) {
     const double step = limits_.force_rate_max * period_;
     Vec3<double> out;
@@ -80,11 +96,12 @@ Vec3<double> SafetyMonitor::Limit(const Vec3<double>& wanted) {
     return out;
   }
   if (state_ == SafetyState::kRampDown) {
-    const int ramp_cycles = std::max(
-        1, static_cast<int>(std::lround(limits_.ramp_down_time / period_)));
-    ++ramp_cycles_done_;
-    const double remaining = std::max(
-        0.0, 1.0 - static_cast<double>(ramp_cycles_done_) / ramp_cycles);
+    // In double: no cycle count to overflow, whatever ramp_down_time is.
+    const double elapsed =
+        static_cast<double>(cycle - trip_cycle_ + 1) * period_;
+    double remaining =
+        std::clamp(1.0 - elapsed / limits_.ramp_down_time, 0.0, 1.0);
+    if (remaining < 1e-9) remaining = 0;  // the last period's rounding
     last_ = ramp_start_ * remaining;
     if (remaining == 0.0) state_ = SafetyState::kDisabled;
     return last_;

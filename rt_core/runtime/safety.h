@@ -22,6 +22,12 @@ struct SafetyLimits {
   double error_angle_max = 5e-3;     // |measured - predicted| [rad]
   int watchdog_cycles = 20;          // consecutive cycles without a sample
   double ramp_down_time = 0.5;       // trip: force to zero over this [s]
+  // Force tracking: the load cell off the last command by more than this
+  // [N] on any axis for `force_error_cycles` consecutive fresh samples. The
+  // rig is not following this controller (a second master, a stuck valve,
+  // a broken load cell).
+  double force_error_max = 500;
+  int force_error_cycles = 50;
 };
 
 enum class TripCause : std::uint8_t {
@@ -34,6 +40,7 @@ enum class TripCause : std::uint8_t {
   kSignal,
   kInvalidMeasurement,
   kTransportFault,  // the bus failed (CAN bus-off, error-passive, tx timeout)
+  kForceTracking,   // the measured force does not follow the command
 };
 
 const char* TripCauseName(TripCause cause);
@@ -67,12 +74,19 @@ class SafetyMonitor {
   }
   void FreshSample() { missed_ = 0; }
 
+  // Compares a fresh load-cell force with the last command sent (while
+  // normal); true when it has been off by more than force_error_max for
+  // force_error_cycles samples in a row. `axis` gets the worst axis.
+  bool ForceOffCommand(const Vec3<double>& measured, int* axis);
+
   // Latches a trip (the first cause wins).
   void Trip(TripCause cause, std::int64_t cycle);
 
-  // The command to send this cycle: the wanted force clamped to the force
-  // limit and the rate limit while normal; the ramp to zero once tripped.
-  Vec3<double> Limit(const Vec3<double>& wanted);
+  // The command to send in `cycle`: the wanted force clamped to the force
+  // limit and the rate limit while normal; once tripped, the ramp to zero
+  // on time: (cycle - trip cycle + 1) periods into ramp_down_time, so that
+  // cycles skipped by overruns do not stretch it.
+  Vec3<double> Limit(const Vec3<double>& wanted, std::int64_t cycle);
 
   SafetyState state() const { return state_; }
   TripCause cause() const { return cause_; }
@@ -84,12 +98,12 @@ class SafetyMonitor {
   SafetyLimits limits_;
   double period_;
   int missed_ = 0;
+  int force_off_ = 0;
   SafetyState state_ = SafetyState::kNormal;
   TripCause cause_ = TripCause::kNone;
   std::int64_t trip_cycle_ = -1;
   Vec3<double> last_ = Vec3<double>::Zero();
   Vec3<double> ramp_start_ = Vec3<double>::Zero();
-  int ramp_cycles_done_ = 0;
   std::int64_t limited_ = 0;
 };
 

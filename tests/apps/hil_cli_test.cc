@@ -350,6 +350,27 @@ TEST_F(HilCliTest, RigFarFromTheModelTripsTheErrorDetector) {
   ExpectSafeStop(code, log_dir, "error_detector", run->Output());
 }
 
+// A second master writes "enable, Fz = 2 kN" into the rig as fast as it
+// can while kcrig runs: the rig no longer follows kcrig's command, and the
+// controller trips on force tracking instead of reporting a completed run.
+TEST_F(HilCliTest, ASecondMasterTripsForceTracking) {
+  const int port = StartEmulator();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(port, log_dir);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  ChildProcess rogue(
+      {"/usr/bin/python3", KCRIG_TEST_PEERS_DIR "/rogue_master.py",
+       std::to_string(port), "2000", "3"},
+      Path("rogue.out"));
+  const int code = run->Wait();
+  rogue.Wait();
+  ExpectSafeStop(code, log_dir, "force_tracking", run->Output());
+  EXPECT_NE(run->Output().find("another master"), std::string::npos)
+      << run->Output();
+  EXPECT_NE(rogue.Output().find("rogue wrote"), std::string::npos)
+      << rogue.Output();
+}
+
 TEST_F(HilCliTest, SigtermRampsDownAndKeepsTheLog) {
   const int port = StartEmulator();
   const std::string log_dir = Path("run");

@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "gtest/gtest.h"
+#include "tests/support/edited_config.h"
+#include "tests/support/temp_dir_test.h"
 #include "tests/support/test_config.h"
 
 namespace kcrig {
@@ -31,7 +33,9 @@ Trace Drive(const char* effect, const std::function<double(double)>& force,
       LoadPlantConfig(KCRIG_TEST_CONFIG_DIR, config.model, &plant).ok());
   plant.noise = false;
   PlantEffects effects;
-  if (effect != nullptr) EXPECT_TRUE(ParseEffect(effect, &effects).ok());
+  if (effect != nullptr) {
+    EXPECT_TRUE(ParseEffect(effect, &effects).ok());
+  }
   RigEmulator rig(config, plant, effects);
   EXPECT_TRUE(rig.Start(0.0).ok());
   Trace trace;
@@ -60,6 +64,37 @@ double UpHoldDown(double t) {
 
 double Y(const Trace& trace, double t) {
   return trace.samples[std::lround(t / kPeriod)].y(kLateral);
+}
+
+// The rig's own protection values have ranges a rig can honour: a typo
+// must not become a ramp-down of days or a travel limit of kilometres.
+class PlantConfigTest : public TempDirTest {};
+
+TEST_F(PlantConfigTest, SafetyValuesOutOfRangeNameFileLineAndKey) {
+  const KcrigConfig config = SourceConfig();
+  const struct {
+    const char* from;
+    const char* to;
+    const char* message;
+  } cases[] = {
+      {"ramp_down_time: 0.2", "ramp_down_time: 1e6",
+       "plant.yaml:34: rig.ramp_down_time: must be within [0.001, 10]"},
+      {"travel_max: 0.06", "travel_max: 1e300",
+       "rig.travel_max: must be within [0.0001, 0.5]"},
+      {"command_timeout: 0.05", "command_timeout: 0",
+       "rig.command_timeout: must be within [0.001, 1]"},
+      {"force_max: 6000.0", "force_max: 6000.0\n  force_max: 1e9",
+       "actuator.force_max: duplicate key (first at line"},
+  };
+  for (const auto& c : cases) {
+    const std::string dir = Path(std::string("case") + c.to[0] + c.to[1]);
+    EditConfig(dir, "plant.yaml", c.from, c.to);
+    PlantConfig plant;
+    const Status status = LoadPlantConfig(dir, config.model, &plant);
+    ASSERT_FALSE(status.ok()) << c.to;
+    EXPECT_NE(status.message().find(c.message), std::string::npos)
+        << status.message();
+  }
 }
 
 TEST(RigEmulatorTest, TheLoadCellFollowsTheSetPointThroughLagAndDeadTime) {

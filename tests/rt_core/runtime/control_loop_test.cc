@@ -4,6 +4,7 @@
 // the heap (global operator new counts the loop thread's allocations).
 #include "rt_core/runtime/control_loop.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <vector>
@@ -31,7 +32,7 @@ class FakeRig : public RigInterface {
   IoResult Read(RigMeasurement* m) override {
     if (silent) return IoResult::kError;
     m->sample = ++sample_;
-    m->force = force_;
+    m->force = force_ + force_offset;
     m->y = plant_.pose() + offset;
     m->status = kRigEnabled;
     return IoResult::kFresh;
@@ -40,13 +41,14 @@ class FakeRig : public RigInterface {
     commands.push_back(command.force);  // reserved: no allocation
     enabled.push_back(command.enable);
     force_ = command.force;
-    plant_.Step(force_);
+    plant_.Step(force_ + force_offset);
     return IoResult::kFresh;
   }
   std::string Describe() const override { return "fake"; }
   std::string CountersJson() const override { return "{}"; }
 
   bool silent = false;
+  Vec3<double> force_offset = Vec3<double>::Zero();  // another master's push
   Vec6<double> offset = Vec6<double>::Zero();
   std::vector<Vec3<double>> commands;
   std::vector<bool> enabled;
@@ -140,6 +142,49 @@ TEST_F(ControlLoopTest, ErrorDetectorTripsWhenTheRigLeavesTheModel) {
   EXPECT_EQ(loop.result().cause, TripCause::kModelError);
   EXPECT_EQ(loop.result().trip_channel, 4);
   EXPECT_EQ(loop.result().trip_cycle, 1500);
+}
+
+// A second master (or a stuck valve) drives the rig: the load cell leaves
+// this controller's command, and the loop trips after force_error_cycles.
+TEST_F(ControlLoopTest, ForceTrackingTripsWhenTheRigDoesNotFollowTheCommand) {
+  options_.safety.force_error_max = 500;
+  options_.safety.force_error_cycles = 50;
+  options_.safety.travel_max = 0.05;
+  ControlLoop loop(config_.model, options_, &rig_, &ring_, &stop_);
+  Step(&loop, 100000, [this](std::int64_t k) {
+    // Just within the band for a while, then 1.5 kN in Fz.
+    rig_.force_offset << 0, 0, k >= 2000 ? 1500 : k >= 1500 ? 450 : 0;
+  });
+  EXPECT_EQ(loop.result().cause, TripCause::kForceTracking);
+  EXPECT_EQ(loop.result().trip_channel, 2);
+  EXPECT_EQ(loop.result().trip_cycle, 2049);
+  EXPECT_FALSE(rig_.enabled.back());
+}
+
+// The ramp-down runs on time: when overruns skip cycles, it still ends
+// ramp_down_time after the trip instead of stretching over executed cycles.
+TEST_F(ControlLoopTest, RampDownLastsItsTimeWhenCyclesAreSkipped) {
+  options_.safety.travel_max = 0.0006;  // reached during the lead-in
+  options_.safety.ramp_down_time = 0.25;
+  ControlLoop loop(config_.model, options_, &rig_, &ring_, &stop_);
+  std::int64_t cycle = 0;
+  while (loop.Cycle(cycle, 0) && loop.result().cause == TripCause::kNone) {
+    ++cycle;
+  }
+  const std::int64_t trip = loop.result().trip_cycle;
+  ASSERT_EQ(loop.result().cause, TripCause::kTravelLimit);
+  const double at_trip = rig_.commands[trip - 1].norm();
+  const size_t first_ramp_command = rig_.commands.size() - 1;
+  // Every later cycle comes three periods after the previous one.
+  while (loop.Cycle(cycle += 3, 2)) {
+    const double elapsed = (cycle - trip + 1) * 1e-3;
+    EXPECT_NEAR(rig_.commands.back().norm(),
+                at_trip * std::max(0.0, 1 - elapsed / 0.25), 1e-6 * at_trip);
+  }
+  EXPECT_GE(cycle - trip + 1, 250);
+  EXPECT_LT(cycle - trip + 1, 253);
+  EXPECT_LE(rig_.commands.size() - first_ramp_command, 85u);
+  EXPECT_FALSE(rig_.enabled.back());
 }
 
 TEST_F(ControlLoopTest, WatchdogTripsAfterTheConfiguredSilentCycles) {
