@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 
 #include "hil/rig_config.h"
+#include "records/partial_file.h"
 #include "records/read_log.h"
+#include "records/run_log.h"
 #include "rt_core/model/channels.h"
 
 namespace kcrig {
@@ -96,6 +99,32 @@ RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
           args.duration.value_or(experiment.duration),
           args.hold.value_or(0.0),
           args.return_duration.value_or(0.0)};
+}
+
+Status CheckOutput(const std::string& option, const std::string& out,
+                   const std::vector<std::string>& inputs) {
+  if (out.empty()) return Status::Ok();
+  const Status replaceable = CheckReplaceable(out);
+  if (!replaceable.ok()) {
+    return Status::Error(option + " " + replaceable.message());
+  }
+  namespace fs = std::filesystem;
+  std::error_code error;
+  const fs::path target = fs::weakly_canonical(out, error);
+  if (error) return Status::Ok();  // the writer will say what is wrong
+  for (const std::string& input : inputs) {
+    std::vector<std::string> read = {input};
+    if (fs::path(input).extension() == ".csv") {
+      read.push_back(SidecarPath(input));
+    }
+    for (const std::string& path : read) {
+      if (fs::weakly_canonical(path, error) == target && !error) {
+        return Status::Error(option + " " + out + ": is also an input (" +
+                             path + "); writing it would destroy it");
+      }
+    }
+  }
+  return Status::Ok();
 }
 
 Status ConfiguredDbc(const KcrigConfig& config, std::string* dbc_file) {

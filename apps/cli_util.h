@@ -40,6 +40,12 @@ void AddExcitationOptions(CLI::App* cmd, ExcitationArgs* args);
 RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
                                    const ExperimentConfig& experiment);
 
+// Before any work: the file `out` (given with `option`; "" for none) may be
+// written (records' CheckReplaceable) and is none of `inputs`, nor a run
+// log's sidecar among them: writing it would destroy what is read.
+Status CheckOutput(const std::string& option, const std::string& out,
+                   const std::vector<std::string>& inputs);
+
 // The DBC of the config's rig.yaml (can.dbc), which decodes CAN bus logs.
 Status ConfiguredDbc(const KcrigConfig& config, std::string* dbc_file);
 

@@ -57,6 +57,8 @@ int RunDesign(const DesignArgs& args) {
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);
+  status = CheckOutput("--out", args.out, {args.estimate});
+  if (!status.ok()) return fail(status);
   Criterion criterion;
   status = ParseCriterion(args.criterion, &criterion);
   if (!status.ok()) return fail(status);

@@ -37,6 +37,10 @@ int RunDiagnose(const DiagnoseArgs& args) {
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);
+  std::vector<std::string> inputs = args.logs;
+  inputs.insert(inputs.end(), args.holdout.begin(), args.holdout.end());
+  status = CheckOutput("--out", args.out, inputs);
+  if (!status.ok()) return fail(status);
   DiagnosisOptions options;
   if (!args.candidates.empty()) {
     options.candidates = SplitList(args.candidates);

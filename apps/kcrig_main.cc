@@ -1,5 +1,6 @@
 // kcrig: thin entry point. Parses the command line, runs one subcommand.
 #include <cstdio>
+#include <exception>
 #include <functional>
 #include <string>
 
@@ -57,5 +58,15 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "kcrig: error: %s (see kcrig --help)\n", e.what());
     return 2;
   }
-  return run();
+  // The commands return their errors; an exception that still escapes (a
+  // library's, on input nobody foresaw) is one line and exit 1, never an
+  // abort. Outputs are written atomically at the end: nothing half-written.
+  try {
+    return run();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "kcrig %s: error: %s\n", argv[1], e.what());
+  } catch (...) {
+    std::fprintf(stderr, "kcrig %s: error: an unexpected failure\n", argv[1]);
+  }
+  return 1;
 }

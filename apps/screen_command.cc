@@ -72,6 +72,8 @@ int RunScreen(const ScreenArgs& args) {
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);
+  status = CheckOutput("--out", args.out, args.logs);
+  if (!status.ok()) return fail(status);
   EstimatorOptions estimator_options;
   if (!args.channels.empty()) {
     status = ParseChannels(args.channels, &estimator_options.channels);

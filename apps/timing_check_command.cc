@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "apps/cli_util.h"
 #include "apps/progress.h"
 #include "hil/rig_config.h"
 #include "hil/rig_factory.h"
@@ -21,6 +22,7 @@ namespace {
 
 // Exit status when the timing is outside the budget.
 constexpr int kOverBudget = 4;
+constexpr int kTripped = 3;  // as kcrig run after a safety trip
 
 struct TimingCheckArgs {
   std::string config_dir;
@@ -46,6 +48,8 @@ int RunTimingCheck(const TimingCheckArgs& args) {
   };
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
+  if (!status.ok()) return fail(status);
+  status = CheckOutput("--out", args.out, {});
   if (!status.ok()) return fail(status);
   RigConfig rig_config;
   status = LoadRigConfig(config.directory, &rig_config);
@@ -152,13 +156,25 @@ int RunTimingCheck(const TimingCheckArgs& args) {
   for (const std::string& violation : timing.violations) {
     std::printf("  over budget: %s\n", violation.c_str());
   }
+  // A loop that a fault or a signal ended early measured only part of the
+  // run: never a pass, whatever its figures.
+  if (!result.completed) {
+    std::printf("  %s: the loop did not run to its end\n",
+                result.trip_message.c_str());
+  }
   std::printf("  budget (rig.yaml timing_budget): %s\n",
-              within ? "within" : "EXCEEDED");
+              !result.completed ? "NOT CHECKED (the loop stopped early)"
+              : within          ? "within"
+                                : "EXCEEDED");
   if (!args.out.empty()) {
     status = WriteFilesAtomically({{args.out, TimingFileToJson(timing)}});
     if (!status.ok()) return fail(status);
     std::printf("  wrote %s\n", args.out.c_str());
   }
+  if (result.loop.cause == TripCause::kSignal) {
+    return 128 + result.loop.signal;
+  }
+  if (!result.completed) return kTripped;
   return within ? 0 : kOverBudget;
 }
 
@@ -169,7 +185,8 @@ void AddTimingCheckCommand(CLI::App* app, std::function<int()>* run) {
   CLI::App* cmd = app->add_subcommand(
       "timing-check",
       "Run the step loop (zero force) and check its per-phase timing against "
-      "the budget of rig.yaml; exit 0 only within budget (4 otherwise)");
+      "the budget of rig.yaml; exit 0 only within budget (4 otherwise; 3 when "
+      "a fault ended the loop, 130/143 when a signal did)");
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");
   cmd->add_option("--rig", args->rig,

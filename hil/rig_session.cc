@@ -322,6 +322,7 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   result->logged_rows = static_cast<std::int64_t>(log.samples.size());
   result->timing = MakeTimingFile(loop.timing(), lr, result->realtime, period,
                                   rig_config.budget, rig != nullptr);
+  result->timing.trip = result->trip_message;
   if (options.log_dir.empty()) return Status::Ok();
 
   RunMetadata& m = log.metadata;

@@ -6,6 +6,25 @@
 
 namespace kcrig {
 
+Status CheckReplaceable(const std::string& path) {
+  std::error_code error;
+  const std::filesystem::file_status status =
+      std::filesystem::symlink_status(path, error);
+  if (error && error != std::errc::no_such_file_or_directory) {
+    return Status::Error(path + ": cannot inspect (" + error.message() + ")");
+  }
+  if (!std::filesystem::exists(status) ||
+      std::filesystem::is_regular_file(status)) {
+    return Status::Ok();
+  }
+  const char* what = std::filesystem::is_symlink(status) ? "a symbolic link"
+                     : std::filesystem::is_directory(status)
+                         ? "a directory"
+                         : "a device or FIFO";
+  return Status::Error(path + ": is " + what +
+                       ", not a regular file; kcrig never replaces it");
+}
+
 PartialFile::~PartialFile() {
   if (file_ != nullptr) std::fclose(file_);
 }
@@ -14,6 +33,8 @@ Status PartialFile::Open(const std::string& path) {
   path_ = path;
   partial_path_ = path + ".partial";
   failed_ = false;
+  KCRIG_RETURN_IF_ERROR(CheckReplaceable(path_));
+  KCRIG_RETURN_IF_ERROR(CheckReplaceable(partial_path_));
   std::error_code ignored;  // fopen says what went wrong
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(),
                                       ignored);

@@ -14,6 +14,11 @@
 
 namespace kcrig {
 
+// Whether kcrig may put a file at `path`: nothing there, or a regular file
+// (replaced). A device, FIFO, directory or symbolic link is never replaced:
+// writing "est.json" over /dev/full or a link would destroy what is there.
+Status CheckReplaceable(const std::string& path);
+
 class PartialFile {
  public:
   PartialFile() = default;
@@ -21,7 +26,8 @@ class PartialFile {
   PartialFile(const PartialFile&) = delete;
   PartialFile& operator=(const PartialFile&) = delete;
 
-  // Creates the parent directory of `path` and opens `path`.partial.
+  // Creates the parent directory of `path` and opens `path`.partial; both
+  // must be replaceable (CheckReplaceable).
   Status Open(const std::string& path);
   bool is_open() const { return file_ != nullptr; }
 

@@ -351,6 +351,9 @@ std::string SidecarPath(const std::string& csv_path) {
 
 Status WriteFilesAtomically(
     const std::vector<std::pair<std::string, std::string>>& files) {
+  for (const auto& file : files) {
+    KCRIG_RETURN_IF_ERROR(CheckReplaceable(file.first));
+  }
   std::vector<std::string> temporaries;
   auto remove_temporaries = [&temporaries] {
     for (const std::string& t : temporaries) std::remove(t.c_str());

@@ -69,6 +69,7 @@ Status ReadTimingDocument(const std::string& path, const nlohmann::json& doc,
   t->memory_locked = realtime.value("memory_locked", false);
   t->no_cpu_idle = realtime.value("no_cpu_idle", false);
   t->realtime_warnings = realtime.value("warnings", std::vector<std::string>());
+  if (doc.contains("trip") && doc["trip"].is_string()) t->trip = doc["trip"];
   const nlohmann::json budget = doc.value("budget", nlohmann::json::object());
   if (!budget.is_object()) {
     return Status::Error(path +
@@ -95,6 +96,7 @@ std::string TimingFileToJson(const TimingFile& t) {
   doc["skipped_cycles"] = t.skipped_cycles;
   doc["skipped_by_late_wakeup"] = t.skipped_by_late_wakeup;
   doc["dropped_log_records"] = t.dropped_log_records;
+  doc["trip"] = t.trip.empty() ? Json(nullptr) : Json(t.trip);
   doc["realtime"] = {{"sched_fifo", t.sched_fifo},
                      {"cpu_affinity", t.cpu_affinity},
                      {"memory_locked", t.memory_locked},

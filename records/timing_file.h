@@ -40,6 +40,9 @@ struct TimingFile {
   bool sched_fifo = false, cpu_affinity = false, memory_locked = false,
        no_cpu_idle = false;
   std::vector<std::string> realtime_warnings;
+  // The safety trip that ended the loop early ("tripped: watchdog (...)"),
+  // "" when it ran to its end: timing measured up to a fault is not a pass.
+  std::string trip;
   // By phase name: wakeup, read, compute, write, cycle.
   std::map<std::string, TimingPhase> phases;
   // The budget (rig.yaml timing_budget) and whether the run held it;

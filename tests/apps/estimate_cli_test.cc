@@ -173,5 +173,43 @@ TEST_F(EstimateCliTest, BadInputFailsCleanly) {
   ExpectCleanFailure(RunKcrig("estimate" + log + out), "not a finite number");
 }
 
+// An output never destroys an input (the log, its sidecar, est.json read
+// by design) and never replaces what is not a regular file (a FIFO, a
+// symbolic link): one line, exit 1, everything as it was.
+TEST_F(EstimateCliTest, OutputsNeverReplaceAnInputOrASpecialFile) {
+  Simulate("");
+  const std::string log = "estimate --log " + Path("run.csv") + " --out ";
+  const auto size_of_log = fs::file_size(Path("run.csv"));
+  const auto size_of_sidecar = fs::file_size(Path("run.json"));
+  ExpectCleanFailure(RunKcrig(log + Path("run.csv")),
+                     "run.csv: is also an input");
+  ExpectCleanFailure(RunKcrig(log + Path("run.json")),
+                     "run.json: is also an input");
+  ASSERT_EQ(RunCommand("mkfifo " + Path("fifo")).exit_code, 0);
+  fs::create_symlink(Path("run.csv"), Path("link.json"));
+  ExpectCleanFailure(RunKcrig(log + Path("fifo")),
+                     "fifo: is a device or FIFO, not a regular file");
+  ExpectCleanFailure(RunKcrig(log + Path("link.json")),
+                     "link.json: is a symbolic link, not a regular file");
+  EXPECT_TRUE(fs::is_fifo(Path("fifo")));
+  EXPECT_TRUE(fs::is_symlink(Path("link.json")));
+  EXPECT_EQ(fs::file_size(Path("run.csv")), size_of_log);
+  EXPECT_EQ(fs::file_size(Path("run.json")), size_of_sidecar);
+  // design reads est.json: writing design.json over it is refused too.
+  ASSERT_EQ(RunKcrig(log + Path("est.json")).exit_code, 0);
+  const CliResult design = RunKcrig("design --estimate " + Path("est.json") +
+                                    " --out " + Path("est.json"));
+  EXPECT_EQ(design.exit_code, 1) << design.output;
+  EXPECT_EQ(CountLines(design.output), 1) << design.output;
+  EXPECT_NE(design.output.find("est.json: is also an input"), std::string::npos)
+      << design.output;
+  // A config path that is a symbolic link loop: one line, not an abort.
+  fs::create_symlink(Path("loop"), Path("loop"));
+  const CliResult looped = RunKcrig("estimate --config " + Path("loop") +
+                                    " --log " + Path("run.csv"));
+  EXPECT_EQ(looped.exit_code, 1) << looped.output;
+  EXPECT_EQ(CountLines(looped.output), 1) << looped.output;
+}
+
 }  // namespace
 }  // namespace kcrig

@@ -459,5 +459,33 @@ TEST_F(HilCliTest, TimingCheckReportsPhasesBaselineAndBudget) {
       << r.output;
 }
 
+// A rig that dies during the timing check, or a Ctrl-C, ends the loop
+// early: the trip is on screen and in timing.json, and the exit is never 0.
+TEST_F(HilCliTest, TimingCheckNeverPassesWhenTheRigDiesOrTheLoopIsStopped) {
+  const int port = StartEmulator();
+  ChildProcess check({KCRIG_BINARY, "timing-check", "--config", config_,
+                      "--duration", "4", "--baseline", "0", "--rig",
+                      "modbus-tcp://127.0.0.1:" + std::to_string(port), "--out",
+                      Path("t.json")},
+                     Path("check.out"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(2000));
+  emulator_->Signal(SIGKILL);
+  EXPECT_EQ(check.Wait(), 3) << check.Output();
+  EXPECT_NE(check.Output().find("tripped: watchdog"), std::string::npos)
+      << check.Output();
+  EXPECT_NE(check.Output().find("NOT CHECKED"), std::string::npos)
+      << check.Output();
+  const nlohmann::json timing = ReadJson(Path("t.json"));
+  EXPECT_NE(timing["trip"].get<std::string>().find("watchdog"),
+            std::string::npos)
+      << timing["trip"];
+  ChildProcess stopped({KCRIG_BINARY, "timing-check", "--config", config_,
+                        "--duration", "4", "--baseline", "0"},
+                       Path("stopped.out"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  stopped.Signal(SIGINT);
+  EXPECT_EQ(stopped.Wait(), 130) << stopped.Output();
+}
+
 }  // namespace
 }  // namespace kcrig
