@@ -39,34 +39,40 @@ Json PageData(const std::string& html) {
   return Json::parse(json);
 }
 
-// One small campaign per test process (ctest runs each test in its own
-// process, two at a time: the folder is the process's).
+// One small campaign per test process that needs it (ctest runs each test
+// in its own process, two at a time: the folder is the process's), built
+// on first use: under the sanitizers a campaign takes a minute.
 class ReportCliTest : public TempDirTest {
  protected:
-  static void SetUpTestSuite() {
-    campaign_ = new std::string(
-        (fs::temp_directory_path() /
-         ("kcrig_report_cli_campaign_" + std::to_string(getpid())))
-            .string());
-    fs::remove_all(*campaign_);
-    const CliResult r = RunKcrig(
-        "campaign --iterations 1 --budget 12 --quiet --no-report "
-        "--out " +
-        *campaign_);
-    ASSERT_EQ(r.exit_code, 0) << r.output;
+  static const std::string& Campaign() {
+    if (campaign_ == nullptr) {
+      campaign_ = new std::string(
+          (fs::temp_directory_path() /
+           ("kcrig_report_cli_campaign_" + std::to_string(getpid())))
+              .string());
+      fs::remove_all(*campaign_);
+      const CliResult r = RunKcrig(
+          "campaign --iterations 1 --budget 12 --quiet --no-report "
+          "--out " +
+          *campaign_);
+      EXPECT_EQ(r.exit_code, 0) << r.output;
+    }
+    return *campaign_;
   }
   static void TearDownTestSuite() {
+    if (campaign_ == nullptr) return;
     fs::remove_all(*campaign_);
     delete campaign_;
+    campaign_ = nullptr;
   }
   static std::string* campaign_;
 };
 std::string* ReportCliTest::campaign_ = nullptr;
 
 TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
-  ASSERT_FALSE(fs::exists(*campaign_ + "/report.html"));
+  ASSERT_FALSE(fs::exists(Campaign() + "/report.html"));
   const std::string html = Path("report.html");
-  const CliResult r = RunKcrig("report --from " + *campaign_ +
+  const CliResult r = RunKcrig("report --from " + Campaign() +
                                " --grid 4x3 --quiet --out " + html);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   // 2 experiments, sensitivities, estimates, D and A surfaces, kriging.
@@ -220,14 +226,14 @@ TEST_F(ReportCliTest, BadFoldersAreOneLineErrorsAndWriteNothing) {
   fs::create_directories(Path("empty"));
   ExpectRefused("--from " + Path("empty"),
                 "no campaign.json, diag.json or timing.json", out);
-  ExpectRefused("--from " + *campaign_ + " --grid 19", "--grid 19", out);
-  ExpectRefused("--from " + *campaign_ + " --grid 1x5", "--grid 1x5", out);
+  ExpectRefused("--from " + Campaign() + " --grid 19", "--grid 19", out);
+  ExpectRefused("--from " + Campaign() + " --grid 1x5", "--grid 1x5", out);
 
   // A copy of the campaign, broken in one place at a time.
   const std::string copy = Path("copy");
   auto fresh = [&] {
     fs::remove_all(copy);
-    fs::copy(*campaign_, copy, fs::copy_options::recursive);
+    fs::copy(Campaign(), copy, fs::copy_options::recursive);
   };
   fresh();
   const std::string summary = copy + "/campaign.json";
