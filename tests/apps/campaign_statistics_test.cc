@@ -15,6 +15,10 @@
 // nominal fit's residual on the campaign's first two experiments simulated
 // without noise (as in the blind diagnosis tier).
 //
+// The full tier also runs one effect (rig compliance) through Modbus TCP on
+// loopback against `kcrig emulate --effect` (its plant at rig.step, in real
+// time), as many cases.
+//
 // KCRIG_CAMPAIGN_CASES (per effect) and KCRIG_CAMPAIGN_SEED are compile
 // definitions: the CI tier and the full tier are two builds of this file.
 #include <algorithm>
@@ -32,6 +36,7 @@
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"
+#include "tests/support/child_process.h"
 #include "tests/support/cli_runner.h"
 #include "tests/support/edited_config.h"
 #include "tests/support/temp_dir_test.h"
@@ -336,6 +341,69 @@ TEST_F(KCRIG_CAMPAIGN_SUITE,
   EXPECT_GE(adopted_nothing, 0.95 * cases);
   EXPECT_EQ(same, adopted_nothing);
 }
+
+#ifdef KCRIG_CAMPAIGN_FULL_TIER
+// The rig of a case: `kcrig emulate` on a free loopback port with the case's
+// plant (its bushings in plant.yaml, its effect, its noise seed).
+TEST_F(KCRIG_CAMPAIGN_SUITE, OneEffectThroughModbusAgainstTheEmulator) {
+  const int cases = KCRIG_CAMPAIGN_CASES;
+  int adopted = 0, stopped = 0, counted = 0;
+  int covered[kNumBushings] = {}, nominal_covered[kNumBushings] = {};
+  for (int k = 0; k < cases; ++k) {
+    const CampaignCase c = Draw("rig_compliance", 100 + k, KCRIG_CAMPAIGN_SEED);
+    const std::string name = "modbus" + std::to_string(k);
+    const std::string config = CaseConfig(Path(name + "_config"), c);
+    Outcome outcome[2];
+    bool ran = true;
+    for (int diagnose = 1; diagnose >= 0 && ran; --diagnose) {
+      ChildProcess emulator(
+          {KCRIG_BINARY, "emulate", "--config", config, "--modbus-tcp",
+           "127.0.0.1:0", "--seed", std::to_string(c.seed), "--effect", c.spec},
+          Path(name + "_emulate.out"));
+      const std::string port = emulator.WaitForOutput(
+          "serving modbus-tcp://127\\.0\\.0\\.1:([0-9]+)");
+      ASSERT_FALSE(port.empty()) << emulator.Output();
+      const std::string out = Path(name + (diagnose ? "" : "_nominal"));
+      const CliResult run =
+          RunKcrig("campaign --config " + config +
+                   " --rig modbus-tcp://127.0.0.1:" + port +
+                   " --iterations 2 --quiet --no-report --out " + out +
+                   (diagnose ? "" : " --no-diagnose"));
+      ran = run.exit_code == 0 || run.exit_code == 5;
+      EXPECT_TRUE(ran) << run.output;
+      if (ran) outcome[diagnose ? 0 : 1] = ReadOutcome(out);
+    }
+    if (!ran) continue;
+    bool hit[kNumBushings], nominal_hit[kNumBushings];
+    const int n = Covered(outcome[0], c, hit);
+    const int n_nominal = Covered(outcome[1], c, nominal_hit);
+    std::printf(
+        "modbus %2d: final model %s, covered %d/5, today %d/5 (%s)\n", k,
+        outcome[0].stopped ? "stopped (exit 5)" : outcome[0].model.c_str(), n,
+        n_nominal, c.spec.c_str());
+    std::fflush(stdout);
+    ++counted;
+    adopted += outcome[0].model == "rig_compliance";
+    stopped += outcome[0].stopped;
+    for (int i = 0; i < kNumBushings; ++i) {
+      covered[i] += hit[i];
+      nominal_covered[i] += nominal_hit[i];
+    }
+  }
+  std::printf(
+      "through Modbus: rig compliance adopted in %d of %d cases, %d stopped\n",
+      adopted, counted, stopped);
+  ASSERT_GT(counted, 0);
+  EXPECT_GE(adopted, 0.9 * counted);
+  for (int i = 0; i < kNumBushings; ++i) {
+    std::printf("  c_%-4s covered %d/%d (today %d/%d)\n",
+                std::string(kBushingChassisNames[i]).c_str(), covered[i],
+                counted, nominal_covered[i], counted);
+    EXPECT_GE(covered[i], 0.90 * counted);
+    EXPECT_LE(covered[i], 0.98 * counted);
+  }
+}
+#endif
 
 }  // namespace
 }  // namespace kcrig
