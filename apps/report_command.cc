@@ -35,7 +35,9 @@ int RunReport(const ReportArgs& args) {
       args.out.empty()
           ? (std::filesystem::path(args.from) / "report.html").string()
           : args.out;
-  status = CheckOutput("--out", out, {});
+  status = CheckOutput(
+      "--out", out,
+      {(std::filesystem::path(args.from) / "campaign.json").string()});
   if (!status.ok()) return fail(status);
   ReportOptions options;
   // Without a readable rig.yaml a CAN log's overlay is left out with a note.

@@ -507,18 +507,20 @@ Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
   std::vector<std::vector<Vec6<double>>> error;
   KCRIG_RETURN_IF_ERROR(DiscretisationError(model, fit.values, experiments,
                                             integrator_step, &error));
-  // The same layout as the problem's residual vector.
+  // The same layout as the problem's residual vector: six per sample.
+  Eigen::Index samples = 0;
+  for (const std::vector<Vec6<double>>& log : error) samples += log.size();
+  if (6 * samples != residuals.size()) {
+    return Status::Error("the " + model.Name() +
+                         " model's residual layout is not per sample");
+  }
   Eigen::VectorXd discretisation(residuals.size());
   Eigen::Index at = 0;
-  for (size_t l = 0; l < experiments.size(); ++l) {
-    for (const Vec6<double>& e : error[l]) {
+  for (const std::vector<Vec6<double>>& log : error) {
+    for (const Vec6<double>& e : log) {
       discretisation.segment<6>(at) = e;
       at += 6;
     }
-  }
-  if (at != residuals.size()) {
-    return Status::Error("the " + model.Name() +
-                         " model's residual layout is not per sample");
   }
   auto assess = [&](const Eigen::VectorXd& r) {
     return AssessPredictionResiduals(experiments, kAllChannels, r, jacobian,

@@ -1,5 +1,6 @@
 #include "records/run_log.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -361,8 +362,14 @@ Status WriteFilesAtomically(
   for (const auto& [path, content] : files) {
     const std::string temporary =
         path + ".tmp." + std::to_string(static_cast<long>(getpid()));
-    std::FILE* file = std::fopen(temporary.c_str(), "wb");
+    // Never through a link planted at the temporary's name.
+    std::remove(temporary.c_str());
+    const int fd =
+        open(temporary.c_str(),
+             O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    std::FILE* file = fd >= 0 ? fdopen(fd, "wb") : nullptr;
     if (file == nullptr) {
+      if (fd >= 0) close(fd);
       const std::string reason = std::strerror(errno);
       remove_temporaries();
       return Status::Error(path + ": cannot write: " + reason);
