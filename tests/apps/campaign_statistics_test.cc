@@ -32,14 +32,15 @@
 #include <string>
 #include <vector>
 
-#include "diagnosis/effect_model.h"
 #include "emulator/simulated_run.h"
+#include "estimator/experiment.h"
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"
 #include "tests/support/child_process.h"
 #include "tests/support/cli_runner.h"
 #include "tests/support/edited_config.h"
+#include "tests/support/effect_size.h"
 #include "tests/support/temp_dir_test.h"
 #include "tests/support/test_config.h"
 
@@ -183,14 +184,7 @@ double EffectSize(const KcrigConfig& config, const CampaignCase& c,
                                &experiments.back())
                     .ok());
   }
-  EffectModel nominal;
-  EXPECT_TRUE(EffectModel::Create(config.model, {}, 0.1, 10, &nominal).ok());
-  EffectFit fit;
-  const Status status =
-      FitEffectModel(nominal, experiments, {}, EffectFitOptions(),
-                     config.experiment.step, &fit);
-  EXPECT_TRUE(status.ok()) << status.message();
-  return fit.result.sigma_hat;
+  return NominalFitSigmaHat(config, experiments);
 }
 
 std::string CampaignCommand(const std::string& config, const CampaignCase& c,

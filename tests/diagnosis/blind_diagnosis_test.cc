@@ -37,6 +37,7 @@
 #include "nlohmann/json.hpp"
 #include "rt_core/model/channels.h"
 #include "tests/support/cli_runner.h"
+#include "tests/support/effect_size.h"
 #include "tests/support/temp_dir_test.h"
 #include "tests/support/test_config.h"
 
@@ -175,14 +176,7 @@ double EffectSize(const KcrigConfig& config, const BlindCase& c) {
         MakeExperiment("oracle", log, config.experiment.step, &experiments[i])
             .ok());
   }
-  EffectModel nominal;
-  EXPECT_TRUE(EffectModel::Create(config.model, {}, 0.1, 10, &nominal).ok());
-  EffectFit fit;
-  const Status status =
-      FitEffectModel(nominal, experiments, {}, EffectFitOptions(),
-                     config.experiment.step, &fit);
-  EXPECT_TRUE(status.ok()) << status.message();
-  return fit.result.sigma_hat;
+  return NominalFitSigmaHat(config, experiments);
 }
 
 void StripTruth(const std::string& csv) {
