@@ -45,6 +45,14 @@ Status LoadSafetyLimits(const YamlReader& reader, const YAML::Node& root,
                         "safety.force_error_cycles",
                         "must be at most 1 s of cycles (loop.period)");
   }
+  // A force ramping at the rate limit leads the load cell by at least the
+  // transport's two cycles (and by the actuator's lag on top: README 2.5),
+  // or a correct run trips.
+  if (l.force_error_max <= 2 * period * l.force_rate_max) {
+    return reader.Error(safety["force_error_max"], "safety.force_error_max",
+                        "must exceed force_rate_max x 2 cycles (the command "
+                        "leads the load cell)");
+  }
   l.angle_max = angle_max_deg * kDegree;
   l.error_angle_max = error_angle_max_deg * kDegree;
   if (l.force_max / l.ramp_down_time > l.force_rate_max) {

@@ -90,6 +90,8 @@ TEST_F(ModbusConfigTest, BadMapsAndRigConfigsNameFileLineAndKey) {
       // A ramp-down of 35 days would overflow and could not be stopped.
       {"rig.yaml", "ramp_down_time: 0.5", "ramp_down_time: 3e6",
        "safety.ramp_down_time: must be within [0.001, 10]"},
+      {"rig.yaml", "force_rate_max: 20000.0", "force_rate_max: 1.0e6",
+       "safety.force_error_max: must exceed force_rate_max x 2 cycles"},
       {"rig.yaml", "force_error_cycles: 50", "force_error_cycles: 5000",
        "safety.force_error_cycles: must be at most 1 s of cycles"},
       {"rig.yaml", "travel_max: 0.05", "travel_max: 1e300",
