@@ -15,6 +15,13 @@ Status LoadSafetyLimits(const YamlReader& reader, const YAML::Node& root,
   YAML::Node safety;
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "safety", &safety));
   SafetyLimits& l = *limits;
+  // A count of cycles that must span at most one second of the loop.
+  auto within_a_second = [&](const char* key, int cycles) {
+    return cycles * period <= 1.0
+               ? Status::Ok()
+               : reader.Error(safety[key], std::string("safety.") + key,
+                              "must be at most 1 s of cycles (loop.period)");
+  };
   double angle_max_deg = 0, error_angle_max_deg = 0;
   KCRIG_RETURN_IF_ERROR(
       reader.InRange(safety, "safety", "force_max", 1, 1e5, &l.force_max));
@@ -30,21 +37,15 @@ Status LoadSafetyLimits(const YamlReader& reader, const YAML::Node& root,
                                        1e-4, 45, &error_angle_max_deg));
   KCRIG_RETURN_IF_ERROR(reader.Integer(safety, "safety", "watchdog_cycles", 1,
                                        100000, &l.watchdog_cycles));
-  if (l.watchdog_cycles * period > 1.0) {
-    return reader.Error(safety["watchdog_cycles"], "safety.watchdog_cycles",
-                        "must be at most 1 s of cycles (loop.period)");
-  }
+  KCRIG_RETURN_IF_ERROR(within_a_second("watchdog_cycles", l.watchdog_cycles));
   KCRIG_RETURN_IF_ERROR(reader.InRange(safety, "safety", "ramp_down_time",
                                        period, 10, &l.ramp_down_time));
   KCRIG_RETURN_IF_ERROR(reader.InRange(safety, "safety", "force_error_max", 1,
                                        1e5, &l.force_error_max));
   KCRIG_RETURN_IF_ERROR(reader.Integer(safety, "safety", "force_error_cycles",
                                        1, 100000, &l.force_error_cycles));
-  if (l.force_error_cycles * period > 1.0) {
-    return reader.Error(safety["force_error_cycles"],
-                        "safety.force_error_cycles",
-                        "must be at most 1 s of cycles (loop.period)");
-  }
+  KCRIG_RETURN_IF_ERROR(
+      within_a_second("force_error_cycles", l.force_error_cycles));
   // A force ramping at the rate limit leads the load cell by at least the
   // transport's two cycles (and by the actuator's lag on top: README 2.5),
   // or a correct run trips.
@@ -95,7 +96,6 @@ Status LoadLoopConfig(const YamlReader& reader, const YAML::Node& root,
   KCRIG_RETURN_IF_ERROR(reader.InRange(profile, "run_profile", "ramp_down",
                                        config->period, 60, &p.ramp_down));
   return LoadSafetyLimits(reader, root, config->period, &config->safety);
-  return Status::Ok();
 }
 
 }  // namespace kcrig
