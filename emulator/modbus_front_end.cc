@@ -1,5 +1,7 @@
 #include "emulator/modbus_front_end.h"
 
+#include <algorithm>
+
 #include "io_drivers/modbus_registers.h"
 #include "io_drivers/modbus_server.h"
 #include "rt_core/runtime/cycle_timer.h"
@@ -9,17 +11,50 @@ namespace {
 
 double Now() { return static_cast<double>(MonotonicNanoseconds()) * 1e-9; }
 
-void PublishSample(const RigMeasurement& m, std::uint16_t sequence_echo,
+void PublishSample(const RigMeasurement& m, const RigEmulator& rig,
                    const ModbusMap& map, std::uint16_t* input) {
   const bool order = map.high_word_first;
   input[map.status] = m.status;
   input[map.fault_code] = m.fault_code;
   PutUint32(m.sample, order, &input[map.sample]);
-  input[map.sequence_echo] = sequence_echo;
+  input[map.sequence_echo] = rig.last_sequence();
   input[map.protocol] = kModbusProtocolVersion;
+  input[map.owner] = rig.ownership().owner();
+  input[map.refused_writes] = rig.ownership().refused();
   for (int k = 0; k < 3; ++k)
     PutFloat32(m.force(k), order, &input[map.force[k]]);
   for (int k = 0; k < 6; ++k) PutFloat32(m.y(k), order, &input[map.y[k]]);
+}
+
+// What a holding-register write asks of the rig: the table as it would be
+// after the write, and whether the request itself carries a session.
+RigRequest DecodeWrite(const ModbusMap& map, const std::uint16_t* holding,
+                       int address, int count, const std::uint16_t* values,
+                       int connection) {
+  std::uint16_t after[128] = {};
+  const int size = map.holding_count();
+  std::copy(holding, holding + size, after);
+  for (int k = 0; k < count; ++k) {
+    if (address + k >= 0 && address + k < size) after[address + k] = values[k];
+  }
+  const bool order = map.high_word_first;
+  const std::uint16_t control = after[map.control_word];
+  RigRequest request;
+  request.command.enable = (control & kControlEnable) != 0;
+  request.command.sequence = after[map.sequence];
+  for (int k = 0; k < 3; ++k) {
+    request.command.force(k) = GetFloat32(&after[map.setpoint[k]], order);
+  }
+  request.command.z_a = GetFloat32(&after[map.z_a], order);
+  request.reset_fault = (control & kControlResetFault) != 0;
+  RigOwnership::Request& o = request.ownership;
+  o.has_session = map.session >= address && map.session < address + count;
+  o.session = after[map.session];
+  o.claim = (control & kControlClaim) != 0;
+  o.release = (control & kControlRelease) != 0;
+  o.enable = request.command.enable;
+  o.connection = connection;
+  return request;
 }
 
 }  // namespace
@@ -35,26 +70,26 @@ Status ServeModbus(RigEmulator* rig, const ModbusMap& map,
   if (!status.ok()) return status;
   std::uint16_t* input = server.input_registers();
   std::uint16_t* holding = server.holding_registers();
-  PublishSample(rig->TakeSample(), 0, map, input);
+  PublishSample(rig->TakeSample(), *rig, map, input);
   on_listening(server.port());
 
   ModbusServer::Hooks hooks;
   hooks.tick = [rig] { rig->AdvanceTo(Now()); };
   hooks.before_input_read = [&] {
     rig->AdvanceTo(Now());
-    PublishSample(rig->TakeSample(), rig->last_sequence(), map, input);
+    PublishSample(rig->TakeSample(), *rig, map, input);
   };
-  hooks.after_holding_write = [&] {
-    const bool order = map.high_word_first;
-    RigCommand command;
-    const std::uint16_t control = holding[map.control_word];
-    command.enable = (control & kControlEnable) != 0;
-    command.sequence = holding[map.sequence];
-    for (int k = 0; k < 3; ++k) {
-      command.force(k) = GetFloat32(&holding[map.setpoint[k]], order);
-    }
-    command.z_a = GetFloat32(&holding[map.z_a], order);
-    rig->ApplyCommand(command, (control & kControlResetFault) != 0);
+  // A refused write leaves the table as it was; the owner and the refusal
+  // count reach the input registers with the next sample.
+  hooks.accept_holding_write = [&](int connection, int address, int count,
+                                   const std::uint16_t* values) {
+    rig->AdvanceTo(Now());
+    return rig->Request(
+        DecodeWrite(map, holding, address, count, values, connection));
+  };
+  hooks.client_closed = [rig](int connection) {
+    rig->AdvanceTo(Now());
+    rig->ConnectionClosed(connection);
   };
   return server.Serve(stop, 1e-3, hooks);
 }

@@ -2,8 +2,9 @@
 // config/modbus_map.yaml for a RigEmulator. A read of the input registers
 // takes a fresh sample (the rig samples on request, so the controller sees
 // one new sample per cycle); a write of the holding registers is the
-// command; the plant advances in real time between requests (at least every
-// millisecond).
+// command, obeyed only from the session in control (one master: the
+// session, owner and refused_writes registers, rig_ownership.h); the plant
+// advances in real time between requests (at least every millisecond).
 #ifndef KCRIG_EMULATOR_MODBUS_FRONT_END_H_
 #define KCRIG_EMULATOR_MODBUS_FRONT_END_H_
 

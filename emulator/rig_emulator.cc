@@ -35,6 +35,9 @@ void RigEmulator::Step() {
   if (enabled_ && time_ - last_command_ > config_.command_timeout) {
     Fault(kFaultCommandTimeout);
   }
+  if (ownership_.Expire(time_, config_.command_timeout)) {
+    LoseOwner(kFaultCommandTimeout);
+  }
   Vec3<double> demand = enabled_ ? setpoint_ : Vec3<double>::Zero();
   if (fault_ != kFaultNone) {
     const double remaining =
@@ -60,6 +63,33 @@ void RigEmulator::Step() {
 
 void RigEmulator::AdvanceTo(double now) {
   while (time_ + config_.step <= now) Step();
+}
+
+// An unclaimed rig is never enabled: one that was faults and ramps down.
+void RigEmulator::LoseOwner(RigFaultCode code) {
+  if (enabled_) Fault(code);
+  enabled_ = false;
+}
+
+bool RigEmulator::Request(const RigRequest& request) {
+  switch (ownership_.Decide(request.ownership, time_)) {
+    case RigOwnership::Verdict::kRefuse:
+      return false;
+    case RigOwnership::Verdict::kObeyAndRelease: {
+      RigCommand disable = request.command;
+      disable.enable = false;
+      ApplyCommand(disable, request.reset_fault);
+      return true;
+    }
+    case RigOwnership::Verdict::kObey:
+      ApplyCommand(request.command, request.reset_fault);
+      return true;
+  }
+  return false;
+}
+
+void RigEmulator::ConnectionClosed(int connection) {
+  if (ownership_.ConnectionClosed(connection)) LoseOwner(kFaultOwnerLost);
 }
 
 void RigEmulator::ApplyCommand(const RigCommand& command, bool reset_fault) {

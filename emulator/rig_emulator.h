@@ -3,9 +3,10 @@
 // plant with its unmodelled effects (rt_core/model/rig_plant.h) integrated at
 // the plant's fine step in real time, sensors with offset, noise and
 // quantization, a load cell, and the rig's own protection: a travel limit
-// and a command watchdog that fault the rig and ramp its force to zero.
-// Transport-free: front ends (Modbus here) call AdvanceTo, ApplyCommand and
-// TakeSample.
+// and a command watchdog that fault the rig and ramp its force to zero, and
+// one master at a time (rig_ownership.h). Transport-free: front ends call
+// AdvanceTo, Request (or ApplyCommand, for a transport without sessions)
+// and TakeSample.
 #ifndef KCRIG_EMULATOR_RIG_EMULATOR_H_
 #define KCRIG_EMULATOR_RIG_EMULATOR_H_
 
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "emulator/plant_config.h"
+#include "emulator/rig_ownership.h"
 #include "rt_core/model/model_config.h"
 #include "rt_core/model/plant_effects.h"
 #include "rt_core/model/rig_plant.h"
@@ -27,6 +29,14 @@ enum RigFaultCode : std::uint16_t {
   kFaultTravel = 1,
   kFaultCommandTimeout = 2,
   kFaultDiverged = 3,
+  kFaultOwnerLost = 4,  // the owner's connection closed while enabled
+};
+
+// A command as a session-aware front end receives it.
+struct RigRequest {
+  RigCommand command;
+  bool reset_fault = false;
+  RigOwnership::Request ownership;
 };
 
 class RigEmulator {
@@ -40,7 +50,16 @@ class RigEmulator {
   // Integrates the rig up to `now` [s] (monotonic, any origin).
   void AdvanceTo(double now);
 
-  // A command from the controller, received at the current time.
+  // A request received at the current time: obeyed when its session may
+  // command the rig (then as ApplyCommand; a release also disables), else
+  // refused and counted. Returns whether it was obeyed.
+  bool Request(const RigRequest& request);
+
+  // A front end's connection closed: if it was the owner's, the claim ends
+  // and an enabled rig faults (kFaultOwnerLost) and ramps its force down.
+  void ConnectionClosed(int connection);
+
+  // A command obeyed as it is, from a transport without sessions (CAN).
   void ApplyCommand(const RigCommand& command, bool reset_fault);
 
   // Takes one sample of every sensor (sample counter + 1).
@@ -49,6 +68,7 @@ class RigEmulator {
   std::uint16_t status() const;
   std::uint16_t fault() const { return fault_; }
   std::uint16_t last_sequence() const { return last_sequence_; }
+  const RigOwnership& ownership() const { return ownership_; }
   const RigPlant& plant() const { return plant_; }
   // The force the actuator applies now [N].
   const Vec3<double>& actuator_force() const { return actuator_force_; }
@@ -56,6 +76,7 @@ class RigEmulator {
  private:
   void Step();
   void Fault(RigFaultCode code);
+  void LoseOwner(RigFaultCode code);
   double Quantize(double value, double resolution) const;
 
   PlantConfig config_;
@@ -75,6 +96,7 @@ class RigEmulator {
   double lag_gain_ = 1;
   std::uint32_t sample_ = 0;
   std::uint16_t last_sequence_ = 0;
+  RigOwnership ownership_;
   std::mt19937_64 rng_;
   std::normal_distribution<double> normal_{0.0, 1.0};
 };

@@ -34,7 +34,8 @@ std::string Channel(int k) {
   return k >= 0 && k < kNumChannels ? kChannelNames[k] : "?";
 }
 
-// `transport_fault`: what the transport reported, for kTransportFault.
+// `transport_fault`: what the transport reported, for kTransportFault and
+// kForeignMaster.
 std::string TripMessage(const LoopResult& loop, double period,
                         const std::string& transport_fault) {
   if (loop.cause == TripCause::kNone) return "";
@@ -58,6 +59,7 @@ std::string TripMessage(const LoopResult& loop, double period,
       what += " (the rig sent a non-finite value)";
       break;
     case TripCause::kTransportFault:
+    case TripCause::kForeignMaster:
       what += " (" + transport_fault + ")";
       break;
     case TripCause::kForceTracking:

@@ -9,14 +9,16 @@
 namespace kcrig {
 
 int ModbusMap::holding_count() const {
-  int end = std::max(control_word, sequence) + 1;
+  int end = std::max({control_word, sequence, session}) + 1;
   for (int a : setpoint) end = std::max(end, a + 2);
   end = std::max(end, z_a + 2);
   return end;
 }
 
 int ModbusMap::input_count() const {
-  int end = std::max({status, fault_code, sequence_echo, protocol}) + 1;
+  int end = std::max({status, fault_code, sequence_echo, protocol, owner,
+                      refused_writes}) +
+            1;
   end = std::max(end, sample + 2);
   for (int a : force) end = std::max(end, a + 2);
   for (int a : y) end = std::max(end, a + 2);
@@ -47,7 +49,8 @@ Status LoadModbusMap(const std::string& file, ModbusMap* map) {
                                   {"fx_setpoint", &map->setpoint[0], 2},
                                   {"fy_setpoint", &map->setpoint[1], 2},
                                   {"fz_setpoint", &map->setpoint[2], 2},
-                                  {"za_setpoint", &map->z_a, 2}};
+                                  {"za_setpoint", &map->z_a, 2},
+                                  {"session", &map->session, 1}};
   const Field input_fields[] = {{"status", &map->status, 1},
                                 {"fault_code", &map->fault_code, 1},
                                 {"sample", &map->sample, 2},
@@ -61,7 +64,9 @@ Status LoadModbusMap(const std::string& file, ModbusMap* map) {
                                 {"z", &map->y[2], 2},
                                 {"toe", &map->y[3], 2},
                                 {"camber", &map->y[4], 2},
-                                {"caster", &map->y[5], 2}};
+                                {"caster", &map->y[5], 2},
+                                {"owner", &map->owner, 1},
+                                {"refused_writes", &map->refused_writes, 1}};
   auto load_table = [&](const char* table, const Field* fields,
                         size_t count) -> Status {
     YAML::Node node;

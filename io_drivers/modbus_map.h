@@ -20,19 +20,30 @@ struct ModbusMap {
   int control_word = 0, sequence = 1;
   int setpoint[3] = {2, 4, 6};
   int z_a = 8;
+  int session = 10;  // the writer's session token, in every write
   // Input registers (rig -> controller).
   int status = 0, fault_code = 1, sample = 2, sequence_echo = 4, protocol = 5;
   int force[3] = {6, 8, 10};
   int y[6] = {12, 14, 16, 18, 20, 22};
+  int owner = 24;           // the session in control, 0 = none
+  int refused_writes = 25;  // writes the rig refused, mod 2^16
   // One past the highest register used, per table.
   int holding_count() const;
   int input_count() const;
 };
 
-// Control word bits and the map's protocol version.
+// Control word bits and the map's protocol version. One master at a time
+// (README 2.4): a write with `claim` and a non-zero session token takes an
+// unclaimed rig; while claimed, the rig obeys only writes that carry the
+// owner's token in the same request (others get exception 6, server busy);
+// `release`, the owner's silence for the rig's command timeout or its
+// connection closing end the claim. An unclaimed rig is never enabled.
 inline constexpr std::uint16_t kControlEnable = 1u << 0;
 inline constexpr std::uint16_t kControlResetFault = 1u << 1;
-inline constexpr std::uint16_t kModbusProtocolVersion = 1;
+inline constexpr std::uint16_t kControlClaim = 1u << 2;
+inline constexpr std::uint16_t kControlRelease = 1u << 3;
+// 2: the session, owner and refused_writes registers (one master).
+inline constexpr std::uint16_t kModbusProtocolVersion = 2;
 
 Status LoadModbusMap(const std::string& file, ModbusMap* map);
 

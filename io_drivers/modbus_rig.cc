@@ -2,10 +2,13 @@
 
 #include <modbus/modbus.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <random>
 
 #include "io_drivers/modbus_registers.h"
 
@@ -23,6 +26,20 @@ void SetTimeout(modbus_t* context, double seconds) {
 
 // libmodbus uses the response timeout as the TCP connect timeout too.
 constexpr double kConnectTimeout = 1.0;  // [s]
+
+// A session token no other controller is likely to hold (non-zero).
+std::uint16_t NewSession() {
+  std::random_device device;
+  std::uint16_t session = 0;
+  while (session == 0) session = static_cast<std::uint16_t>(device());
+  return session;
+}
+
+std::string Hex(std::uint16_t value) {
+  char text[8];
+  std::snprintf(text, sizeof(text), "0x%04x", value);
+  return text;
+}
 
 }  // namespace
 
@@ -53,7 +70,10 @@ Status ParseModbusUri(const std::string& uri, ModbusEndpoint* endpoint) {
 
 ModbusRig::ModbusRig(const ModbusEndpoint& endpoint, const ModbusMap& map,
                      const ModbusSettings& settings)
-    : endpoint_(endpoint), map_(map), settings_(settings) {}
+    : endpoint_(endpoint),
+      map_(map),
+      settings_(settings),
+      session_(NewSession()) {}
 
 ModbusRig::~ModbusRig() {
   {
@@ -75,7 +95,43 @@ std::string ModbusRig::Describe() const {
 }
 
 std::string ModbusRig::CountersJson() const {
-  return "{\"reconnects\": " + std::to_string(reconnects_.load()) + "}";
+  std::string json = "{\"reconnects\": " + std::to_string(reconnects_.load()) +
+                     ", \"session\": " + std::to_string(session_);
+  if (foreign_) {
+    json += ", \"fault\": \"the rig obeys another master: ";
+    json += foreign_echo_ours_
+                ? "it reports session " + Hex(foreign_owner_) +
+                      " in control, not this controller's " + Hex(session_)
+                : "it echoes command sequence " +
+                      std::to_string(foreign_echo_) +
+                      ", which this controller did not send (a second "
+                      "master wrote to the rig, or the rig restarted)";
+    json += "\"";
+  }
+  return json + "}";
+}
+
+void ModbusRig::RememberSent(std::uint16_t sequence) {
+  sent_[sent_count_ % sent_.size()] = sequence;
+  ++sent_count_;
+}
+
+bool ModbusRig::ForeignMasterSeen() {
+  const std::uint16_t owner = input_[map_.owner];
+  const std::uint16_t echo = input_[map_.sequence_echo];
+  const auto sent_end =
+      sent_.begin() + static_cast<long>(std::min(sent_count_, sent_.size()));
+  // Before the first write there is nothing of ours to echo.
+  const bool echo_ours =
+      sent_count_ == 0 || std::find(sent_.begin(), sent_end, echo) != sent_end;
+  // Owner 0: the rig released this controller (its watchdog); it then
+  // reports itself disabled, which the loop trips on as a rig fault.
+  if ((owner == 0 || owner == session_) && echo_ours) return false;
+  foreign_ = true;
+  foreign_owner_ = owner;
+  foreign_echo_ = echo;
+  foreign_echo_ours_ = echo_ours;
+  return true;
 }
 
 Status ModbusRig::Configure() {
@@ -107,6 +163,7 @@ Status ModbusRig::Configure() {
                          std::to_string(kModbusProtocolVersion) +
                          " (not a kcrig register map?)");
   }
+  if (input_[map_.owner] != 0) return ClaimedElsewhere();
   SetTimeout(context_, settings_.response_timeout);
   connected_ = true;
   reconnect_thread_ = std::thread([this] { ReconnectLoop(); });
@@ -117,6 +174,8 @@ Status ModbusRig::WriteControl(std::uint16_t control_word, int attempts) {
   std::memset(holding_, 0, sizeof(holding_));
   holding_[map_.control_word] = control_word;
   holding_[map_.sequence] = ++sequence_;
+  holding_[map_.session] = session_;
+  RememberSent(sequence_);
   for (int k = 0; k < 3; ++k) {
     PutFloat32(0.0, map_.high_word_first, &holding_[map_.setpoint[k]]);
   }
@@ -128,6 +187,7 @@ Status ModbusRig::WriteControl(std::uint16_t control_word, int attempts) {
         modbus_write_registers(context_, 0, count, holding_) == count) {
       return Status::Ok();
     }
+    if (connected_ && errno == EMBXSBUSY) return ClaimedElsewhere();
     if (connected_) OnRequestFailed();
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
@@ -135,19 +195,37 @@ Status ModbusRig::WriteControl(std::uint16_t control_word, int attempts) {
                        modbus_strerror(errno) + ")");
 }
 
+Status ModbusRig::ClaimedElsewhere() {
+  // Best effort: the owner's session for the message.
+  std::string owner = "unknown";
+  if (modbus_read_input_registers(context_, 0, map_.input_count(), input_) ==
+      map_.input_count()) {
+    owner = Hex(input_[map_.owner]);
+  }
+  return Status::Error(
+      Describe() +
+      ": the rig refuses this controller: another master "
+      "(session " +
+      owner +
+      ") is in control; stop it, or wait until the rig's command watchdog "
+      "releases it");
+}
+
 Status ModbusRig::Activate() {
-  // Reset a latched fault, then enable at zero force, then see the rig
-  // report itself enabled and without fault (a rig in local mode or still
-  // faulted must not run a test at zero force and call it complete).
-  Status status = WriteControl(kControlResetFault, 5);
+  // Claim the rig and reset a latched fault, then enable at zero force,
+  // then see the rig report this session in control, enabled and without
+  // fault (a rig in local mode or still faulted must not run a test at zero
+  // force and call it complete).
+  Status status = WriteControl(kControlClaim | kControlResetFault, 5);
   if (!status.ok()) return status;
-  status = WriteControl(kControlEnable, 5);
+  status = WriteControl(kControlClaim | kControlEnable, 5);
   if (!status.ok()) return status;
   const int count = map_.input_count();
   for (int attempt = 0; attempt < 20; ++attempt) {
     if (connected_) FlushIfNeeded();
     if (connected_ &&
         modbus_read_input_registers(context_, 0, count, input_) == count) {
+      if (input_[map_.owner] != session_) return ClaimedElsewhere();
       const std::uint16_t rig_status = input_[map_.status];
       if ((rig_status & kRigEnabled) && !(rig_status & kRigFault)) {
         // Keep the rig's command watchdog fed until the loop starts.
@@ -164,9 +242,9 @@ Status ModbusRig::Activate() {
                        std::to_string(input_[map_.fault_code]) + ")");
 }
 
-Status ModbusRig::Deactivate() { return WriteControl(0, 20); }
+Status ModbusRig::Deactivate() { return WriteControl(kControlRelease, 20); }
 
-void ModbusRig::OnError() { WriteControl(0, 5); }
+void ModbusRig::OnError() { WriteControl(kControlRelease, 5); }
 
 void ModbusRig::OnRequestFailed() {
   const int error = errno;
@@ -198,6 +276,7 @@ IoResult ModbusRig::Read(RigMeasurement* measurement) {
     OnRequestFailed();
     return IoResult::kError;
   }
+  if (ForeignMasterSeen()) return IoResult::kForeign;
   const bool order = map_.high_word_first;
   const std::uint32_t sample = GetUint32(&input_[map_.sample], order);
   if (have_sample_ && sample == last_sample_) return IoResult::kStale;
@@ -221,6 +300,8 @@ IoResult ModbusRig::Write(const RigCommand& command) {
   FlushIfNeeded();
   holding_[map_.control_word] = command.enable ? kControlEnable : 0;
   holding_[map_.sequence] = command.sequence;
+  holding_[map_.session] = session_;
+  RememberSent(command.sequence);
   for (int k = 0; k < 3; ++k) {
     PutFloat32(command.force(k), map_.high_word_first,
                &holding_[map_.setpoint[k]]);

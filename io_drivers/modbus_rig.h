@@ -4,10 +4,14 @@
 // function-16 request), each bounded by the response timeout of
 // config/rig.yaml. A timeout or exception is a missed sample for the
 // watchdog; a lost connection is closed in the cycle and reopened by a
-// background thread, never inside the cycle.
+// background thread, never inside the cycle. One master: Activate claims
+// the rig with a random session token carried in every write, and every
+// read checks that the rig still names this session as its owner and
+// echoes a sequence this controller sent.
 #ifndef KCRIG_IO_DRIVERS_MODBUS_RIG_H_
 #define KCRIG_IO_DRIVERS_MODBUS_RIG_H_
 
+#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -51,6 +55,8 @@ class ModbusRig : public RigInterface {
 
   // Reconnections made by the background thread.
   int reconnects() const { return reconnects_.load(); }
+  // This controller's session token (non-zero).
+  std::uint16_t session() const { return session_; }
 
  private:
   // Handles a failed request: a broken link is closed and handed to the
@@ -59,6 +65,11 @@ class ModbusRig : public RigInterface {
   void FlushIfNeeded();
   void ReconnectLoop();
   Status WriteControl(std::uint16_t control_word, int attempts);
+  // The error for a write the rig refused (exception 6): another master.
+  Status ClaimedElsewhere();
+  // Whether the last read shows another master; records what it saw.
+  bool ForeignMasterSeen();
+  void RememberSent(std::uint16_t sequence);
 
   ModbusEndpoint endpoint_;
   ModbusMap map_;
@@ -79,6 +90,15 @@ class ModbusRig : public RigInterface {
   bool flush_before_request_ = false;
   std::uint16_t sequence_ = 0;
   double z_a_ = 0;  // last commanded acting height, kept by control writes
+  std::uint16_t session_;
+  // The sequences of the last writes: the rig's echo must be one of them.
+  std::array<std::uint16_t, 64> sent_{};
+  size_t sent_count_ = 0;
+  // What the read that found another master saw (for the trip message).
+  std::uint16_t foreign_owner_ = 0;
+  std::uint16_t foreign_echo_ = 0;
+  bool foreign_echo_ours_ = true;
+  bool foreign_ = false;
 };
 
 }  // namespace kcrig

@@ -1,19 +1,96 @@
 #include "io_drivers/modbus_server.h"
 
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <modbus/modbus.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
-#include <sys/select.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
-#include <cmath>
 #include <cstring>
 #include <vector>
 
+#include "rt_core/runtime/cycle_timer.h"
+
 namespace kcrig {
+namespace {
+
+double Now() { return static_cast<double>(MonotonicNanoseconds()) * 1e-9; }
+
+// MBAP header: transaction id, protocol id (0), length of what follows the
+// length field (unit id + PDU), unit id.
+constexpr int kHeaderLength = 7;
+constexpr int kMaxPduLength = MODBUS_TCP_MAX_ADU_LENGTH - kHeaderLength;
+
+std::uint16_t Word(const std::uint8_t* bytes) {
+  return static_cast<std::uint16_t>((bytes[0] << 8) | bytes[1]);
+}
+
+// One connection: its bytes so far and since when a frame is unfinished.
+struct Client {
+  int fd = -1;
+  int id = 0;
+  std::array<std::uint8_t, MODBUS_TCP_MAX_ADU_LENGTH> frame{};
+  int received = 0;
+  double partial_since = 0;
+
+  // Bytes of the whole frame once its header is in (0 before); -1 when the
+  // header is not Modbus TCP.
+  int FrameLength() const {
+    if (received < kHeaderLength) return 0;
+    const int length = Word(&frame[4]);
+    if (Word(&frame[2]) != 0 || length < 2 || length > kMaxPduLength + 1) {
+      return -1;
+    }
+    return 6 + length;
+  }
+};
+
+// The holding registers a write request would set, as (address, values);
+// false for requests that write none. FC 22 (mask write) is resolved
+// against the current table.
+bool HoldingWrite(const std::uint8_t* pdu, int pdu_length,
+                  const std::uint16_t* table, int table_size, int* address,
+                  std::vector<std::uint16_t>* values) {
+  values->clear();
+  auto words_from = [&](int offset, int count) {
+    if (offset + 2 * count > pdu_length) return false;
+    for (int k = 0; k < count; ++k)
+      values->push_back(Word(pdu + offset + 2 * k));
+    return true;
+  };
+  switch (pdu[0]) {
+    case MODBUS_FC_WRITE_SINGLE_REGISTER:
+      if (pdu_length < 5) return false;
+      *address = Word(pdu + 1);
+      return words_from(3, 1);
+    case MODBUS_FC_WRITE_MULTIPLE_REGISTERS:
+      if (pdu_length < 6) return false;
+      *address = Word(pdu + 1);
+      return words_from(6, Word(pdu + 3));
+    case MODBUS_FC_WRITE_AND_READ_REGISTERS:
+      if (pdu_length < 10) return false;
+      *address = Word(pdu + 5);
+      return words_from(10, Word(pdu + 7));
+    case MODBUS_FC_MASK_WRITE_REGISTER: {
+      if (pdu_length < 7) return false;
+      *address = Word(pdu + 1);
+      if (*address >= table_size) return false;
+      const std::uint16_t and_mask = Word(pdu + 3), or_mask = Word(pdu + 5);
+      values->push_back(static_cast<std::uint16_t>(
+          (table[*address] & and_mask) | (or_mask & ~and_mask)));
+      return true;
+    }
+    default:
+      return false;
+  }
+}
+
+}  // namespace
 
 ModbusServer::ModbusServer(const ModbusMap& map) : map_(map) {}
 
@@ -40,6 +117,7 @@ Status ModbusServer::Listen(const std::string& host, int port) {
     return Status::Error("--modbus-tcp " + host + ":" + std::to_string(port) +
                          ": cannot listen (" + modbus_strerror(errno) + ")");
   }
+  fcntl(listen_socket_, F_SETFL, fcntl(listen_socket_, F_GETFL) | O_NONBLOCK);
   sockaddr_in address{};
   socklen_t length = sizeof(address);
   getsockname(listen_socket_, reinterpret_cast<sockaddr*>(&address), &length);
@@ -55,61 +133,172 @@ std::uint16_t* ModbusServer::holding_registers() {
   return mapping_->tab_registers;
 }
 
-Status ModbusServer::Serve(const std::atomic<int>& stop, double tick_interval,
-                           const Hooks& hooks) {
-  fd_set clients;
-  FD_ZERO(&clients);
-  FD_SET(listen_socket_, &clients);
-  int max_fd = listen_socket_;
-  std::vector<std::uint8_t> query(MODBUS_TCP_MAX_ADU_LENGTH);
-  const int header = modbus_get_header_length(context_);
-  while (stop.load() == 0) {
-    fd_set ready = clients;
-    timeval timeout;
-    timeout.tv_sec = 0;
-    timeout.tv_usec = static_cast<long>(tick_interval * 1e6);
-    const int count = select(max_fd + 1, &ready, nullptr, nullptr, &timeout);
+namespace {
+
+// The server's loop state; one instance per Serve().
+class Connections {
+ public:
+  Connections(modbus_t* context, modbus_mapping_t* mapping, int unit_id,
+              int listen_socket, const ModbusServer::Hooks& hooks)
+      : context_(context),
+        mapping_(mapping),
+        unit_id_(unit_id),
+        listen_socket_(listen_socket),
+        hooks_(hooks) {}
+
+  ~Connections() {
+    for (Client& c : clients_) close(c.fd);
+  }
+
+  // Waits up to `timeout` [s] and serves what arrived.
+  Status Poll(double timeout) {
+    std::vector<pollfd> fds;
+    const double now = Now();
+    const bool accepting = now >= accept_paused_until_;
+    if (accepting) fds.push_back({listen_socket_, POLLIN, 0});
+    for (const Client& c : clients_) fds.push_back({c.fd, POLLIN, 0});
+    const int count =
+        poll(fds.data(), fds.size(), static_cast<int>(timeout * 1e3 + 0.5));
     if (count < 0 && errno != EINTR) {
-      return Status::Error(std::string("modbus server: select: ") +
+      return Status::Error(std::string("modbus server: poll: ") +
                            std::strerror(errno));
     }
-    hooks.tick();
-    if (count <= 0) continue;
-    for (int fd = 0; fd <= max_fd; ++fd) {
-      if (!FD_ISSET(fd, &ready)) continue;
-      if (fd == listen_socket_) {
-        const int client = accept(listen_socket_, nullptr, nullptr);
-        if (client >= FD_SETSIZE) {  // select() cannot watch it
-          close(client);
-        } else if (client >= 0) {
-          // Without TCP_NODELAY, Nagle holds each small reply until the
-          // client acknowledges the previous one: one cycle late.
-          const int on = 1;
-          setsockopt(client, IPPROTO_TCP, TCP_NODELAY, &on, sizeof(on));
-          FD_SET(client, &clients);
-          max_fd = std::max(max_fd, client);
-        }
-        continue;
+    hooks_.tick();
+    std::vector<int> ready;
+    for (const pollfd& p : fds) {
+      if (p.revents != 0 && p.fd != listen_socket_) ready.push_back(p.fd);
+    }
+    for (int fd : ready) Receive(fd);
+    DropStalledFrames(Now());
+    if (accepting && count > 0 && (fds[0].revents & POLLIN)) Accept();
+    return Status::Ok();
+  }
+
+ private:
+  void Accept() {
+    const int fd = accept4(listen_socket_, nullptr, nullptr, SOCK_NONBLOCK);
+    if (fd < 0) {
+      // Out of descriptors: the pending connection stays readable, so stop
+      // watching the listener for a while instead of spinning on it.
+      if (errno == EMFILE || errno == ENFILE || errno == ENOBUFS ||
+          errno == ENOMEM) {
+        accept_paused_until_ = Now() + 0.1;
       }
-      modbus_set_socket(context_, fd);
-      const int length = modbus_receive(context_, query.data());
-      if (length < 0) {  // closed or broken: forget the client
-        close(fd);
-        FD_CLR(fd, &clients);
-        continue;
+      return;
+    }
+    if (static_cast<int>(clients_.size()) >= ModbusServer::kMaxClients) {
+      close(fd);
+      return;
+    }
+    // Without TCP_NODELAY, Nagle holds each small reply until the client
+    // acknowledges the previous one: one cycle late.
+    const int on = 1;
+    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &on, sizeof(on));
+    Client client;
+    client.fd = fd;
+    client.id = ++last_id_;
+    clients_.push_back(client);
+  }
+
+  Client* Find(int fd) {
+    for (Client& c : clients_) {
+      if (c.fd == fd) return &c;
+    }
+    return nullptr;
+  }
+
+  void Close(int fd) {
+    for (size_t i = 0; i < clients_.size(); ++i) {
+      if (clients_[i].fd != fd) continue;
+      const int id = clients_[i].id;
+      close(fd);
+      clients_.erase(clients_.begin() + static_cast<long>(i));
+      if (hooks_.client_closed) hooks_.client_closed(id);
+      return;
+    }
+  }
+
+  // Reads what the socket has and answers the whole frames in it, a few per
+  // wake-up so that a flooding client cannot starve the others.
+  void Receive(int fd) {
+    constexpr int kFramesPerWake = 4;
+    for (int answered = 0; answered < kFramesPerWake;) {
+      Client* c = Find(fd);
+      if (c == nullptr) return;
+      const int length = c->FrameLength();
+      if (length < 0) return Close(fd);
+      const int wanted =
+          length > 0 ? length - c->received : kHeaderLength - c->received;
+      const ssize_t got = recv(fd, c->frame.data() + c->received,
+                               static_cast<size_t>(wanted), 0);
+      if (got == 0 || (got < 0 && errno != EAGAIN && errno != EWOULDBLOCK &&
+                       errno != EINTR)) {
+        return Close(fd);
       }
-      if (length == 0) continue;  // not for this unit
-      const std::uint8_t function = query[header];
-      if (function == MODBUS_FC_READ_INPUT_REGISTERS) hooks.before_input_read();
-      modbus_reply(context_, query.data(), length, mapping_);
-      if (function == MODBUS_FC_WRITE_MULTIPLE_REGISTERS ||
-          function == MODBUS_FC_WRITE_SINGLE_REGISTER) {
-        hooks.after_holding_write();
+      if (got < 0) return;  // nothing more for now
+      if (c->received == 0) c->partial_since = Now();
+      c->received += static_cast<int>(got);
+      if (c->FrameLength() > 0 && c->received == c->FrameLength()) {
+        const int frame_length = c->received;
+        c->received = 0;
+        ++answered;
+        if (!Answer(c->id, fd, c->frame.data(), frame_length)) return Close(fd);
       }
     }
   }
-  for (int fd = 0; fd <= max_fd; ++fd) {
-    if (fd != listen_socket_ && FD_ISSET(fd, &clients)) close(fd);
+
+  // Answers one whole frame; false when the reply could not be sent.
+  bool Answer(int id, int fd, const std::uint8_t* frame, int length) {
+    modbus_set_socket(context_, fd);
+    const std::uint8_t* pdu = frame + kHeaderLength;
+    const int pdu_length = length - kHeaderLength;
+    if (frame[6] != unit_id_ && frame[6] != 0 && frame[6] != 0xff) {
+      return true;  // for another unit behind a gateway: not ours to answer
+    }
+    if (pdu[0] == MODBUS_FC_READ_INPUT_REGISTERS) hooks_.before_input_read();
+    int address = 0;
+    if (HoldingWrite(pdu, pdu_length, mapping_->tab_registers,
+                     mapping_->nb_registers, &address, &values_) &&
+        hooks_.accept_holding_write &&
+        !hooks_.accept_holding_write(
+            id, address, static_cast<int>(values_.size()), values_.data())) {
+      return modbus_reply_exception(context_, frame,
+                                    MODBUS_EXCEPTION_SLAVE_OR_SERVER_BUSY) >= 0;
+    }
+    return modbus_reply(context_, frame, length, mapping_) >= 0;
+  }
+
+  void DropStalledFrames(double now) {
+    std::vector<int> stalled;
+    for (const Client& c : clients_) {
+      if (c.received > 0 &&
+          now - c.partial_since > ModbusServer::kPartialFrameTimeout) {
+        stalled.push_back(c.fd);
+      }
+    }
+    for (int fd : stalled) Close(fd);
+  }
+
+  modbus_t* context_;
+  modbus_mapping_t* mapping_;
+  int unit_id_;
+  int listen_socket_;
+  const ModbusServer::Hooks& hooks_;
+  std::vector<Client> clients_;
+  std::vector<std::uint16_t> values_;
+  int last_id_ = 0;
+  double accept_paused_until_ = 0;
+};
+
+}  // namespace
+
+Status ModbusServer::Serve(const std::atomic<int>& stop, double tick_interval,
+                           const Hooks& hooks) {
+  Connections connections(context_, mapping_, map_.unit_id, listen_socket_,
+                          hooks);
+  while (stop.load() == 0) {
+    const Status status = connections.Poll(tick_interval);
+    if (!status.ok()) return status;
   }
   return Status::Ok();
 }

@@ -1,9 +1,14 @@
 // A Modbus TCP server (libmodbus) holding the register map's two tables, for
-// the rig side: the emulator's front end. Serves any number of clients (the
-// controller, mbpoll, ...) from one thread with select(); the owner's hooks
-// run before an input-register read is answered (take a sample), after a
-// holding-register write was applied (take the command), and on every wake-up
-// (advance the plant), at least every tick interval.
+// the rig side: the emulator's front end. Serves several clients (the
+// controller, mbpoll, ...) from one thread with poll() and never blocks on
+// one of them: each connection has its own receive buffer, a request is
+// answered once its whole frame has arrived, a frame left unfinished for
+// kPartialFrameTimeout or a malformed header closes that connection only,
+// and connections beyond kMaxClients are closed at once. The owner's hooks
+// run on every wake-up (advance the plant, at least every tick interval),
+// before an input-register read is answered (take a sample), before a
+// holding-register write is applied (accept it, or refuse it with
+// exception 6, server busy) and when a client's connection closes.
 #ifndef KCRIG_IO_DRIVERS_MODBUS_SERVER_H_
 #define KCRIG_IO_DRIVERS_MODBUS_SERVER_H_
 
@@ -22,10 +27,19 @@ namespace kcrig {
 
 class ModbusServer {
  public:
+  static constexpr int kMaxClients = 16;
+  static constexpr double kPartialFrameTimeout = 0.5;  // [s]
+
+  // `client` identifies a connection for as long as the server runs (ids
+  // are never reused). `values` are the registers a write request carries,
+  // starting at `address`.
   struct Hooks {
     std::function<void()> tick;
     std::function<void()> before_input_read;
-    std::function<void()> after_holding_write;
+    std::function<bool(int client, int address, int count,
+                       const std::uint16_t* values)>
+        accept_holding_write;
+    std::function<void(int client)> client_closed;
   };
 
   explicit ModbusServer(const ModbusMap& map);

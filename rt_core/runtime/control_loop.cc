@@ -61,6 +61,7 @@ bool ControlLoop::Cycle(std::int64_t cycle, std::int64_t skipped) {
       ++result_.read_errors;
       transport_fault_ = true;
     }
+    if (read == IoResult::kForeign) foreign_master_ = true;
     if (fresh && !Valid(measurement_)) {
       // Never let a NaN reach the model or the log: keep the last good
       // sample and trip (in Compute).
@@ -148,6 +149,10 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
     if (transport_fault_) {
       transport_fault_ = false;
       safety_.Trip(TripCause::kTransportFault, cycle);
+    }
+    if (foreign_master_) {
+      foreign_master_ = false;
+      safety_.Trip(TripCause::kForeignMaster, cycle);
     }
   }
   if (stop_signal_ != nullptr) {

@@ -110,6 +110,7 @@ class ControlLoop {
   RigMeasurement last_good_;
   bool invalid_sample_ = false;
   bool transport_fault_ = false;  // the rig transport reported kFault
+  bool foreign_master_ = false;   // the rig transport reported kForeign
   RigCommand command_;
   Vec3<double> direction_;
   Vec6<double> tare_sum_ = Vec6<double>::Zero();

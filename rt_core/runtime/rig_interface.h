@@ -17,11 +17,14 @@
 namespace kcrig {
 
 enum class IoResult {
-  kFresh,  // a new sample arrived (read) / the command was accepted (write)
-  kStale,  // the transport answered, but nothing new (read only)
-  kError,  // timeout, exception, disconnect: counted by the watchdog
-  kFault,  // the transport itself failed (CAN bus-off, error-passive, tx
-           // timeout): the loop trips at once
+  kFresh,    // a new sample arrived (read) / the command was accepted (write)
+  kStale,    // the transport answered, but nothing new (read only)
+  kError,    // timeout, exception, disconnect: counted by the watchdog
+  kFault,    // the transport itself failed (CAN bus-off, error-passive, tx
+             // timeout): the loop trips at once
+  kForeign,  // read only: the rig obeys another master (it reports another
+             // session in control, or echoes a command this controller did
+             // not send): the loop trips at once
 };
 
 class RigInterface {
@@ -29,9 +32,11 @@ class RigInterface {
   virtual ~RigInterface() = default;
 
   // Lifecycle, outside the cycle. Configure opens the link and checks that
-  // the peer speaks the protocol; Activate enables the actuator (zero
-  // force); Deactivate commands zero force and disables; OnError puts the
-  // transport in its safe state after a fault (best effort).
+  // the peer speaks the protocol; Activate takes control of the rig (one
+  // master: refused when another session holds it) and enables the
+  // actuator (zero force); Deactivate commands zero force, disables and
+  // gives control back; OnError puts the transport in its safe state after
+  // a fault (best effort).
   virtual Status Configure() = 0;
   virtual Status Activate() = 0;
   virtual Status Deactivate() = 0;

@@ -27,6 +27,8 @@ const char* TripCauseName(TripCause cause) {
       return "transport_fault";
     case TripCause::kForceTracking:
       return "force_tracking";
+    case TripCause::kForeignMaster:
+      return "foreign_master";
   }
   return "unknown";
 }

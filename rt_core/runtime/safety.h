@@ -41,6 +41,7 @@ enum class TripCause : std::uint8_t {
   kInvalidMeasurement,
   kTransportFault,  // the bus failed (CAN bus-off, error-passive, tx timeout)
   kForceTracking,   // the measured force does not follow the command
+  kForeignMaster,   // the rig obeys another master (transport's check)
 };
 
 const char* TripCauseName(TripCause cause);

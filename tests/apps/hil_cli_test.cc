@@ -96,6 +96,19 @@ class HilCliTest : public TempDirTest {
     return EditConfig(Path("config"), file, from, to);
   }
 
+  // For the pymodbus peer: Python serves slower than the 1 ms loop allows,
+  // so the loop runs at 100 Hz; its plant is not the suspension, so no
+  // error detector against the model.
+  std::string PymodbusRigConfig() {
+    EditedConfig("rig.yaml", "period: 0.001", "period: 0.01");
+    EditedConfig("rig.yaml", "response_timeout: 0.0004",
+                 "response_timeout: 0.004");
+    EditedConfig("rig.yaml", "error_position_max: 0.002",
+                 "error_position_max: 0.1");
+    return EditedConfig("rig.yaml", "error_angle_max_deg: 0.5",
+                        "error_angle_max_deg: 5.0");
+  }
+
   std::string config_;  // config/ with both processes pinned to one CPU
   std::unique_ptr<ChildProcess> emulator_;
 };
@@ -233,11 +246,11 @@ TEST_F(HilCliTest, MbpollReadsTheDocumentedRegistersAndTheRigProtectsItself) {
   const int port = StartEmulator();
   const std::string target = "-p " + std::to_string(port) + " 127.0.0.1";
   // Input registers 0..5: status 0 (disabled), fault 0, sample (2 words),
-  // sequence echo 0, protocol 1.
+  // sequence echo 0, protocol 2.
   CliResult r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 0 -c 6 " + target);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("[0]: \t0"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("[5]: \t1"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("[5]: \t2"), std::string::npos) << r.output;
   // Load cell and pose as float32, high word first (-B): at rest, near 0.
   r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3:float -B -r 6 -c 9 " + target);
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -251,19 +264,26 @@ TEST_F(HilCliTest, MbpollReadsTheDocumentedRegistersAndTheRigProtectsItself) {
     ++values;
   }
   EXPECT_EQ(values, 9) << r.output;
-  // Enable with a set-point, then fall silent: the rig's command watchdog
-  // (plant.yaml rig.command_timeout) faults it: status fault + watchdog,
-  // fault code 2, force back to zero.
-  r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 4:float -B -r 2 " + target +
-                 " -- 500 0 0 -0.45");
-  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // Enable without a claim: refused (exception 6, server busy), counted.
   r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 4 -r 0 " + target + " 1");
+  EXPECT_NE(r.output.find("busy"), std::string::npos) << r.output;
+  r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 25 " + target);
+  EXPECT_NE(r.output.find("[25]: \t1"), std::string::npos) << r.output;
+  // Claim with session 0x1234 and enable at Fx = 500 N, z_a = -0.45 m in
+  // one write of registers 0..10 (float32 as two words, high word first),
+  // then fall silent: the rig's command watchdog (plant.yaml
+  // rig.command_timeout) faults it (status fault + watchdog, fault code 2),
+  // ramps the force to zero and ends the claim.
+  r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 4 -r 0 " + target +
+                 " 5 1 17402 0 0 0 0 0 48870 26214 4660");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 0 -c 2 " + target);
   EXPECT_NE(r.output.find("[0]: \t10"), std::string::npos)
       << r.output;  // 0b1010
   EXPECT_NE(r.output.find("[1]: \t2"), std::string::npos) << r.output;
+  r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 24 " + target);
+  EXPECT_NE(r.output.find("[24]: \t0"), std::string::npos) << r.output;
   r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3:float -B -r 6 -c 1 " + target);
   const size_t colon = r.output.find("[6]: ");
   ASSERT_NE(colon, std::string::npos) << r.output;
@@ -271,16 +291,7 @@ TEST_F(HilCliTest, MbpollReadsTheDocumentedRegistersAndTheRigProtectsItself) {
 }
 
 TEST_F(HilCliTest, RunsARampAgainstAPymodbusRig) {
-  // Python serves slower than the 1 ms loop allows: run this rig at 100 Hz.
-  std::string config =
-      EditedConfig("rig.yaml", "period: 0.001", "period: 0.01");
-  config = EditedConfig("rig.yaml", "response_timeout: 0.0004",
-                        "response_timeout: 0.004");
-  // Its plant is not the suspension: no error detector against the model.
-  config = EditedConfig("rig.yaml", "error_position_max: 0.002",
-                        "error_position_max: 0.1");
-  config = EditedConfig("rig.yaml", "error_angle_max_deg: 0.5",
-                        "error_angle_max_deg: 5.0");
+  const std::string config = PymodbusRigConfig();
   ChildProcess server(
       {"/usr/bin/python3", KCRIG_TEST_PEERS_DIR "/pymodbus_rig.py",
        config + "/modbus_map.yaml"},
@@ -351,27 +362,81 @@ TEST_F(HilCliTest, RigFarFromTheModelTripsTheErrorDetector) {
 }
 
 // A second master writes "enable, Fz = 2 kN" into the rig as fast as it
-// can while kcrig runs: the rig no longer follows kcrig's command, and the
-// controller trips on force tracking instead of reporting a completed run.
-TEST_F(HilCliTest, ASecondMasterTripsForceTracking) {
+// can while kcrig runs, and a second `kcrig run` starts: the rig (claimed
+// by the first run's session) refuses every write of the rogue, the second
+// run is refused at activation in one line, and the first run completes
+// with the load cell on its command. After the run (claim released) the
+// rogue still cannot enable the rig without a claim.
+TEST_F(HilCliTest, TheRigObeysOneMaster) {
   const int port = StartEmulator();
   const std::string log_dir = Path("run");
   auto run = StartRun(port, log_dir);
   std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  auto rogue = [&](const char* seconds, const std::string& out) {
+    return std::make_unique<ChildProcess>(
+        std::vector<std::string>{"/usr/bin/python3",
+                                 KCRIG_TEST_PEERS_DIR "/rogue_master.py",
+                                 std::to_string(port), "2000", seconds},
+        Path(out));
+  };
+  auto during = rogue("2", "rogue.out");
+  const CliResult second =
+      RunKcrig("run --config " + config_ + " --rig modbus-tcp://127.0.0.1:" +
+               std::to_string(port) + " --log-dir " + Path("second"));
+  EXPECT_EQ(second.exit_code, 1) << second.output;
+  EXPECT_NE(second.output.find("another master (session 0x"), std::string::npos)
+      << second.output;
+  EXPECT_EQ(CountLines(second.output), 1) << second.output;
+  EXPECT_FALSE(std::filesystem::exists(Path("second/run.csv")));
+  during->Wait();
+  ASSERT_EQ(run->Wait(), 0) << run->Output() << during->Output();
+  EXPECT_NE(during->Output().find("rogue wrote 0 commands"), std::string::npos)
+      << during->Output();
+  EXPECT_EQ(during->Output().find(", 0 refused"), std::string::npos)
+      << during->Output();
+  // Fz is never commanded (phi lies in the x-y plane): 2 kN would show.
+  const Csv csv = ReadCsv(log_dir + "/run.csv");
+  for (size_t j = 0; j < csv.rows.size(); ++j) {
+    ASSERT_LT(std::abs(csv.Value(j, "Fz")), 100.0) << "row " << j;
+  }
+  auto after = rogue("0.5", "rogue_after.out");
+  after->Wait();
+  EXPECT_NE(after->Output().find("rogue wrote 0 commands"), std::string::npos)
+      << after->Output();
+  const CliResult status = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 0 -p " +
+                                      std::to_string(port) + " 127.0.0.1");
+  EXPECT_NE(status.output.find("[0]: \t0"), std::string::npos) << status.output;
+}
+
+// A rig front end that reports ownership but does not enforce it (the
+// pymodbus peer) obeys the rogue: kcrig sees its own sequence echo replaced
+// by one it never sent and trips at once, naming the cause.
+TEST_F(HilCliTest, ARigObeyingASecondMasterTripsTheEchoCheck) {
+  const std::string config = PymodbusRigConfig();
+  ChildProcess server(
+      {"/usr/bin/python3", KCRIG_TEST_PEERS_DIR "/pymodbus_rig.py",
+       config + "/modbus_map.yaml"},
+      Path("pymodbus.out"));
+  const std::string port = server.WaitForOutput("listening on ([0-9]+)\n", 20);
+  ASSERT_FALSE(port.empty()) << server.Output();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(std::stoi(port), log_dir, {"--duration", "2"}, config);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2000));
   ChildProcess rogue(
-      {"/usr/bin/python3", KCRIG_TEST_PEERS_DIR "/rogue_master.py",
-       std::to_string(port), "2000", "3"},
+      {"/usr/bin/python3", KCRIG_TEST_PEERS_DIR "/rogue_master.py", port,
+       "2000", "1"},
       Path("rogue.out"));
   const int code = run->Wait();
   rogue.Wait();
-  ExpectSafeStop(code, log_dir, "force_tracking", run->Output());
-  EXPECT_NE(run->Output().find("another master"), std::string::npos)
+  EXPECT_EQ(code, 3) << run->Output();
+  EXPECT_NE(run->Output().find("tripped: foreign_master (the rig obeys "
+                               "another master: it echoes command sequence"),
+            std::string::npos)
       << run->Output();
-  // The rogue's writes reached the rig (it counts the accepted ones).
-  EXPECT_EQ(rogue.Output().find("rogue wrote 0 "), std::string::npos)
-      << rogue.Output();
-  EXPECT_NE(rogue.Output().find("rogue wrote "), std::string::npos)
-      << rogue.Output();
+  const nlohmann::json sidecar = ReadJson(log_dir + "/run.json");
+  EXPECT_EQ(sidecar["hil"]["safety"]["cause"], "foreign_master");
+  const Csv csv = ReadCsv(log_dir + "/run.csv");
+  EXPECT_EQ(csv.rows.back()[csv.Column("safety")], "2");
 }
 
 TEST_F(HilCliTest, SigtermRampsDownAndKeepsTheLog) {

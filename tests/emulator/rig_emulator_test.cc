@@ -193,5 +193,50 @@ TEST_F(RigEffectTest, SensorOffsetScalesAndShiftsTheReadings) {
   EXPECT_NEAR(Y(offset, 2.9), 1.03 * held_ - 1e-4, 2e-6);
 }
 
+// The rule of one master, alone (the Modbus test runs it through the
+// server, the HIL test through real processes).
+TEST(RigOwnershipTest, OneSessionAtATimeReleasedByRequestSilenceOrHangUp) {
+  using Verdict = RigOwnership::Verdict;
+  RigOwnership o;
+  auto request = [](std::uint16_t session, bool claim, bool release,
+                    bool enable, int connection = 1) {
+    RigOwnership::Request r;
+    r.has_session = true;
+    r.session = session;
+    r.claim = claim;
+    r.release = release;
+    r.enable = enable;
+    r.connection = connection;
+    return r;
+  };
+  // Unclaimed: a disabled command is harmless, an enable needs a claim,
+  // and session 0 cannot claim.
+  EXPECT_EQ(o.Decide(request(7, false, false, false), 0), Verdict::kObey);
+  EXPECT_EQ(o.Decide(request(7, false, false, true), 0), Verdict::kRefuse);
+  EXPECT_EQ(o.Decide(request(0, true, false, true), 0), Verdict::kRefuse);
+  EXPECT_EQ(o.Decide(request(7, true, false, true), 0), Verdict::kObey);
+  EXPECT_EQ(o.owner(), 7);
+  // Claimed: only requests carrying the owner's session.
+  EXPECT_EQ(o.Decide(request(8, true, false, true, 2), 0.01), Verdict::kRefuse);
+  RigOwnership::Request no_session = request(7, false, false, false, 2);
+  no_session.has_session = false;
+  EXPECT_EQ(o.Decide(no_session, 0.01), Verdict::kRefuse);
+  EXPECT_EQ(o.Decide(request(7, false, false, true, 2), 0.02), Verdict::kObey);
+  EXPECT_EQ(o.refused(), 4);
+  // Released by request, then another session may claim.
+  EXPECT_EQ(o.Decide(request(7, false, true, false), 0.03),
+            Verdict::kObeyAndRelease);
+  EXPECT_EQ(o.owner(), 0);
+  EXPECT_EQ(o.Decide(request(8, true, false, true, 2), 0.04), Verdict::kObey);
+  // Silence beyond the timeout ends the claim; so does the owner's hang-up
+  // (only the connection it claimed on).
+  EXPECT_FALSE(o.Expire(0.09, 0.05));
+  EXPECT_TRUE(o.Expire(0.10, 0.05));
+  EXPECT_EQ(o.Decide(request(9, true, false, true, 3), 0.2), Verdict::kObey);
+  EXPECT_FALSE(o.ConnectionClosed(1));
+  EXPECT_TRUE(o.ConnectionClosed(3));
+  EXPECT_EQ(o.owner(), 0);
+}
+
 }  // namespace
 }  // namespace kcrig

@@ -1,6 +1,12 @@
 // The Modbus transport in one process: kcrig's master (ModbusRig) against
 // the emulator's libmodbus server on loopback, plus the register map and
 // rig.yaml loaders. Runs under the sanitizers.
+#include <arpa/inet.h>
+#include <modbus/modbus.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
 #include <filesystem>
@@ -62,8 +68,11 @@ TEST_F(ModbusConfigTest, TheSourceMapIsTheDocumentedOne) {
   EXPECT_EQ(map.z_a, 8);
   EXPECT_EQ(map.protocol, 5);
   EXPECT_EQ(map.y[5], 22);
-  EXPECT_EQ(map.input_count(), 24);
-  EXPECT_EQ(map.holding_count(), 10);
+  EXPECT_EQ(map.session, 10);
+  EXPECT_EQ(map.owner, 24);
+  EXPECT_EQ(map.refused_writes, 25);
+  EXPECT_EQ(map.input_count(), 26);
+  EXPECT_EQ(map.holding_count(), 11);
 }
 
 TEST_F(ModbusConfigTest, BadMapsAndRigConfigsNameFileLineAndKey) {
@@ -229,6 +238,8 @@ TEST_F(ModbusRigTest, AnExceptionIsAMissedSampleAndTheLinkStays) {
   short_map.force[0] = 4;
   short_map.sequence_echo = 3;
   short_map.protocol = 5;
+  short_map.owner = 22;
+  short_map.refused_writes = 23;
   ASSERT_LT(short_map.input_count(), map_.input_count());
   auto rig = std::make_unique<InProcessRig>(map_);
   const int port = rig->port();
@@ -288,6 +299,195 @@ TEST_F(ModbusRigTest, ALostLinkFailsFastAndIsReopenedOutsideTheCycle) {
   }
   EXPECT_EQ(result, IoResult::kFresh);
   EXPECT_GE(master->reconnects(), 1);
+}
+
+// A second Modbus client as any tool would be (libmodbus, no session
+// logic): what a careless operator's program sends.
+class OtherClient {
+ public:
+  explicit OtherClient(int port) {
+    context_ = modbus_new_tcp("127.0.0.1", port);
+    modbus_set_slave(context_, 1);
+    modbus_set_response_timeout(context_, 1, 0);
+    EXPECT_EQ(modbus_connect(context_), 0);
+  }
+  ~OtherClient() {
+    modbus_close(context_);
+    modbus_free(context_);
+  }
+  // Writes `words` from register 0; returns errno on failure, else 0.
+  int Write(const std::vector<std::uint16_t>& words) {
+    const int n = static_cast<int>(words.size());
+    return modbus_write_registers(context_, 0, n, words.data()) == n ? 0
+                                                                     : errno;
+  }
+  int WriteControlWord(std::uint16_t value) {
+    return modbus_write_register(context_, 0, value) == 1 ? 0 : errno;
+  }
+  std::uint16_t Input(int address) {
+    std::uint16_t value = 0xffff;
+    EXPECT_EQ(modbus_read_input_registers(context_, address, 1, &value), 1);
+    return value;
+  }
+
+ private:
+  modbus_t* context_;
+};
+
+// Holding registers 0..10: control word, sequence, Fx, Fy, Fz = `fz`,
+// z_a = -0.45 m, session.
+std::vector<std::uint16_t> Command(std::uint16_t control, double fz,
+                                   std::uint16_t session) {
+  std::vector<std::uint16_t> words(11, 0);
+  words[0] = control;
+  words[1] = 7;
+  PutFloat32(fz, true, &words[6]);
+  PutFloat32(-0.45, true, &words[8]);
+  words[10] = session;
+  return words;
+}
+
+TEST_F(ModbusRigTest, TheRigObeysOneMasterAtATime) {
+  InProcessRig rig(map_);
+  auto owner = Master(rig.port());
+  auto late = Master(rig.port());
+  ASSERT_TRUE(owner->Configure().ok());
+  ASSERT_TRUE(late->Configure().ok());  // the rig is still unclaimed
+  ASSERT_TRUE(owner->Activate().ok());
+  OtherClient other(rig.port());
+  EXPECT_EQ(other.Input(map_.owner), owner->session());
+  // A second kcrig is refused, naming the owner: when it connects, or at
+  // activation if it connected before the claim.
+  for (const Status& refused :
+       {Master(rig.port())->Configure(), late->Activate()}) {
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.message().find("another master (session 0x"),
+              std::string::npos)
+        << refused.message();
+  }
+  late.reset();
+  // Any other write, with or without a session or a claim, is refused
+  // with "server busy" and counted; nothing of it reaches the rig.
+  const std::uint16_t before = other.Input(map_.refused_writes);
+  const std::uint16_t intruder = owner->session() ^ 0x5a5a;
+  EXPECT_EQ(other.Write(Command(kControlEnable, 3000, intruder)), EMBXSBUSY);
+  EXPECT_EQ(other.Write(Command(kControlEnable | kControlClaim, 3000, 0)),
+            EMBXSBUSY);
+  std::vector<std::uint16_t> without_session = Command(kControlEnable, 3000, 0);
+  without_session.resize(10);
+  EXPECT_EQ(other.Write(without_session), EMBXSBUSY);
+  EXPECT_EQ(other.WriteControlWord(0), EMBXSBUSY);
+  EXPECT_EQ(
+      static_cast<std::uint16_t>(other.Input(map_.refused_writes) - before), 4);
+  RigMeasurement m;
+  RigCommand command;
+  command.enable = true;
+  for (int k = 0; k < 20; ++k) {
+    command.sequence = static_cast<std::uint16_t>(100 + k);
+    const IoResult read = owner->Read(&m);
+    EXPECT_TRUE(read == IoResult::kFresh || read == IoResult::kStale);
+    owner->Write(command);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  EXPECT_LT(std::abs(m.force(2)), 50);
+  // Released: nobody enables the rig without a claim; a claim takes it.
+  ASSERT_TRUE(owner->Deactivate().ok());
+  EXPECT_EQ(other.Input(map_.owner), 0);
+  EXPECT_EQ(other.Write(Command(kControlEnable, 0, intruder)), EMBXSBUSY);
+  EXPECT_EQ(other.Input(map_.status) & kRigEnabled, 0);
+  EXPECT_EQ(other.Write(Command(kControlEnable | kControlClaim, 0, intruder)),
+            0);
+  EXPECT_EQ(other.Input(map_.owner), intruder);
+  // The old owner now reads another master in control: foreign.
+  EXPECT_EQ(owner->Read(&m), IoResult::kForeign);
+  EXPECT_NE(owner->CountersJson().find("obeys another master"),
+            std::string::npos);
+}
+
+TEST_F(ModbusRigTest, TheOwnersConnectionClosingFaultsTheRigAndEndsTheClaim) {
+  InProcessRig rig(map_);
+  OtherClient observer(rig.port());
+  {
+    auto owner = Master(rig.port());
+    ASSERT_TRUE(owner->Configure().ok());
+    ASSERT_TRUE(owner->Activate().ok());
+    EXPECT_EQ(observer.Input(map_.owner), owner->session());
+  }  // the connection closes with the rig enabled
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_EQ(observer.Input(map_.owner), 0);
+  EXPECT_EQ(observer.Input(map_.fault_code), kFaultOwnerLost);
+  EXPECT_NE(observer.Input(map_.status) & kRigFault, 0);
+  // A new claim resets the fault (the force is down) and takes the rig.
+  auto next = Master(rig.port());
+  ASSERT_TRUE(next->Configure().ok());
+  const Status status = next->Activate();
+  EXPECT_TRUE(status.ok()) << status.message();
+}
+
+// Raw TCP clients that misbehave: half a frame, a byte at a time, garbage,
+// more connections than the rig serves. None of them may delay the master.
+TEST_F(ModbusRigTest, MisbehavingClientsDoNotStallTheRig) {
+  InProcessRig rig(map_);
+  auto master = Master(rig.port());
+  ASSERT_TRUE(master->Configure().ok());
+  auto connect_raw = [&] {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<std::uint16_t>(rig.port()));
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(
+        connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
+    return fd;
+  };
+  const int partial = connect_raw();
+  const std::uint8_t header[3] = {0, 1, 0};
+  ASSERT_EQ(send(partial, header, 3, 0), 3);
+  const int dribble = connect_raw();
+  const int garbage = connect_raw();
+  const char http[] = "GET / HTTP/1.1\r\n\r\n";
+  ASSERT_GT(send(garbage, http, sizeof(http) - 1, 0), 0);
+  std::vector<int> crowd;
+  for (int k = 0; k < ModbusServer::kMaxClients + 4; ++k) {
+    crowd.push_back(connect_raw());
+  }
+  RigMeasurement m;
+  int answered = 0;
+  double slowest = 0;
+  const std::uint8_t frame[12] = {0, 2, 0, 0, 0, 6, 1, 4, 0, 0, 0, 26};
+  for (int k = 0; k < 300; ++k) {
+    // A byte every 20 cycles: a frame every 240, within the 0.5 s allowed.
+    if (k % 20 == 0) send(dribble, &frame[(k / 20) % 12], 1, MSG_NOSIGNAL);
+    const auto start = std::chrono::steady_clock::now();
+    const IoResult read = master->Read(&m);
+    slowest = std::max(slowest, std::chrono::duration<double>(
+                                    std::chrono::steady_clock::now() - start)
+                                    .count());
+    answered += read == IoResult::kFresh;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  // A loaded machine may delay a few replies past the 5 ms timeout.
+  EXPECT_GE(answered, 290);
+  EXPECT_LT(slowest, 0.05);
+  // The garbage and the connections beyond the cap were closed.
+  auto closed_by_rig = [](int fd, double seconds) {
+    timeval wait{0, static_cast<long>(seconds * 1e6)};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &wait, sizeof(wait));
+    char byte;
+    return recv(fd, &byte, 1, 0) == 0;
+  };
+  EXPECT_TRUE(closed_by_rig(garbage, 0.5));
+  int closed = 0;
+  for (int fd : crowd) {
+    closed += closed_by_rig(fd, 0.1);
+    close(fd);
+  }
+  EXPECT_GE(closed, 4);
+  // The half frame was dropped after its timeout.
+  EXPECT_TRUE(closed_by_rig(partial, 0.9));
+  close(partial);
+  close(dribble);
+  close(garbage);
 }
 
 TEST(ModbusUriTest, ParsesTcpAndRtuAndRejectsTheRest) {

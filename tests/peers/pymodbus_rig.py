@@ -7,6 +7,12 @@ Its plant is deliberately trivial so the test can check every value: a linear
 spring of 2e6 N/m per axis (x = Fx / 2e6, ...), angles zero, a load cell that
 reads the set-point last written while enabled. Each read of the input
 registers takes a new sample (the counter goes up).
+
+It speaks protocol 2 as a rig front end that reports ownership but does not
+enforce it: a claim (control word bit 2) with a session token makes that
+session the owner, a release (bit 3) ends it, and anyone's write is applied
+and echoed. That is what lets the controller's own check (the sequence echo)
+be tested against a second master.
 """
 import logging
 import re
@@ -57,9 +63,16 @@ class Holding(ModbusSequentialDataBlock):
     def __init__(self):
         super().__init__(0, [0] * 16)
         self.reported = False
+        self.owner = 0
 
     def setValues(self, address, values):
         super().setValues(address, values)
+        control = super().getValues(REGMAP["control_word"], 1)[0]
+        session = super().getValues(REGMAP["session"], 1)[0]
+        if control & 4 and self.owner == 0:
+            self.owner = session
+        if control & 8 and session == self.owner:
+            self.owner = 0
         z_a = from_words(super().getValues(REGMAP["za_setpoint"], 2), "f")
         if not self.reported and abs(z_a) > 0:
             print(f"pymodbus rig: z_a={z_a:.2f} sequence="
@@ -72,7 +85,7 @@ class Inputs(ModbusSequentialDataBlock):
         super().__init__(0, [0] * 32)
         self.holding = holding
         self.sample = 0
-        super().setValues(REGMAP["protocol"], [1])
+        super().setValues(REGMAP["protocol"], [2])
 
     def getValues(self, address, count=1):
         self.sample += 1
@@ -85,6 +98,8 @@ class Inputs(ModbusSequentialDataBlock):
         set_(REGMAP["fault_code"], [0])
         set_(REGMAP["sample"], to_words(self.sample, "I"))
         set_(REGMAP["sequence_echo"], [h.getValues(REGMAP["sequence"], 1)[0]])
+        set_(REGMAP["owner"], [h.owner])
+        set_(REGMAP["refused_writes"], [0])
         for name, value in zip(("fx", "fy", "fz"), force):
             set_(REGMAP[name], to_words(value, "f"))
         for name, value in zip(("x", "y", "z"), force):
