@@ -19,6 +19,43 @@ bool ParseFiniteDouble(const std::string& text, double* value) {
   return result.ec == std::errc() && result.ptr == end && std::isfinite(*value);
 }
 
+namespace {
+
+// Whether the whole text is a base-10 integer of type T.
+template <typename T>
+bool IsDecimalInteger(const std::string& text) {
+  T value;
+  const char* end = text.data() + text.size();
+  const auto result = std::from_chars(text.data(), end, value);
+  return result.ec == std::errc() && result.ptr == end;
+}
+
+}  // namespace
+
+void RequireDecimalNumbers(CLI::App* app) {
+  for (CLI::Option* option : app->get_options()) {
+    // "FLOAT", or "FLOAT:<what its checks say>".
+    const std::string full = option->get_type_name();
+    const std::string type = full.substr(0, full.find(':'));
+    if (type != "FLOAT" && type != "INT" && type != "UINT") continue;
+    option->check(CLI::Validator(
+        [type](std::string& text) -> std::string {
+          double unused;
+          const bool ok = type == "FLOAT" ? ParseFiniteDouble(text, &unused)
+                          : type == "INT"
+                              ? IsDecimalInteger<long long>(text)
+                              : IsDecimalInteger<unsigned long long>(text);
+          if (ok) return std::string();
+          return "'" + text + "' is not a " +
+                 (type == "FLOAT" ? "finite decimal number"
+                  : type == "INT" ? "decimal whole number"
+                                  : "decimal whole number >= 0");
+        },
+        "", "decimal"));
+  }
+  for (CLI::App* sub : app->get_subcommands({})) RequireDecimalNumbers(sub);
+}
+
 Status ParseAssignment(const std::string& option, const std::string& text,
                        std::string* name, double* value) {
   const size_t eq = text.find('=');
@@ -72,21 +109,23 @@ Status ParseChannels(const std::string& text, std::vector<int>* channels) {
 }
 
 void AddExcitationOptions(CLI::App* cmd, ExcitationArgs* args) {
-  // Sets the optional only when the option is given.
+  // Sets the optional only when the option is given, within [low, high].
   auto optional_number = [cmd](const char* name, std::optional<double>* target,
-                               const char* help) {
+                               double low, double high, const char* help) {
     cmd->add_option_function<double>(
-        name, [target](const double& value) { *target = value; }, help);
+           name, [target](const double& value) { *target = value; }, help)
+        ->check(CLI::Range(low, high));
   };
-  optional_number("--phi", &args->phi_deg,
+  optional_number("--phi", &args->phi_deg, -360, 360,
                   "Force direction in the x-y plane [deg] (default: config)");
-  optional_number("--z", &args->z_a,
+  optional_number("--z", &args->z_a, -2, 2,
                   "Acting point height relative to the wheel centre [m]");
-  optional_number("--fmax", &args->fmax, "Ramp amplitude [N]");
-  optional_number("--duration", &args->duration, "Ramp time tf [s]");
-  optional_number("--hold", &args->hold,
+  optional_number("--fmax", &args->fmax, 0, 1e5, "Ramp amplitude [N]");
+  optional_number("--duration", &args->duration, 1e-3, 3600,
+                  "Ramp time tf [s]");
+  optional_number("--hold", &args->hold, 0, 3600,
                   "Hold at +Fmax after the ramp [s] (default 0)");
-  optional_number("--return", &args->return_duration,
+  optional_number("--return", &args->return_duration, 0, 3600,
                   "Return ramp +Fmax -> -Fmax after the hold [s] (default 0: "
                   "none)");
 }

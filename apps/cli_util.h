@@ -17,6 +17,12 @@ namespace kcrig {
 // The whole text as a finite double.
 bool ParseFiniteDouble(const std::string& text, double* value);
 
+// CLI11 reads numbers with strtod/strtoll in base 0: "" as 0, "0x10" as 16,
+// "-1" into an unsigned option as 2^64 - 1. This makes every numeric option
+// of `app` and its subcommands take decimal text only (a float finite, an
+// unsigned without a sign), one line naming the option otherwise.
+void RequireDecimalNumbers(CLI::App* app);
+
 // "NAME=VALUE" with a finite VALUE; `option` names the flag in errors.
 Status ParseAssignment(const std::string& option, const std::string& text,
                        std::string* name, double* value);

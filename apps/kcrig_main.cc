@@ -1,4 +1,5 @@
 // kcrig: thin entry point. Parses the command line, runs one subcommand.
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <functional>
@@ -7,6 +8,7 @@
 #include "CLI/CLI.hpp"
 #include "apps/campaign_command.h"
 #include "apps/can_log_command.h"
+#include "apps/cli_util.h"
 #include "apps/design_command.h"
 #include "apps/diagnose_command.h"
 #include "apps/emulate_command.h"
@@ -18,6 +20,9 @@
 #include "apps/timing_check_command.h"
 
 int main(int argc, char** argv) {
+  // Over a file-size limit (ulimit -f) a write then fails (EFBIG) and is
+  // handled as a full disk, instead of the signal killing the process.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{
       "kcrig: real-time HIL controller and offline tools for a hydraulic "
       "kinematics-and-compliance suspension rig"};
@@ -34,6 +39,7 @@ int main(int argc, char** argv) {
   kcrig::AddTimingCheckCommand(&app, &run);
   kcrig::AddCanLogCommand(&app, &run);
   kcrig::AddReportCommand(&app, &run);
+  kcrig::RequireDecimalNumbers(&app);
   // CLI11 would call an unknown subcommand an "extra argument"; say it plainly.
   const auto is_subcommand = [&app](const std::string& name) {
     for (const CLI::App* sub : app.get_subcommands({})) {

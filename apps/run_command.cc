@@ -46,10 +46,13 @@ void PrintOutcome(const char* who, const RigSessionResult& r,
       static_cast<long long>(l.lost_rig_samples),
       static_cast<long long>(l.overruns));
   if (!log_dir.empty()) {
-    const bool can =
-        std::filesystem::exists(std::filesystem::path(log_dir) / "can.log");
-    std::printf("  wrote %s/run.csv, run.json, timing.json%s\n",
-                log_dir.c_str(), can ? ", can.log" : "");
+    const std::filesystem::path dir(log_dir);
+    const bool can = std::filesystem::exists(dir / "can.log");
+    std::printf("  wrote %s/%s, run.json, timing.json%s\n", log_dir.c_str(),
+                std::filesystem::exists(dir / "run.csv")
+                    ? "run.csv"
+                    : "run.csv.partial (incomplete)",
+                can ? ", can.log" : "");
   }
 }
 

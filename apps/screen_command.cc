@@ -147,8 +147,10 @@ void AddScreenCommand(CLI::App* app, std::function<int()>* run) {
                   "Lower end of every range, x nominal");
   cmd->add_option("--range-high", args->range_high,
                   "Upper end of every range, x nominal");
-  cmd->add_option("--trajectories", args->trajectories, "Morris trajectories");
-  cmd->add_option("--levels", args->levels, "Grid levels per parameter");
+  cmd->add_option("--trajectories", args->trajectories, "Morris trajectories")
+      ->check(CLI::Range(1, 10000));
+  cmd->add_option("--levels", args->levels, "Grid levels per parameter")
+      ->check(CLI::Range(2, 1000));
   cmd->add_option("--seed", args->seed, "Seed of the Morris design");
   cmd->add_option("--out", args->out, "screen.json to write");
   cmd->add_flag("--quiet", args->quiet, "No progress line");

@@ -10,12 +10,16 @@
 #include <string>
 #include <type_traits>
 
+#include "base/input_file.h"
 #include "base/status.h"
 #include "nlohmann/json.hpp"
 
 namespace kcrig {
 
+// The whole file as JSON; numbers beyond double's range are errors.
 inline Status ReadJsonFile(const std::string& path, nlohmann::json* doc) {
+  constexpr std::uintmax_t kMaxJsonBytes = 256u << 20;
+  KCRIG_RETURN_IF_ERROR(CheckInputFile(path, kMaxJsonBytes));
   std::ifstream in(path);
   if (!in) return Status::Error(path + ": cannot open");
   try {

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "Eigen/Core"
+#include "base/input_file.h"
 #include "base/status.h"
 #include "yaml-cpp/yaml.h"
 
@@ -22,6 +23,8 @@ class YamlReader {
   explicit YamlReader(std::string file) : file_(std::move(file)) {}
 
   Status Load(YAML::Node* root) {
+    constexpr std::uintmax_t kMaxYamlBytes = 1u << 20;
+    KCRIG_RETURN_IF_ERROR(CheckInputFile(file_, kMaxYamlBytes));
     try {
       *root = YAML::LoadFile(file_);
     } catch (const YAML::BadFile&) {

@@ -83,6 +83,9 @@ Status ServeModbus(RigEmulator* rig, const ModbusMap& map,
   // count reach the input registers with the next sample.
   hooks.accept_holding_write = [&](int connection, int address, int count,
                                    const std::uint16_t* values) {
+    // Beyond the table the server answers "illegal address" and applies
+    // nothing: not the rig's to refuse.
+    if (address < 0 || address + count > map.holding_count()) return true;
     rig->AdvanceTo(Now());
     return rig->Request(
         DecodeWrite(map, holding, address, count, values, connection));

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <fstream>
 
+#include "base/json_reader.h"
 #include "nlohmann/json.hpp"
 
 namespace kcrig {
@@ -275,15 +276,8 @@ std::string EstimationSummary(const EstimationResult& result,
 }
 
 Status ReadEstimateFile(const std::string& path, EstimateFile* estimate) {
-  std::ifstream in(path);
-  if (!in) return Status::Error(path + ": cannot open");
   nlohmann::json doc;
-  try {
-    doc = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    return Status::Error(path + ": not valid JSON (byte " +
-                         std::to_string(e.byte) + ")");
-  }
+  KCRIG_RETURN_IF_ERROR(ReadJsonFile(path, &doc));
   auto error = [&path](const std::string& field, const std::string& what) {
     return Status::Error(path + ": " + field + ": " + what);
   };

@@ -34,10 +34,10 @@ std::string Channel(int k) {
   return k >= 0 && k < kNumChannels ? kChannelNames[k] : "?";
 }
 
-// `transport_fault`: what the transport reported, for kTransportFault and
-// kForeignMaster.
+// `detail`: what the transport reported (kTransportFault, kForeignMaster)
+// or the logger (kLogWrite).
 std::string TripMessage(const LoopResult& loop, double period,
-                        const std::string& transport_fault) {
+                        const std::string& detail) {
   if (loop.cause == TripCause::kNone) return "";
   std::string what = TripCauseName(loop.cause);
   switch (loop.cause) {
@@ -60,7 +60,8 @@ std::string TripMessage(const LoopResult& loop, double period,
       break;
     case TripCause::kTransportFault:
     case TripCause::kForeignMaster:
-      what += " (" + transport_fault + ")";
+    case TripCause::kLogWrite:
+      what += " (" + detail + ")";
       break;
     case TripCause::kForceTracking:
       what += std::string(" (F") + "xyz"[std::clamp(loop.trip_channel, 0, 2)] +
@@ -80,7 +81,19 @@ std::string TripMessage(const LoopResult& loop, double period,
   char at[64];
   std::snprintf(at, sizeof(at), " at t = %.3f s",
                 static_cast<double>(loop.trip_cycle) * period);
-  return "tripped: " + what + at + "; force ramped to zero and disabled";
+  // Say what reached the rig, not what was meant to.
+  std::string outcome = "; force ramped to zero and disabled";
+  if (loop.commands_after_trip > 0 &&
+      loop.undelivered_after_trip == loop.commands_after_trip) {
+    outcome =
+        "; the force command ramped to zero, but none of it reached the rig "
+        "(its own watchdog must stop it)";
+  } else if (loop.undelivered_after_trip > 0) {
+    outcome += " (" + std::to_string(loop.undelivered_after_trip) + " of " +
+               std::to_string(loop.commands_after_trip) +
+               " ramp-down commands did not reach the rig)";
+  }
+  return "tripped: " + what + at + outcome;
 }
 
 Status CreateLogDir(const std::string& log_dir) {
@@ -114,7 +127,6 @@ RunLogger::Options LoggerOptionsFor(const RigConfig& rig_config,
     logger.csv_path =
         (std::filesystem::path(options.log_dir) / "run.csv").string();
   }
-  logger.expected_duration = profile.duration();
   logger.on_warning = options.on_warning;
   if (options.on_progress) {
     logger.on_progress = [&options, profile](double t) {
@@ -150,7 +162,8 @@ nlohmann::ordered_json TransportCounters(const RigInterface* rig) {
 // counters and the transport's.
 std::string HilJson(const RigConfig& rig_config,
                     const RigSessionOptions& options, const RunProfile& profile,
-                    const RigSessionResult& result, const RunLog& log,
+                    const RigSessionResult& result,
+                    std::int64_t rows_without_fresh_sample,
                     const nlohmann::ordered_json& transport) {
   const RunProfileTimes& p = rig_config.profile;
   const LoopResult& lr = result.loop;
@@ -177,13 +190,13 @@ std::string HilJson(const RigConfig& rig_config,
   hil["stale_samples"] = lr.stale;
   hil["read_errors"] = lr.read_errors;
   hil["write_errors"] = lr.write_errors;
+  hil["commands_after_trip"] = lr.commands_after_trip;
+  hil["undelivered_after_trip"] = lr.undelivered_after_trip;
   hil["lost_rig_samples"] = lr.lost_rig_samples;
   hil["overruns"] = lr.overruns;
   hil["skipped_cycles"] = lr.skipped_cycles;
   hil["skipped_by_late_wakeup"] = lr.skipped_by_late_wakeup;
-  hil["rows_without_fresh_sample"] = static_cast<std::int64_t>(
-      std::count_if(log.samples.begin(), log.samples.end(),
-                    [](const LogSample& s) { return !s.fresh; }));
+  hil["rows_without_fresh_sample"] = rows_without_fresh_sample;
   hil["dropped_log_records"] = lr.dropped_records;
   hil["rest_pose"] =
       std::vector<double>(lr.rest_pose.data(), lr.rest_pose.data() + 6);
@@ -298,9 +311,10 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   KCRIG_RETURN_IF_ERROR(CreateLogDir(options.log_dir));
   const RunProfile profile(rig_config.profile, options.excitation);
   SpscRing<CycleRecord> ring(kRingCapacity);
+  RunLogger logger(LoggerOptionsFor(rig_config, options, profile));
   ControlLoop loop(config.model, LoopOptionsFor(rig_config, options), rig,
                    &ring, options.stop_signal);
-  RunLogger logger(LoggerOptionsFor(rig_config, options, profile));
+  loop.set_log_failure(&logger.write_failed());
   KCRIG_RETURN_IF_ERROR(logger.Open());
   logger.Start(&ring);
   const Status activated = RunOnRig(rig_config.realtime, rig, &loop, result);
@@ -314,14 +328,15 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   const double period = rig_config.period;
   const nlohmann::ordered_json transport = TransportCounters(rig);
   result->completed = lr.cause == TripCause::kNone;
-  result->trip_message =
-      TripMessage(lr, period,
-                  transport.contains("fault") && transport["fault"].is_string()
-                      ? transport["fault"].get<std::string>()
-                      : "the transport failed");
+  result->trip_message = TripMessage(
+      lr, period,
+      lr.cause == TripCause::kLogWrite ? logger.WriteFailure()
+      : transport.contains("fault") && transport["fault"].is_string()
+          ? transport["fault"].get<std::string>()
+          : "the transport failed");
   RunLog& log = logger.log();
   result->filled_rows = logger.filled_rows();
-  result->logged_rows = static_cast<std::int64_t>(log.samples.size());
+  result->logged_rows = logger.rows();
   result->timing = MakeTimingFile(loop.timing(), lr, result->realtime, period,
                                   rig_config.budget, rig != nullptr);
   result->timing.trip = result->trip_message;
@@ -336,7 +351,8 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   m.sigma_position = config.experiment.sigma_position;
   m.sigma_angle = config.experiment.sigma_angle;
   m.transport = rig != nullptr ? rig->Describe() : "none";
-  m.hil_json = HilJson(rig_config, options, profile, *result, log, transport);
+  m.hil_json = HilJson(rig_config, options, profile, *result,
+                       logger.rows_without_fresh_sample(), transport);
   KCRIG_RETURN_IF_ERROR(logger.Finish(options.log_dir));
   return WriteFilesAtomically(
       {{(std::filesystem::path(options.log_dir) / "timing.json").string(),

@@ -50,9 +50,9 @@ struct Client {
   }
 };
 
-// The holding registers a write request would set, as (address, values);
-// false for requests that write none. FC 22 (mask write) is resolved
-// against the current table.
+// The holding registers a write request (function 6, 16, 22 or 23) would
+// set, as (address, values); false when the frame does not hold them all.
+// FC 22 (mask write) is resolved against the current table.
 bool HoldingWrite(const std::uint8_t* pdu, int pdu_length,
                   const std::uint16_t* table, int table_size, int* address,
                   std::vector<std::uint16_t>* values) {
@@ -85,9 +85,8 @@ bool HoldingWrite(const std::uint8_t* pdu, int pdu_length,
           (table[*address] & and_mask) | (or_mask & ~and_mask)));
       return true;
     }
-    default:
-      return false;
   }
+  return false;
 }
 
 }  // namespace
@@ -256,14 +255,24 @@ class Connections {
       return true;  // for another unit behind a gateway: not ours to answer
     }
     if (pdu[0] == MODBUS_FC_READ_INPUT_REGISTERS) hooks_.before_input_read();
+    const bool writes_holding = pdu[0] == MODBUS_FC_WRITE_SINGLE_REGISTER ||
+                                pdu[0] == MODBUS_FC_WRITE_MULTIPLE_REGISTERS ||
+                                pdu[0] == MODBUS_FC_WRITE_AND_READ_REGISTERS ||
+                                pdu[0] == MODBUS_FC_MASK_WRITE_REGISTER;
     int address = 0;
-    if (HoldingWrite(pdu, pdu_length, mapping_->tab_registers,
-                     mapping_->nb_registers, &address, &values_) &&
-        hooks_.accept_holding_write &&
-        !hooks_.accept_holding_write(
-            id, address, static_cast<int>(values_.size()), values_.data())) {
-      return modbus_reply_exception(context_, frame,
-                                    MODBUS_EXCEPTION_SLAVE_OR_SERVER_BUSY) >= 0;
+    if (writes_holding) {
+      // A write the frame does not hold whole is never applied.
+      if (!HoldingWrite(pdu, pdu_length, mapping_->tab_registers,
+                        mapping_->nb_registers, &address, &values_)) {
+        return modbus_reply_exception(context_, frame,
+                                      MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE) >= 0;
+      }
+      if (hooks_.accept_holding_write &&
+          !hooks_.accept_holding_write(
+              id, address, static_cast<int>(values_.size()), values_.data())) {
+        return modbus_reply_exception(
+                   context_, frame, MODBUS_EXCEPTION_SLAVE_OR_SERVER_BUSY) >= 0;
+      }
     }
     return modbus_reply(context_, frame, length, mapping_) >= 0;
   }

@@ -21,16 +21,19 @@ Status CanBusLog::Open(const std::string& path, const std::string& interface) {
   return Status::Ok();
 }
 
+// One write per wake-up: the frames of 20 ms, whole lines.
 void CanBusLog::Drain() {
   TimedCanFrame frame;
   char line[kCandumpLineMax];
-  bool any = false;
+  lines_.clear();
+  long count = 0;
   while (ring_.Pop(&frame)) {
-    file_.Write({line, FormatCandumpLine(frame, interface_, line)});
-    written_.fetch_add(1, std::memory_order_relaxed);
-    any = true;
+    lines_.append(line, FormatCandumpLine(frame, interface_, line));
+    ++count;
   }
-  if (any) file_.Flush();
+  if (count > 0 && file_.Write(lines_)) {
+    written_.fetch_add(count, std::memory_order_relaxed);
+  }
 }
 
 Status CanBusLog::Close() {

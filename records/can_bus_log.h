@@ -57,6 +57,7 @@ class CanBusLog : public CanFrameSink {
   SpscRing<TimedCanFrame> ring_;
   std::string path_, interface_;
   PartialFile file_;
+  std::string lines_;  // one wake-up's lines, the writer thread's
   PeriodicWorker writer_;
   std::atomic<std::int64_t> written_{0};
 };

@@ -1,6 +1,10 @@
 #include "records/partial_file.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 
@@ -26,43 +30,58 @@ Status CheckReplaceable(const std::string& path) {
 }
 
 PartialFile::~PartialFile() {
-  if (file_ != nullptr) std::fclose(file_);
+  if (fd_ >= 0) close(fd_);
 }
 
 Status PartialFile::Open(const std::string& path) {
   path_ = path;
   partial_path_ = path + ".partial";
   failed_ = false;
+  error_.clear();
+  size_ = 0;
   KCRIG_RETURN_IF_ERROR(CheckReplaceable(path_));
   KCRIG_RETURN_IF_ERROR(CheckReplaceable(partial_path_));
-  std::error_code ignored;  // fopen says what went wrong
+  std::error_code ignored;  // open says what went wrong
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(),
                                       ignored);
-  file_ = std::fopen(partial_path_.c_str(), "wb");
-  if (file_ == nullptr) {
+  fd_ = open(partial_path_.c_str(),
+             O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0644);
+  if (fd_ < 0) {
     return Status::Error(partial_path_ + ": cannot write (" +
                          std::strerror(errno) + ")");
   }
   return Status::Ok();
 }
 
-void PartialFile::Write(std::string_view bytes) {
-  if (file_ == nullptr || bytes.empty()) return;
-  failed_ |= std::fwrite(bytes.data(), 1, bytes.size(), file_) != bytes.size();
-}
-
-void PartialFile::Flush() {
-  if (file_ != nullptr) failed_ |= std::fflush(file_) != 0;
+bool PartialFile::Write(std::string_view bytes) {
+  if (fd_ < 0) return false;
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = write(fd_, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      if (error_.empty()) error_ = n < 0 ? std::strerror(errno) : "no progress";
+      failed_ = true;
+      // Back to the end of the last whole write.
+      if (ftruncate(fd_, static_cast<off_t>(size_)) == 0) {
+        lseek(fd_, static_cast<off_t>(size_), SEEK_SET);
+      }
+      return false;
+    }
+    done += static_cast<size_t>(n);
+  }
+  size_ += bytes.size();
+  return true;
 }
 
 Status PartialFile::Close() {
-  if (file_ == nullptr) return Status::Ok();
-  failed_ |= std::fclose(file_) != 0;
-  file_ = nullptr;
+  if (fd_ < 0) return Status::Ok();
+  failed_ |= close(fd_) != 0;
+  fd_ = -1;
   if (failed_) {
-    return Status::Error(partial_path_ +
-                         ": writing failed (disk full?); what was written "
-                         "so far is in this file");
+    return Status::Error(partial_path_ + ": writing failed (" +
+                         (error_.empty() ? "disk full?" : error_) +
+                         "); what was written so far is in this file");
   }
   return Status::Ok();
 }
@@ -77,9 +96,9 @@ Status PartialFile::Commit() {
 }
 
 void PartialFile::Discard() {
-  if (file_ == nullptr) return;
-  std::fclose(file_);
-  file_ = nullptr;
+  if (fd_ < 0) return;
+  close(fd_);
+  fd_ = -1;
   std::remove(partial_path_.c_str());
 }
 

@@ -13,6 +13,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "base/input_file.h"
+#include "base/json_reader.h"
 #include "nlohmann/json.hpp"
 #include "records/partial_file.h"
 
@@ -81,7 +83,7 @@ std::string FormatCsv(const RunLog& log) {
   return csv;
 }
 
-std::string FormatSidecar(const RunLog& log) {
+std::string FormatSidecar(const RunLog& log, std::int64_t rows) {
   const RunMetadata& m = log.metadata;
   nlohmann::ordered_json doc;
   doc["format"] = "kcrig run log 1";
@@ -96,7 +98,7 @@ std::string FormatSidecar(const RunLog& log) {
     doc["units"]["Fz_cmd"] = "N";
   }
   doc["rate_hz"] = m.rate;
-  doc["samples"] = log.samples.size();
+  doc["samples"] = rows;
   const RampExcitation<double>& e = m.excitation;
   doc["excitation"] = {{"type", "linear_ramp"},
                        {"phi_rad", e.phi},
@@ -150,15 +152,8 @@ bool ParseFinite(std::string_view text, double* value) {
 
 Status ReadSidecar(const std::string& path, size_t rows, double first_t,
                    double last_t, RunMetadata* m) {
-  std::ifstream in(path);
-  if (!in) return Status::Error(path + ": cannot open the sidecar");
   nlohmann::json doc;
-  try {
-    doc = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    return Status::Error(path + ": malformed JSON at byte " +
-                         std::to_string(e.byte));
-  }
+  KCRIG_RETURN_IF_ERROR(ReadJsonFile(path, &doc));
   auto number = [&](const nlohmann::json& parent, const char* section,
                     const char* key, double* out) -> Status {
     if (!parent.contains(key) || !parent[key].is_number()) {
@@ -191,11 +186,14 @@ Status ReadSidecar(const std::string& path, size_t rows, double first_t,
         number(sigma, "measurement_sigma.", "angle_rad", &m->sigma_angle)}) {
     if (!status.ok()) return status;
   }
-  if (!(m->rate > 0) || !(m->sigma_position > 0) || !(m->sigma_angle > 0)) {
-    return Status::Error(path + ": rate_hz and measurement sigmas must be > 0");
+  if (!(m->rate >= 1 && m->rate <= 1e5)) {
+    return Status::Error(path + ": rate_hz must be within [1, 100000] Hz");
   }
-  if (!(e->duration > 0)) {
-    return Status::Error(path + ": excitation.tf_s must be > 0");
+  if (!(m->sigma_position > 0) || !(m->sigma_angle > 0)) {
+    return Status::Error(path + ": measurement sigmas must be > 0");
+  }
+  if (!(e->duration > 0 && e->duration <= 3600)) {
+    return Status::Error(path + ": excitation.tf_s must be within (0, 3600] s");
   }
   if (doc.contains("samples") && doc["samples"].is_number_unsigned() &&
       doc["samples"].get<size_t>() != rows) {
@@ -216,8 +214,9 @@ Status ReadSidecar(const std::string& path, size_t rows, double first_t,
     if (!ex.contains(key)) continue;
     const Status status = number(ex, "excitation.", key, target);
     if (!status.ok()) return status;
-    if (*target < 0) {
-      return Status::Error(path + ": excitation." + key + ": negative");
+    if (!(*target >= 0 && *target <= 3600)) {
+      return Status::Error(path + ": excitation." + key +
+                           ": must be within [0, 3600] s");
     }
   }
   if (doc.contains("transport") && doc["transport"].is_string()) {
@@ -232,6 +231,9 @@ Status ReadSidecar(const std::string& path, size_t rows, double first_t,
 }  // namespace
 
 Status ReadRunLog(const std::string& csv_path, RunLog* log) {
+  // An hour at 1 kHz with every column is about 0.6 GB.
+  constexpr std::uintmax_t kMaxLogBytes = 1u << 30;
+  KCRIG_RETURN_IF_ERROR(CheckInputFile(csv_path, kMaxLogBytes));
   std::ifstream in(csv_path, std::ios::binary);
   if (!in) return Status::Error(csv_path + ": cannot open");
   std::stringstream buffer;
@@ -253,6 +255,14 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
     return line;
   };
   const std::vector<std::string_view> header = SplitFields(next_line());
+  // A column given twice would be read from whichever comes first.
+  for (size_t i = 0; i < header.size(); ++i) {
+    if (std::find(header.begin(), header.begin() + static_cast<long>(i),
+                  header[i]) != header.begin() + static_cast<long>(i)) {
+      return Status::Error(csv_path + ":1: column '" + std::string(header[i]) +
+                           "' appears twice");
+    }
+  }
   // Column index of each channel; -1 when absent.
   auto find = [&header](std::string_view name) {
     for (size_t i = 0; i < header.size(); ++i) {
@@ -395,21 +405,30 @@ Status WriteFilesAtomically(
   return Status::Ok();
 }
 
-Status FinishStreamedRunLog(PartialFile* csv, const RunLog& log) {
+Status FinishStreamedRunLog(PartialFile* csv, const RunLog& log,
+                            std::int64_t rows) {
   KCRIG_RETURN_IF_ERROR(csv->Close());
+  KCRIG_RETURN_IF_ERROR(WriteRunLogSidecar(csv->path(), log, rows));
   const std::string sidecar = SidecarPath(csv->path());
-  KCRIG_RETURN_IF_ERROR(WriteFilesAtomically({{sidecar, FormatSidecar(log)}}));
   const Status committed = csv->Commit();
   if (!committed.ok()) std::remove(sidecar.c_str());
   return committed;
+}
+
+Status WriteRunLogSidecar(const std::string& csv_path, const RunLog& log,
+                          std::int64_t rows) {
+  return WriteFilesAtomically(
+      {{SidecarPath(csv_path), FormatSidecar(log, rows)}});
 }
 
 Status WriteRunLog(const std::string& csv_path, const RunLog& log) {
   if (std::filesystem::path(csv_path).extension() != ".csv") {
     return Status::Error(csv_path + ": a run log must end in .csv");
   }
-  return WriteFilesAtomically({{csv_path, FormatCsv(log)},
-                               {SidecarPath(csv_path), FormatSidecar(log)}});
+  return WriteFilesAtomically(
+      {{csv_path, FormatCsv(log)},
+       {SidecarPath(csv_path),
+        FormatSidecar(log, static_cast<std::int64_t>(log.samples.size()))}});
 }
 
 }  // namespace kcrig

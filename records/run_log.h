@@ -84,11 +84,18 @@ std::string RunLogCsvHeader(const RunLog& log);
 void AppendRunLogCsvRow(const RunLog& log, const LogSample& sample,
                         std::string* csv);
 
-// Completes a streamed log: closes `csv`, writes the sidecar of `log` (which
-// holds the same samples) and commits `csv` under its final name. Until then
-// only the partial file exists, so a crash leaves no run.csv without
-// sidecar; when the commit fails the sidecar is removed again.
-Status FinishStreamedRunLog(PartialFile* csv, const RunLog& log);
+// Completes a streamed log of `rows` rows: closes `csv`, writes the sidecar
+// of `log` (its metadata and columns; its samples are not used) and commits
+// `csv` under its final name. Until then only the partial file exists, so a
+// crash leaves no run.csv without sidecar; when the commit fails the sidecar
+// is removed again.
+Status FinishStreamedRunLog(PartialFile* csv, const RunLog& log,
+                            std::int64_t rows);
+
+// The sidecar alone, for `rows` rows of the log at `csv_path` (a streamed
+// log whose writing failed keeps its whole rows in the partial file).
+Status WriteRunLogSidecar(const std::string& csv_path, const RunLog& log,
+                          std::int64_t rows);
 
 // Reads a run log and its sidecar, checking everything an estimator relies
 // on: the header has every channel, each row is complete and finite, time

@@ -35,7 +35,26 @@
     }
   }
   function note(parent, text) { parent.appendChild(el('p', {class: 'note'}, text)); }
+  // Plotly draws a subset of HTML (links, styles, line breaks) in every text
+  // of a figure; strings that come from the input files are text, never
+  // markup: escaped here, once, for every figure (plotly shows the entities
+  // as the characters).
+  function plain(value) {
+    if (typeof value === 'string') {
+      return value.replace(/&/g, '&amp;').replace(/</g, '&lt;')
+          .replace(/>/g, '&gt;');
+    }
+    if (Array.isArray(value)) return value.map(plain);
+    if (value !== null && typeof value === 'object') {
+      var out = {};
+      for (var k in value) out[k] = plain(value[k]);
+      return out;
+    }
+    return value;
+  }
   function figure(parent, traces, layout, height) {
+    traces = plain(traces);
+    layout = plain(layout);
     var div = el('div', {class: 'figure'});
     div.style.height = (height || 420) + 'px';
     parent.appendChild(div);

@@ -35,12 +35,8 @@ RunLogger::~RunLogger() { Stop(); }
 
 Status RunLogger::Open() {
   if (options_.csv_path.empty()) return Status::Ok();
-  log_.samples.reserve(
-      static_cast<size_t>(std::min(options_.expected_duration, 600.0) /
-                          options_.period) +
-      16);
   KCRIG_RETURN_IF_ERROR(partial_.Open(options_.csv_path));
-  partial_.Write(RunLogCsvHeader(log_));
+  pending_ = RunLogCsvHeader(log_);
   return Status::Ok();
 }
 
@@ -77,27 +73,48 @@ void RunLogger::Drain(SpscRing<CycleRecord>* ring) {
       next_cycle_ = record.cycle + 1;
       continue;
     }
-    while (next_cycle_ < record.cycle && !log_.samples.empty()) {
-      LogSample filler = log_.samples.back();
+    while (next_cycle_ < record.cycle && rows_ > 0) {
+      LogSample filler = last_;
       filler.t = static_cast<double>(next_cycle_++) * options_.period;
       filler.fresh = false;
-      log_.samples.push_back(filler);
+      Append(filler);
       ++filled_rows_;
       ++skipped_since_warning_;
     }
-    log_.samples.push_back(ToSample(record, options_.period));
+    Append(ToSample(record, options_.period));
     next_cycle_ = record.cycle + 1;
   }
 }
 
-void RunLogger::Stream() {
-  if (!partial_.is_open() || streamed_ >= log_.samples.size()) return;
-  for (; streamed_ < log_.samples.size(); ++streamed_) {
-    AppendRunLogCsvRow(log_, log_.samples[streamed_], &rows_);
+void RunLogger::Append(const LogSample& sample) {
+  last_ = sample;
+  ++rows_;
+  not_fresh_ += !sample.fresh;
+  if (pending_.size() >= kMaxPendingBytes) {
+    ++lost_rows_;
+    return;
   }
-  partial_.Write(rows_);
-  partial_.Flush();
-  rows_.clear();
+  AppendRunLogCsvRow(log_, sample, &pending_);
+  ++pending_rows_;
+}
+
+void RunLogger::Stream() {
+  if (!partial_.is_open() || pending_.empty()) return;
+  if (!partial_.Write(pending_)) {
+    write_failed_.store(true, std::memory_order_relaxed);
+    return;  // kept whole for the next try
+  }
+  written_rows_ += pending_rows_;
+  pending_rows_ = 0;
+  pending_.clear();
+}
+
+std::string RunLogger::WriteFailure() const {
+  if (!write_failed_.load()) return "";
+  return partial_.partial_path() + ": " + partial_.error() + "; its " +
+         std::to_string(written_rows_) +
+         " whole rows are kept (rename it to run.csv to read them), " +
+         std::to_string(pending_rows_ + lost_rows_) + " rows not written";
 }
 
 void RunLogger::Stop() { worker_.Stop(); }
@@ -105,12 +122,18 @@ void RunLogger::Stop() { worker_.Stop(); }
 void RunLogger::Discard() { partial_.Discard(); }
 
 Status RunLogger::Finish(const std::string& log_dir) {
-  if (log_.samples.size() < 2) {
+  if (rows_ < 2) {
     Discard();
     return Status::Error(log_dir +
                          ": the run ended before two cycles were logged");
   }
-  return FinishStreamedRunLog(&partial_, log_);
+  if (!write_failed_.load()) {
+    return FinishStreamedRunLog(&partial_, log_, written_rows_);
+  }
+  // The whole rows that reached the disk stay in the partial file (closing
+  // reports the failure already known); the sidecar says how many.
+  partial_.Close();
+  return WriteRunLogSidecar(partial_.path(), log_, written_rows_);
 }
 
 }  // namespace kcrig

@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <fstream>
 
+#include "base/input_file.h"
+
 namespace kcrig {
 namespace {
 
@@ -160,6 +162,9 @@ Status ParseCandumpLine(std::string_view line, const std::string& where,
 Status ReadCandumpLog(const std::string& path,
                       std::vector<CandumpRecord>* records) {
   records->clear();
+  // An hour of a 1 kHz rig's bus (six frames a cycle) is about 1.2 GB.
+  constexpr std::uintmax_t kMaxCanLogBytes = 2u << 30;
+  KCRIG_RETURN_IF_ERROR(CheckInputFile(path, kMaxCanLogBytes));
   std::ifstream in(path);
   if (!in) return Status::Error(path + ": cannot open the CAN log");
   std::string line;

@@ -84,26 +84,38 @@ Status LoadExperiment(const std::string& file, ExperimentConfig* experiment) {
   experiment->phi_bounds = {phi_bounds[0] * kDegree, phi_bounds[1] * kDegree};
   experiment->z_a_bounds = {z_bounds[0], z_bounds[1]};
 
+  // Ranges a physical test stays within; beyond them a value is a typo
+  // that would make a simulation run for years or overflow.
+  char range[64];
   const struct {
     const YAML::Node& node;
     const char* section;
     const char* key;
     double value;
-  } must_be_positive[] = {
-      {excitation, "excitation", "fmax", experiment->fmax},
-      {excitation, "excitation", "duration", experiment->duration},
-      {excitation, "excitation", "rate", experiment->rate},
-      {integrator, "integrator", "step", experiment->step},
-      {measurement, "measurement", "sigma_position",
-       experiment->sigma_position},
-      {measurement, "measurement", "sigma_angle_deg", experiment->sigma_angle},
+    double max;
+  } positive_up_to[] = {
+      {excitation, "excitation", "fmax", experiment->fmax, 1e5},
+      {excitation, "excitation", "duration", experiment->duration, 3600},
+      {excitation, "excitation", "rate", experiment->rate, 1e5},
+      {integrator, "integrator", "step", experiment->step, 0.1},
+      {measurement, "measurement", "sigma_position", experiment->sigma_position,
+       0.1},
+      {measurement, "measurement", "sigma_angle_deg", sigma_angle_deg, 10},
   };
-  for (const auto& check : must_be_positive) {
-    if (!(check.value > 0)) {
+  for (const auto& check : positive_up_to) {
+    if (!(check.value > 0 && check.value <= check.max)) {
+      std::snprintf(range, sizeof(range), "must be within (0, %g]", check.max);
       return reader.Error(check.node[check.key],
-                          std::string(check.section) + "." + check.key,
-                          "must be > 0");
+                          std::string(check.section) + "." + check.key, range);
     }
+  }
+  if (!(std::abs(phi_deg) <= 360)) {
+    return reader.Error(excitation["phi_deg"], "excitation.phi_deg",
+                        "must be within [-360, 360]");
+  }
+  if (!(std::abs(experiment->z_a) <= 2)) {
+    return reader.Error(excitation["z_a"], "excitation.z_a",
+                        "must be within [-2, 2] m");
   }
   if (!(phi_bounds[0] < phi_bounds[1])) {
     return reader.Error(bounds["phi_deg"], "design_bounds.phi_deg",
@@ -127,10 +139,22 @@ Status ValidateModel(const SuspensionParameters<double>& model,
   for (const NamedParameter<double>& p : ListParameters(&copy)) {
     if (!std::isfinite(*p.value)) return error(p.name, "must be finite");
   }
-  if (!(model.mass > 0)) return error("mass", "must be > 0");
+  // Upper ends far beyond any suspension, short of what overflows.
+  if (!(model.mass > 0 && model.mass <= 1e4)) {
+    return error("mass", "must be within (0, 1e4] kg");
+  }
   for (int k = 0; k < 3; ++k) {
-    if (!(model.inertia(k) > 0)) {
-      return error("inertia[" + std::to_string(k) + "]", "must be > 0");
+    if (!(model.inertia(k) > 0 && model.inertia(k) <= 1e4)) {
+      return error("inertia[" + std::to_string(k) + "]",
+                   "must be within (0, 1e4] kg m^2");
+    }
+  }
+  for (const NamedParameter<double>& p : ListParameters(&copy)) {
+    if (p.unit == "m" && !(std::abs(*p.value) <= 10)) {
+      return error(p.name, "must be within [-10, 10] m");
+    }
+    if ((p.unit == "N/m" || p.unit == "N s/m") && !(*p.value <= 1e12)) {
+      return error(p.name, "must be <= 1e12 " + p.unit);
     }
   }
   constexpr double kMinLinkLength = 1e-3;  // [m]

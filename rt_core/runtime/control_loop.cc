@@ -89,7 +89,12 @@ bool ControlLoop::Cycle(std::int64_t cycle, std::int64_t skipped) {
   timing_.compute.Record(t2 - t1);
 
   if (rig_ != nullptr) {
-    if (rig_->Write(command_) == IoResult::kError) ++result_.write_errors;
+    const bool delivered = rig_->Write(command_) != IoResult::kError;
+    result_.write_errors += !delivered;
+    if (safety_.state() != SafetyState::kNormal) {
+      ++result_.commands_after_trip;
+      result_.undelivered_after_trip += !delivered;
+    }
   }
   timing_.write.Record(MonotonicNanoseconds() - t2);
   if (ring_ != nullptr) ring_->Push(record);
@@ -154,6 +159,10 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
       foreign_master_ = false;
       safety_.Trip(TripCause::kForeignMaster, cycle);
     }
+  }
+  if (log_failed_ != nullptr && safety_.state() == SafetyState::kNormal &&
+      log_failed_->load(std::memory_order_relaxed)) {
+    safety_.Trip(TripCause::kLogWrite, cycle);
   }
   if (stop_signal_ != nullptr) {
     const int signal = stop_signal_->load(std::memory_order_relaxed);

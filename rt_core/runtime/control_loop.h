@@ -52,6 +52,10 @@ struct LoopResult {
   std::int64_t stale = 0;        // the rig answered, no new sample
   std::int64_t read_errors = 0;  // timeout, exception, disconnect
   std::int64_t write_errors = 0;
+  // Commands sent from the trip on (the ramp-down and the disable), and
+  // those of them the transport could not deliver.
+  std::int64_t commands_after_trip = 0;
+  std::int64_t undelivered_after_trip = 0;
   std::int64_t lost_rig_samples = 0;  // gaps in the rig's sample counter
   std::int64_t overruns = 0;          // cycles that ran past a deadline
   std::int64_t skipped_cycles = 0;
@@ -80,6 +84,12 @@ class ControlLoop {
               const LoopOptions& options, RigInterface* rig,
               SpscRing<CycleRecord>* ring, const std::atomic<int>* stop_signal);
 
+  // The loop trips (log_write_error) once *failed is true: the log of the
+  // run can no longer be written. Optional; before Run.
+  void set_log_failure(const std::atomic<bool>* failed) {
+    log_failed_ = failed;
+  }
+
   // Runs the experiment to its end or to a trip with its ramp-down, sleeping
   // on absolute deadlines. The rig must be activated.
   LoopResult Run();
@@ -103,6 +113,7 @@ class ControlLoop {
   RigInterface* rig_;
   SpscRing<CycleRecord>* ring_;
   const std::atomic<int>* stop_signal_;
+  const std::atomic<bool>* log_failed_ = nullptr;
   RunProfile profile_;
   SafetyMonitor safety_;
   ModelState<double> state_;

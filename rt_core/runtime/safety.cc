@@ -29,6 +29,8 @@ const char* TripCauseName(TripCause cause) {
       return "force_tracking";
     case TripCause::kForeignMaster:
       return "foreign_master";
+    case TripCause::kLogWrite:
+      return "log_write_error";
   }
   return "unknown";
 }

@@ -42,6 +42,7 @@ enum class TripCause : std::uint8_t {
   kTransportFault,  // the bus failed (CAN bus-off, error-passive, tx timeout)
   kForceTracking,   // the measured force does not follow the command
   kForeignMaster,   // the rig obeys another master (transport's check)
+  kLogWrite,        // the run's log could not be written (disk full)
 };
 
 const char* TripCauseName(TripCause cause);

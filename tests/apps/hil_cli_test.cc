@@ -5,6 +5,7 @@
 #include <sched.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -270,18 +271,17 @@ TEST_F(HilCliTest, MbpollReadsTheDocumentedRegistersAndTheRigProtectsItself) {
   r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 25 " + target);
   EXPECT_NE(r.output.find("[25]: \t1"), std::string::npos) << r.output;
   // Claim with session 0x1234 and enable at Fx = 500 N, z_a = -0.45 m in
-  // one write of registers 0..10 (float32 as two words, high word first),
-  // then fall silent: the rig's command watchdog (plant.yaml
-  // rig.command_timeout) faults it (status fault + watchdog, fault code 2),
+  // one write of registers 0..10 (float32 as two words, high word first).
+  // mbpoll then hangs up: the owner's connection closed with the rig
+  // enabled, so the rig faults (status fault, fault code 4, owner lost),
   // ramps the force to zero and ends the claim.
   r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 4 -r 0 " + target +
                  " 5 1 17402 0 0 0 0 0 48870 26214 4660");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 0 -c 2 " + target);
-  EXPECT_NE(r.output.find("[0]: \t10"), std::string::npos)
-      << r.output;  // 0b1010
-  EXPECT_NE(r.output.find("[1]: \t2"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("[0]: \t2"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("[1]: \t4"), std::string::npos) << r.output;
   r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 24 " + target);
   EXPECT_NE(r.output.find("[24]: \t0"), std::string::npos) << r.output;
   r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3:float -B -r 6 -c 1 " + target);
@@ -329,6 +329,9 @@ TEST_F(HilCliTest, EmulatorKilledMidRunTripsTheWatchdog) {
   emulator_->Signal(SIGKILL);
   const int code = run->Wait();
   ExpectSafeStop(code, log_dir, "watchdog", run->Output());
+  // The ramp-down was commanded into a dead link: said as it was.
+  EXPECT_NE(run->Output().find("none of it reached the rig"), std::string::npos)
+      << run->Output();
 }
 
 TEST_F(HilCliTest, FrozenEmulatorTripsTheWatchdog) {
@@ -437,6 +440,40 @@ TEST_F(HilCliTest, ARigObeyingASecondMasterTripsTheEchoCheck) {
   EXPECT_EQ(sidecar["hil"]["safety"]["cause"], "foreign_master");
   const Csv csv = ReadCsv(log_dir + "/run.csv");
   EXPECT_EQ(csv.rows.back()[csv.Column("safety")], "2");
+}
+
+// The disk refuses the log mid-run (here a file-size limit, EFBIG, as a
+// full disk gives ENOSPC): the run trips and ramps down, the rows that
+// reached the disk stay in run.csv.partial ending on a whole row, and the
+// sidecar says how many and why.
+TEST_F(HilCliTest, ALogTheDiskRefusesTripsTheRunAndKeepsWholeRows) {
+  const int port = StartEmulator();
+  const std::string log_dir = Path("run");
+  ChildProcess run(
+      {"/usr/bin/prlimit", "--fsize=400000", KCRIG_BINARY, "run", "--config",
+       config_, "--rig", "modbus-tcp://127.0.0.1:" + std::to_string(port),
+       "--log-dir", log_dir, "--quiet"},
+      Path("run.out"));
+  EXPECT_EQ(run.Wait(), 3) << run.Output();
+  EXPECT_NE(run.Output().find("tripped: log_write_error (" + log_dir +
+                              "/run.csv.partial: File too large; its "),
+            std::string::npos)
+      << run.Output();
+  EXPECT_FALSE(std::filesystem::exists(log_dir + "/run.csv"));
+  std::ifstream in(log_dir + "/run.csv.partial");
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  ASSERT_FALSE(text.empty());
+  EXPECT_LE(text.size(), 400000u);
+  EXPECT_EQ(text.back(), '\n');
+  const long rows = std::count(text.begin(), text.end(), '\n') - 1;
+  const nlohmann::json sidecar = ReadJson(log_dir + "/run.json");
+  EXPECT_EQ(sidecar["samples"].get<long>(), rows);
+  EXPECT_EQ(sidecar["hil"]["safety"]["cause"], "log_write_error");
+  EXPECT_FALSE(sidecar["hil"]["completed"]);
+  // Renamed, the kept rows are a log like any other.
+  std::filesystem::rename(log_dir + "/run.csv.partial", log_dir + "/run.csv");
+  const Csv csv = ReadCsv(log_dir + "/run.csv");
+  EXPECT_EQ(static_cast<long>(csv.rows.size()), rows);
 }
 
 TEST_F(HilCliTest, SigtermRampsDownAndKeepsTheLog) {

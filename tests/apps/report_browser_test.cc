@@ -78,10 +78,16 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
                "/diag.json");
   ASSERT_EQ(r.exit_code, 0) << r.output;
 
+  // The same timing under a folder whose name is markup: its figure title
+  // must show it as text (plotly would draw a link and bold type).
+  const std::string markup = "<a href=https:evil.example>link <b>bold";
+  fs::create_directories(dir + "/" + markup);
+  fs::copy_file(dir + "/timing.json", dir + "/" + markup + "/timing.json");
+
   r = RunKcrig("report --from " + dir + " --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  // 7 campaign figures, 3 of the diagnosis, 1 of the timing.
-  ASSERT_NE(r.output.find("11 figures"), std::string::npos) << r.output;
+  // 7 campaign figures, 3 of the diagnosis, 2 of the timing.
+  ASSERT_NE(r.output.find("12 figures"), std::string::npos) << r.output;
 
   const std::string screenshot =
       std::string(KCRIG_TEST_ARTIFACT_DIR) + "/report_screenshot.png";
@@ -105,10 +111,15 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
   ASSERT_NE(dom.find("id=\"kcrig-status\""), std::string::npos)
       << dom.substr(0, 2000);
   EXPECT_EQ(Attribute(dom, "data-state"), "done");
-  EXPECT_EQ(Attribute(dom, "data-expected"), "11");
-  EXPECT_EQ(Attribute(dom, "data-figures"), "11");
-  EXPECT_EQ(Attribute(dom, "data-rendered"), "11");
+  EXPECT_EQ(Attribute(dom, "data-expected"), "12");
+  EXPECT_EQ(Attribute(dom, "data-figures"), "12");
+  EXPECT_EQ(Attribute(dom, "data-rendered"), "12");
   EXPECT_EQ(Attribute(dom, "data-errors"), "[]");
+  // The markup is drawn as its characters: no link, no bold element.
+  EXPECT_NE(dom.find("&lt;a href=https:evil.example&gt;link &lt;b&gt;bold"),
+            std::string::npos);
+  EXPECT_EQ(dom.find("evil.example\""), std::string::npos);
+  EXPECT_EQ(dom.find(">bold<"), std::string::npos);
   // Chromium's own log of the page's console (beside the page's record).
   EXPECT_EQ(r.output.find("Uncaught"), std::string::npos) << r.output;
 

@@ -126,13 +126,38 @@ TEST_F(SimulateCliTest, MalformedSetFailsCleanly) {
   ExpectCleanFailure(RunKcrig("simulate --set c_X9=4e6 --out " + Out()),
                      "unknown parameter 'c_X9'");
   ExpectCleanFailure(RunKcrig("simulate --set mass=-1 --out " + Out()),
-                     "--set: mass: must be > 0");
+                     "--set: mass: must be within (0, 1e4] kg");
 }
 
 TEST_F(SimulateCliTest, NanParameterFailsCleanly) {
   ExpectCleanFailure(RunKcrig("simulate --set c_P=nan --out " + Out()),
                      "--set c_P=nan: value must be finite");
   ExpectCleanFailure(RunKcrig("simulate --fmax nan --out " + Out()), "--fmax");
+}
+
+// CLI11 alone would read "" as 0, "0x10" as 16 and "-1" into an unsigned
+// seed as 2^64 - 1: every number on the command line is decimal, finite
+// and within the option's range.
+TEST_F(SimulateCliTest, NumbersAreDecimalFiniteAndInRange) {
+  const struct {
+    std::string arguments, message;
+  } cases[] = {
+      {"--fmax ''", "--fmax: "},
+      {"--fmax 0x10", "--fmax: '0x10' is not a finite decimal number"},
+      {"--fmax 1e400", "--fmax: "},
+      {"--seed -1", "--seed: '-1' is not a decimal whole number >= 0"},
+      {"--seed 0x1f", "--seed: '0x1f' is not a decimal whole number >= 0"},
+      {"--phi 1e300", "--phi: Value 1e300 not in range"},
+      {"--duration 1e9", "--duration: Value 1e9 not in range"},
+      {"--fmax -5", "--fmax: Value -5 not in range"},
+  };
+  for (const auto& c : cases) {
+    ExpectCleanFailure(RunKcrig("simulate " + c.arguments + " --out " + Out()),
+                       c.message);
+  }
+  ExpectCleanFailure(
+      RunKcrig("screen --trajectories 1000000000 --log " + Out()),
+      "--trajectories: Value 1000000000 not in range");
 }
 
 TEST_F(SimulateCliTest, InconsistentRateAndEffectsFailCleanly) {

@@ -88,8 +88,15 @@ TEST_F(ConfigLoaderTest, WrongTypeNamesTheValue) {
 TEST_F(ConfigLoaderTest, NegativeMassIsRejected) {
   Replace("model.yaml", "mass: 47.0", "mass: -47.0");
   const std::string error = LoadError();
-  EXPECT_NE(error.find("model.yaml: mass: must be > 0"), std::string::npos)
+  EXPECT_NE(error.find("model.yaml: mass: must be within (0, 1e4] kg"),
+            std::string::npos)
       << error;
+}
+
+TEST_F(ConfigLoaderTest, ValuesBeyondAnySuspensionAreRejected) {
+  Replace("model.yaml", "mass: 47.0", "mass: 1e308");
+  EXPECT_NE(LoadError().find("mass: must be within (0, 1e4] kg"),
+            std::string::npos);
 }
 
 TEST_F(ConfigLoaderTest, DegenerateLinkIsRejected) {
@@ -129,7 +136,7 @@ TEST_F(ConfigLoaderTest, NonPositiveSigmaIsRejected) {
   EXPECT_TRUE(std::regex_search(
       error,
       std::regex(
-          R"(experiment\.yaml:[0-9]+: measurement\.sigma_position: must be > 0)")))
+          R"(experiment\.yaml:[0-9]+: measurement\.sigma_position: must be within \(0, 0\.1\])")))
       << error;
 }
 
