@@ -25,6 +25,7 @@ namespace {
 struct EmulateArgs {
   std::string config_dir;
   std::string modbus_tcp;
+  std::string modbus_rtu;
   std::string can;
   std::vector<std::string> effects;
   std::optional<std::uint64_t> seed;
@@ -35,16 +36,17 @@ int RunEmulate(const EmulateArgs& args) {
     std::fprintf(stderr, "kcrig emulate: %s\n", status.message().c_str());
     return 1;
   };
-  if (args.modbus_tcp.empty() == args.can.empty()) {
+  if (!args.modbus_tcp.empty() + !args.modbus_rtu.empty() + !args.can.empty() !=
+      1) {
     return fail(
-        Status::Error("give one of --modbus-tcp HOST:PORT or --can "
-                      "IFACE"));
+        Status::Error("give one of --modbus-tcp HOST:PORT, --modbus-rtu "
+                      "DEVICE or --can IFACE"));
   }
-  std::string host;
-  int port = 0;
+  ModbusServeAt at;
+  at.device = args.modbus_rtu;
   Status status = Status::Ok();
   if (!args.modbus_tcp.empty()) {
-    status = ParseHostPort(args.modbus_tcp, "HOST:PORT", 0, &host, &port);
+    status = ParseHostPort(args.modbus_tcp, "HOST:PORT", 0, &at.host, &at.port);
     if (!status.ok()) {
       return fail(Status::Error("--modbus-tcp " + args.modbus_tcp + ": " +
                                 status.message() +
@@ -65,6 +67,7 @@ int RunEmulate(const EmulateArgs& args) {
   if (args.can.empty()) {
     status = LoadModbusMap(rig_config.modbus.map_file, &map);
     if (!status.ok()) return fail(status);
+    at.serial = rig_config.modbus;
   }
   PlantEffects effects = plant.effects;
   for (const std::string& effect : args.effects) {
@@ -103,20 +106,21 @@ int RunEmulate(const EmulateArgs& args) {
     if (!status.ok()) return fail(status);
     std::printf(
         "kcrig emulate: stopped (signal %d); commands %lld, samples sent "
-        "%lld, heartbeats %lld, malformed frames %lld, send failures %lld\n",
+        "%lld, heartbeats %lld, malformed frames %lld, refused frames "
+        "%lld, send failures %lld\n",
         stop.load(), static_cast<long long>(counters.commands),
         static_cast<long long>(counters.samples_sent),
         static_cast<long long>(counters.heartbeats),
         static_cast<long long>(counters.malformed),
+        static_cast<long long>(counters.refused),
         static_cast<long long>(counters.send_failures));
     return 0;
   }
-  status = ServeModbus(&rig, map, host, port, stop, [&](int bound_port) {
+  status = ServeModbus(&rig, map, at, stop, [&](const std::string& uri) {
     std::printf(
-        "kcrig emulate: serving modbus-tcp://%s:%d (unit %d, map %s); true "
-        "plant from plant.yaml, effects: %s\n",
-        host.c_str(), bound_port, map.unit_id,
-        rig_config.modbus.map_file.c_str(),
+        "kcrig emulate: serving %s (unit %d, map %s); true plant from "
+        "plant.yaml, effects: %s\n",
+        uri.c_str(), map.unit_id, rig_config.modbus.map_file.c_str(),
         effect_text.empty() ? "none" : effect_text.c_str());
     std::fflush(stdout);
   });
@@ -132,13 +136,16 @@ void AddEmulateCommand(CLI::App* app, std::function<int()>* run) {
   CLI::App* cmd = app->add_subcommand(
       "emulate",
       "The software rig: hydraulic actuator, true plant with optional "
-      "unmodelled effects, sensors, served over Modbus TCP or as a CAN node "
-      "until SIGINT/SIGTERM");
+      "unmodelled effects, sensors, served over Modbus TCP or RTU or as a "
+      "CAN node until SIGINT/SIGTERM");
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");
   cmd->add_option("--modbus-tcp", args->modbus_tcp,
                   "Serve Modbus TCP on HOST:PORT (PORT 0: any free port, "
                   "printed on start)");
+  cmd->add_option("--modbus-rtu", args->modbus_rtu,
+                  "Serve Modbus RTU on this serial device (line settings "
+                  "from rig.yaml modbus.rtu)");
   cmd->add_option("--can", args->can,
                   "Be the rig's CAN node on this SocketCAN interface (e.g. "
                   "vcan0), speaking config/kc_rig.dbc");

@@ -300,7 +300,7 @@ void BM_CanCycleCodec(benchmark::State& state) {
   KcCommand command;
   command.force << 1234.5, -2000, 3999.5;
   command.enable = true;
-  command.phase = 4;
+  command.session = 42;
   RigMeasurement sample;
   sample.force << 1234.5, -2000, 3999.5;
   sample.y << 1e-3, -2e-3, 3e-3, 1e-2, -2e-2, 3e-2;

@@ -42,6 +42,7 @@ Status ServeCan(RigEmulator* rig, const std::string& dbc_file,
   double z_a = 0;
   double next_heartbeat = 0;
   std::uint16_t last_status = 0xFFFF;
+  std::uint16_t refused_at_heartbeat = rig->ownership().refused();
   on_ready();
   while (stop.load() == 0) {
     socket.WaitReadable(1e-3);
@@ -52,24 +53,43 @@ Status ServeCan(RigEmulator* rig, const std::string& dbc_file,
     while (socket.Receive(&timed, &error)) {
       const CanFrame& frame = timed.frame;
       const KcFrame kind = protocol.Classify(frame);
-      if (kind != KcFrame::kCommand && kind != KcFrame::kSetup) continue;
+      if (kind != KcFrame::kCommand && kind != KcFrame::kSetup &&
+          kind != KcFrame::kSession) {
+        continue;
+      }
       if (!protocol.WellFormed(frame, kind)) {
         ++counters->malformed;
         continue;
       }
       bool clamped = false;
+      rig->AdvanceTo(Now());
       if (kind == KcFrame::kSetup) {
         z_a = protocol.DecodeSetup(frame, &clamped).z_a;
         continue;
       }
+      RigRequest request;
+      request.command.z_a = z_a;
+      request.ownership.has_session = true;
+      if (kind == KcFrame::kSession) {
+        const KcSession session = protocol.DecodeSession(frame);
+        request.ownership.session = session.session;
+        request.ownership.claim = session.claim;
+        request.ownership.release = session.release;
+        request.reset_fault = session.reset_fault;
+        if (!rig->Request(request)) ++counters->refused;
+        continue;
+      }
       const KcCommand decoded = protocol.DecodeCommand(frame, &clamped);
-      RigCommand command;
-      command.force = decoded.force;
-      command.z_a = z_a;
-      command.enable = decoded.enable;
-      command.sequence = decoded.sequence;
-      rig->AdvanceTo(Now());
-      rig->ApplyCommand(command, decoded.reset_fault);
+      request.command.force = decoded.force;
+      request.command.enable = decoded.enable;
+      request.command.sequence = decoded.sequence;
+      request.ownership.session = decoded.session;
+      request.ownership.enable = decoded.enable;
+      // A refused command gets no sample: the owner's samples stay its own.
+      if (!rig->Request(request)) {
+        ++counters->refused;
+        continue;
+      }
       ++counters->commands;
       last_sample = rig->TakeSample();
       CanFrame frames[kSampleFrames];
@@ -84,6 +104,9 @@ Status ServeCan(RigEmulator* rig, const std::string& dbc_file,
       heartbeat.fault_code = rig->fault();
       heartbeat.protocol = kKcRigProtocolVersion;
       heartbeat.sample = last_sample.sample;
+      heartbeat.owner = static_cast<std::uint8_t>(rig->ownership().owner());
+      heartbeat.refusing = rig->ownership().refused() != refused_at_heartbeat;
+      refused_at_heartbeat = rig->ownership().refused();
       send(protocol.EncodeHeartbeat(heartbeat));
       ++counters->heartbeats;
       last_status = rig_status;

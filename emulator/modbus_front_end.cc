@@ -60,18 +60,20 @@ RigRequest DecodeWrite(const ModbusMap& map, const std::uint16_t* holding,
 }  // namespace
 
 Status ServeModbus(RigEmulator* rig, const ModbusMap& map,
-                   const std::string& host, int port,
-                   const std::atomic<int>& stop,
-                   const std::function<void(int)>& on_listening) {
+                   const ModbusServeAt& at, const std::atomic<int>& stop,
+                   const std::function<void(const std::string&)>& on_ready) {
   ModbusServer server(map);
-  Status status = server.Listen(host, port);
+  Status status = at.device.empty() ? server.Listen(at.host, at.port)
+                                    : server.OpenSerial(at.device, at.serial);
   if (!status.ok()) return status;
   status = rig->Start(Now());
   if (!status.ok()) return status;
   std::uint16_t* input = server.input_registers();
   std::uint16_t* holding = server.holding_registers();
   PublishSample(rig->TakeSample(), *rig, map, input);
-  on_listening(server.port());
+  on_ready(at.device.empty()
+               ? "modbus-tcp://" + at.host + ":" + std::to_string(server.port())
+               : "modbus-rtu://" + at.device);
 
   ModbusServer::Hooks hooks;
   hooks.tick = [rig] { rig->AdvanceTo(Now()); };

@@ -1,4 +1,4 @@
-// The emulator's Modbus TCP front end: serves the register map of
+// The emulator's Modbus TCP or RTU front end: serves the register map of
 // config/modbus_map.yaml for a RigEmulator. A read of the input registers
 // takes a fresh sample (the rig samples on request, so the controller sees
 // one new sample per cycle); a write of the holding registers is the
@@ -14,15 +14,24 @@
 
 #include "emulator/rig_emulator.h"
 #include "io_drivers/modbus_map.h"
+#include "io_drivers/transport_config.h"
 
 namespace kcrig {
 
-// Listens on host:port (port 0 = any free port), calls `on_listening` with
-// the port, serves until *stop is non-zero.
+// Where the front end serves: TCP on host:port (port 0 = any free port),
+// or RTU on a serial device (non-empty `device`, line settings `serial`).
+struct ModbusServeAt {
+  std::string host;
+  int port = 0;
+  std::string device;
+  ModbusSettings serial;
+};
+
+// Opens `at`, calls `on_ready` with its URI (modbus-tcp://HOST:PORT with
+// the bound port, or modbus-rtu://DEVICE), serves until *stop is non-zero.
 Status ServeModbus(RigEmulator* rig, const ModbusMap& map,
-                   const std::string& host, int port,
-                   const std::atomic<int>& stop,
-                   const std::function<void(int)>& on_listening);
+                   const ModbusServeAt& at, const std::atomic<int>& stop,
+                   const std::function<void(const std::string&)>& on_ready);
 
 }  // namespace kcrig
 

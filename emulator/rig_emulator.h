@@ -5,8 +5,7 @@
 // quantization, a load cell, and the rig's own protection: a travel limit
 // and a command watchdog that fault the rig and ramp its force to zero, and
 // one master at a time (rig_ownership.h). Transport-free: front ends call
-// AdvanceTo, Request (or ApplyCommand, for a transport without sessions)
-// and TakeSample.
+// AdvanceTo, Request and TakeSample.
 #ifndef KCRIG_EMULATOR_RIG_EMULATOR_H_
 #define KCRIG_EMULATOR_RIG_EMULATOR_H_
 
@@ -23,7 +22,8 @@
 
 namespace kcrig {
 
-// The rig's fault codes (Modbus input register fault_code).
+// The rig's fault codes (Modbus input register fault_code, CAN
+// KC_Heartbeat FaultCode).
 enum RigFaultCode : std::uint16_t {
   kFaultNone = 0,
   kFaultTravel = 1,
@@ -59,9 +59,6 @@ class RigEmulator {
   // and an enabled rig faults (kFaultOwnerLost) and ramps its force down.
   void ConnectionClosed(int connection);
 
-  // A command obeyed as it is, from a transport without sessions (CAN).
-  void ApplyCommand(const RigCommand& command, bool reset_fault);
-
   // Takes one sample of every sensor (sample counter + 1).
   RigMeasurement TakeSample();
 
@@ -75,6 +72,7 @@ class RigEmulator {
 
  private:
   void Step();
+  void ApplyCommand(const RigCommand& command, bool reset_fault);
   void Fault(RigFaultCode code);
   void LoseOwner(RigFaultCode code);
   double Quantize(double value, double resolution) const;

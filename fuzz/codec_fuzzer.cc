@@ -54,6 +54,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
       case kcrig::KcFrame::kSetup:
         protocol.DecodeSetup(frame, &flagged);
         break;
+      case kcrig::KcFrame::kSession:
+        protocol.DecodeSession(frame);
+        break;
       case kcrig::KcFrame::kHeartbeat:
         protocol.DecodeHeartbeat(frame);
         break;

@@ -22,6 +22,9 @@ Status LoadRigConfig(const std::string& directory, RigConfig* rig) {
       reader.Positive(budget, "timing_budget", "wakeup_p99", &b.wakeup_p99));
   KCRIG_RETURN_IF_ERROR(reader.Positive(
       budget, "timing_budget", "cycle_p999_fraction", &b.cycle_p999_fraction));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(budget, "timing_budget",
+                                       "overrun_max_fraction", 0.0, 1.0,
+                                       &b.overrun_max_fraction));
 
   KCRIG_RETURN_IF_ERROR(
       LoadModbusSettings(reader, root, directory, rig->period, &rig->modbus));

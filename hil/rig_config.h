@@ -16,6 +16,7 @@ struct TimingBudget {
   double compute_p999_fraction = 0.2;  // of the period
   double wakeup_p99 = 5e-4;            // [s]
   double cycle_p999_fraction = 0.8;    // of the period
+  double overrun_max_fraction = 1e-3;  // of the cycles
 };
 
 struct RigConfig : LoopConfig {

@@ -7,7 +7,6 @@
 #include "records/can_bus_log.h"
 
 namespace kcrig {
-namespace {}  // namespace
 
 Status MakeRig(const std::string& uri, const RigConfig& rig_config,
                const std::string& log_dir, std::unique_ptr<RigInterface>* rig) {
@@ -29,6 +28,9 @@ Status MakeRig(const std::string& uri, const RigConfig& rig_config,
   if (!status.ok()) return status;
   ModbusMap map;
   status = LoadModbusMap(rig_config.modbus.map_file, &map);
+  if (!status.ok()) return status;
+  status =
+      CheckRtuWireTime(endpoint, map, rig_config.modbus, rig_config.period);
   if (!status.ok()) return status;
   *rig = std::make_unique<ModbusRig>(endpoint, map, rig_config.modbus);
   return Status::Ok();

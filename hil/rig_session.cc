@@ -193,6 +193,7 @@ std::string HilJson(const RigConfig& rig_config,
   hil["commands_after_trip"] = lr.commands_after_trip;
   hil["undelivered_after_trip"] = lr.undelivered_after_trip;
   hil["lost_rig_samples"] = lr.lost_rig_samples;
+  hil["rig_sample_jumps"] = lr.rig_sample_jumps;
   hil["overruns"] = lr.overruns;
   hil["skipped_cycles"] = lr.skipped_cycles;
   hil["skipped_by_late_wakeup"] = lr.skipped_by_late_wakeup;
@@ -231,14 +232,15 @@ TimingFile MakeTimingFile(const LoopTiming& timing, const LoopResult& loop,
   t.compute_p999_fraction = budget.compute_p999_fraction;
   t.wakeup_p99_us = budget.wakeup_p99 * 1e6;
   t.cycle_p999_fraction = budget.cycle_p999_fraction;
+  t.overrun_max_fraction = budget.overrun_max_fraction;
   t.within_budget =
-      WithinBudget(timing, period, budget, with_transport, &t.violations);
+      WithinBudget(timing, loop, period, budget, with_transport, &t.violations);
   return t;
 }
 
-bool WithinBudget(const LoopTiming& timing, double period,
-                  const TimingBudget& budget, bool with_transport,
-                  std::vector<std::string>* violations) {
+bool WithinBudget(const LoopTiming& timing, const LoopResult& loop,
+                  double period, const TimingBudget& budget,
+                  bool with_transport, std::vector<std::string>* violations) {
   const double period_ns = period * 1e9;
   auto check = [&](const char* what, double value_ns, double limit_ns) {
     if (value_ns > limit_ns) {
@@ -255,6 +257,17 @@ bool WithinBudget(const LoopTiming& timing, double period,
   if (with_transport) {
     check("cycle p99.9", timing.cycle.Percentile(0.999),
           budget.cycle_p999_fraction * period_ns);
+  }
+  const double overrun_fraction =
+      loop.cycles > 0 ? static_cast<double>(loop.overruns) / loop.cycles : 0.0;
+  if (overrun_fraction > budget.overrun_max_fraction) {
+    char line[160];
+    std::snprintf(line, sizeof(line),
+                  "overruns %lld of %lld cycles (%.2f %%) > budget %.2f %%",
+                  static_cast<long long>(loop.overruns),
+                  static_cast<long long>(loop.cycles), 100 * overrun_fraction,
+                  100 * budget.overrun_max_fraction);
+    violations->push_back(line);
   }
   return violations->empty();
 }

@@ -69,11 +69,11 @@ TimingFile MakeTimingFile(const LoopTiming& timing, const LoopResult& loop,
                           const RealtimeReport& realtime, double period,
                           const TimingBudget& budget, bool with_transport);
 
-// Whether the timing is within `budget`; `violations` gets one line per
-// violated item.
-bool WithinBudget(const LoopTiming& timing, double period,
-                  const TimingBudget& budget, bool with_transport,
-                  std::vector<std::string>* violations);
+// Whether the timing and the loop's overruns are within `budget`;
+// `violations` gets one line per violated item.
+bool WithinBudget(const LoopTiming& timing, const LoopResult& loop,
+                  double period, const TimingBudget& budget,
+                  bool with_transport, std::vector<std::string>* violations);
 
 }  // namespace kcrig
 

@@ -3,7 +3,9 @@
 #include <linux/can/error.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cstring>
+#include <random>
 #include <thread>
 
 #include "nlohmann/json.hpp"
@@ -22,7 +24,22 @@ std::vector<CanFilter> RigPages(const KcRigProtocol& protocol) {
     for (const CanFilter& f : filters) known |= f.id == page.id;
     if (!known) filters.push_back(page);
   }
+  // Another controller's frames: the kernel never loops our own back.
+  for (KcFrame kind : {KcFrame::kCommand, KcFrame::kSetup, KcFrame::kSession}) {
+    filters.push_back({protocol.id(kind), 0x7FFu});
+  }
   return filters;
+}
+
+std::uint8_t NewSession() {
+  std::random_device device;
+  return static_cast<std::uint8_t>(1 + device() % kMaxCanSession);
+}
+
+std::string Hex(unsigned id) {
+  char text[16];
+  std::snprintf(text, sizeof(text), "0x%03x", id);
+  return text;
 }
 
 bool IsSampleFrame(KcFrame kind) {
@@ -53,7 +70,8 @@ const char* CanErrorFault(const CanFrame& frame) {
   return nullptr;
 }
 
-CanRig::CanRig(CanRigOptions options) : options_(std::move(options)) {}
+CanRig::CanRig(CanRigOptions options)
+    : options_(std::move(options)), session_(NewSession()) {}
 
 // A rig that was never activated ran no experiment: its bus log goes.
 CanRig::~CanRig() {
@@ -98,7 +116,25 @@ Status CanRig::Configure() {
                          std::to_string(heartbeat_.protocol) + ", expected " +
                          std::to_string(kKcRigProtocolVersion));
   }
+  if (heartbeat_.owner != 0) return ClaimedElsewhere();
   return Status::Ok();
+}
+
+Status CanRig::ClaimedElsewhere() const {
+  std::string why;
+  if (heartbeat_.owner != 0 && heartbeat_.owner != session_) {
+    why = "another master (session " + std::to_string(heartbeat_.owner) +
+          ") is in control; stop it, or wait until the rig's command "
+          "watchdog releases it";
+  } else if (foreign_frame_id_ >= 0) {
+    why = "another controller sends " + Hex(foreign_frame_id_) +
+          " with this controller's session or none; stop it";
+  } else {
+    why = "the rig did not grant this controller's claim (session " +
+          std::to_string(session_) + ") within 1 s";
+  }
+  return Status::Error(Describe() +
+                       ": the rig refuses this controller: " + why);
 }
 
 void CanRig::SetFault(const char* what) {
@@ -133,13 +169,35 @@ void CanRig::Take(const TimedCanFrame& timed) {
     have_heartbeat_ = true;
     fault_code_ = heartbeat_.fault_code;
     ++heartbeats_;
+    if (heartbeat_.refusing) ++refusing_heartbeats_;
+    if (claimed_ && heartbeat_.owner != session_ && foreign_owner_ < 0) {
+      foreign_owner_ = heartbeat_.owner;
+    }
     return;
   }
   if (!IsSampleFrame(kind)) {
-    ++unexpected_;  // a controller's frame from someone else
+    TakeForeign(frame, kind);
     return;
   }
   if (assembler_.Add(frame, kind, &latest_)) have_new_sample_ = true;
+}
+
+// Another controller's frame (the kernel never hands us our own). The rig
+// refuses a command or session request of another session, so it is only
+// counted; one that carries this session, or a KC_Setup (which carries
+// none), may have been obeyed: a second master.
+void CanRig::TakeForeign(const CanFrame& frame, KcFrame kind) {
+  ++foreign_frames_;
+  bool clamped = false;
+  const int session = kind == KcFrame::kCommand
+                          ? protocol_.DecodeCommand(frame, &clamped).session
+                      : kind == KcFrame::kSession
+                          ? protocol_.DecodeSession(frame).session
+                          : -1;
+  if (claim_sent_ && (session < 0 || session == session_) &&
+      foreign_frame_id_ < 0) {
+    foreign_frame_id_ = static_cast<int>(frame.id);
+  }
 }
 
 void CanRig::DrainSocket(int max_frames) {
@@ -182,6 +240,20 @@ bool CanRig::SendCommand(const KcCommand& command) {
   return SendFrame(frame);
 }
 
+bool CanRig::SendSession(bool claim, bool release, bool reset_fault) {
+  return SendFrame(
+      protocol_.EncodeSession({session_, claim, release, reset_fault}));
+}
+
+bool CanRig::SendSetup(std::uint8_t phase, std::uint8_t safety) {
+  bool clamped = false;
+  const KcSetup setup{z_a_, options_.period, kKcRigProtocolVersion, phase,
+                      safety};
+  sent_phase_ = phase;
+  sent_safety_ = safety;
+  return SendFrame(protocol_.EncodeSetup(setup, &clamped));
+}
+
 template <typename Done>
 bool CanRig::Exchange(KcCommand command, double timeout, Done done) {
   const auto deadline =
@@ -198,15 +270,20 @@ bool CanRig::Exchange(KcCommand command, double timeout, Done done) {
 }
 
 Status CanRig::Activate() {
-  bool clamped = false;
-  KcSetup setup{z_a_, options_.period, kKcRigProtocolVersion};
-  SendFrame(protocol_.EncodeSetup(setup, &clamped));
-  // Reset a latched fault at zero force, then enable and see the rig
-  // report itself enabled without fault.
+  SendSetup(0, 0);
+  // Claim the rig and reset a latched fault at zero force, see the rig name
+  // this session, then enable and see the rig report itself enabled
+  // without fault.
+  SendSession(true, false, true);
+  claim_sent_ = true;
   KcCommand command;
-  command.reset_fault = true;
-  Exchange(command, 0.02, [] { return false; });
-  command.reset_fault = false;
+  command.session = session_;
+  have_heartbeat_ = false;
+  const bool owned = Exchange(command, 1.0, [this] {
+    return have_heartbeat_ && heartbeat_.owner == session_;
+  });
+  if (!owned || foreign_frame_id_ >= 0) return ClaimedElsewhere();
+  claimed_ = true;
   command.enable = true;
   have_new_sample_ = false;
   const bool enabled = Exchange(command, 0.2, [this] {
@@ -214,6 +291,7 @@ Status CanRig::Activate() {
            !(latest_.status & kRigFault);
   });
   if (fault_ != nullptr) return Status::Error(Describe() + ": " + fault_);
+  if (foreign_owner_ >= 0 || foreign_frame_id_ >= 0) return ClaimedElsewhere();
   if (!enabled) {
     return Status::Error(Describe() +
                          ": the rig did not report itself enabled (status " +
@@ -227,10 +305,14 @@ Status CanRig::Activate() {
 }
 
 Status CanRig::Deactivate() {
+  SendSetup(0, 0);    // outside the loop again: lifecycle commands follow
   KcCommand command;  // zero force, disabled
+  command.session = session_;
   const bool disabled = Exchange(command, 0.05, [this] {
     return have_new_sample_ && !(latest_.status & kRigEnabled);
   });
+  SendSession(false, true, false);
+  claim_sent_ = claimed_ = false;
   // Frames still under way belong in the log.
   std::this_thread::sleep_for(std::chrono::milliseconds(10));
   DrainSocket(10000);
@@ -251,8 +333,12 @@ Status CanRig::FinishBusLog() {
 }
 
 void CanRig::OnError() {
+  SendSetup(0, 0);
   KcCommand command;
+  command.session = session_;
   for (int k = 0; k < 3; ++k) SendCommand(command);
+  if (claim_sent_) SendSession(false, true, false);
+  claim_sent_ = claimed_ = false;
   FinishBusLog();
 }
 
@@ -261,6 +347,10 @@ IoResult CanRig::Read(RigMeasurement* measurement) {
   if (fault_ != nullptr && !fault_reported_) {
     fault_reported_ = true;
     return IoResult::kFault;
+  }
+  if ((foreign_owner_ >= 0 || foreign_frame_id_ >= 0) && !foreign_reported_) {
+    foreign_reported_ = true;  // once: the ramp-down still logs samples
+    return IoResult::kForeign;
   }
   if (!have_new_sample_) return IoResult::kStale;
   have_new_sample_ = false;
@@ -271,18 +361,19 @@ IoResult CanRig::Read(RigMeasurement* measurement) {
 
 IoResult CanRig::Write(const RigCommand& command) {
   z_a_ = command.z_a;
+  bool ok = true;
+  // The phase and safety state hold from the next command on: a change goes
+  // out first.
+  if (command.sequence % kSetupEveryCycles == 0 ||
+      command.phase != sent_phase_ || command.safety != sent_safety_) {
+    ok &= SendSetup(command.phase, command.safety);
+  }
   KcCommand frame;
   frame.force = command.force;
   frame.sequence = static_cast<std::uint8_t>(command.sequence);
   frame.enable = command.enable;
-  frame.phase = command.phase;
-  frame.safety = command.safety;
-  bool ok = SendCommand(frame);
-  if (command.sequence % kSetupEveryCycles == 0) {
-    bool clamped = false;
-    const KcSetup setup{command.z_a, options_.period, kKcRigProtocolVersion};
-    ok &= SendFrame(protocol_.EncodeSetup(setup, &clamped));
-  }
+  frame.session = session_;
+  ok &= SendCommand(frame);
   return ok ? IoResult::kFresh : IoResult::kError;
 }
 
@@ -293,12 +384,14 @@ std::string CanRig::CountersJson() const {
   j["heartbeats"] = heartbeats_;
   j["malformed_frames"] = malformed_;
   j["unknown_id_frames"] = unknown_id_;
-  j["unexpected_frames"] = unexpected_;
   j["stale_frames"] = assembler_.stale();
   j["out_of_sequence_frames"] = assembler_.out_of_sequence();
   j["incomplete_samples"] = assembler_.incomplete();
   j["out_of_range_samples"] = assembler_.out_of_range();
   j["clamped_commands"] = clamped_commands_;
+  j["session"] = session_;
+  j["foreign_frames"] = foreign_frames_;
+  j["refusing_heartbeats"] = refusing_heartbeats_;
   j["error_frames"] = error_frames_;
   j["transmit_queue_full"] = queue_full_;
   j["send_errors"] = send_errors_;
@@ -307,6 +400,24 @@ std::string CanRig::CountersJson() const {
   j["bus_log_frames"] = log != nullptr ? log->written() : 0;
   j["bus_log_dropped"] = log != nullptr ? log->dropped() : 0;
   if (fault_ != nullptr) j["fault"] = fault_;
+  if (foreign_owner_ > 0) {
+    j["fault"] = "the rig obeys another master: it reports session " +
+                 std::to_string(foreign_owner_) +
+                 " in control, not this controller's " +
+                 std::to_string(session_);
+  } else if (foreign_owner_ == 0) {
+    j["fault"] =
+        "the rig released this controller's claim (its command watchdog, "
+        "or a restart): it obeys no master now";
+  } else if (foreign_frame_id_ >= 0) {
+    j["fault"] =
+        "the rig may obey another master: another controller sends " +
+        Hex(foreign_frame_id_) +
+        (foreign_frame_id_ == static_cast<int>(protocol_.id(KcFrame::kSetup))
+             ? " (which carries no session)"
+             : " with this controller's session " + std::to_string(session_)) +
+        " on the bus";
+  }
   return j.dump();
 }
 

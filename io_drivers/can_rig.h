@@ -2,6 +2,16 @@
 // the loop's RigInterface, speaking config/kc_rig.dbc (io_drivers/
 // kc_rig_protocol.h).
 //
+// One master: Configure refuses a rig whose heartbeat names an owner;
+// Activate claims it for a random session (KC_Session) and sees the rig
+// name that session; every KC_Command carries it; Deactivate and OnError
+// release it. Read() returns kForeign (the loop trips) once the rig names
+// another owner, or once another controller sends a frame the rig may have
+// obeyed: a KC_Command or KC_Session with this session, or a KC_Setup (the
+// kernel never hands a socket its own frames, so every controller frame
+// received is someone else's). Other sessions' frames, which the rig
+// refuses, are counted (foreign_frames).
+//
 // Read() drains the socket without blocking (at most kMaxFramesPerRead
 // frames, so a flood cannot hold the cycle) and returns the newest complete
 // sample. Write() sends KC_Command (and KC_Setup every 100 cycles) without
@@ -13,8 +23,9 @@
 // can.tx_timeout is a tx timeout too. Other error frames are counted.
 //
 // Receive filters pass the 256-id pages of the rig's messages (0x200 and
-// 0x300 for kc_rig.dbc), so unknown ids there are seen and counted; the
-// rest of the bus never reaches the process.
+// 0x300 for kc_rig.dbc), so unknown ids there are seen and counted, and
+// the controller's own three ids; the rest of the bus never reaches the
+// process.
 //
 // Every frame sent or taken in goes to the bus log (candump -l format) when
 // one is given, in the order the controller handled it; it is kept (renamed
@@ -69,9 +80,14 @@ class CanRig : public RigInterface {
  private:
   // Handles one received frame (the cycle's and the lifecycle's path).
   void Take(const TimedCanFrame& frame);
+  void TakeForeign(const CanFrame& frame, KcFrame kind);
   void DrainSocket(int max_frames);
   bool SendFrame(const CanFrame& frame);
   bool SendCommand(const KcCommand& command);
+  bool SendSession(bool claim, bool release, bool reset_fault);
+  // KC_Setup for the current acting height, phase and safety state.
+  bool SendSetup(std::uint8_t phase, std::uint8_t safety);
+  Status ClaimedElsewhere() const;
   void SetFault(const char* what);
   // Keeps the bus log of an activated rig, drops that of one never
   // activated.
@@ -85,6 +101,8 @@ class CanRig : public RigInterface {
   KcSampleAssembler assembler_{&protocol_};
   CanSocket socket_;
   double z_a_ = 0;
+  const std::uint8_t session_;              // 1..kMaxCanSession
+  int sent_phase_ = -1, sent_safety_ = -1;  // in the last KC_Setup
   bool activated_ = false;  // the bus log is kept only for an activated rig
 
   RigMeasurement latest_;
@@ -95,13 +113,21 @@ class CanRig : public RigInterface {
 
   const char* fault_ = nullptr;  // the transport fault, once seen
   bool fault_reported_ = false;
+  bool claim_sent_ = false;  // from the claim until the release
+  bool claimed_ = false;     // the rig named this session its owner
+  // A second master, once seen: another owner in the heartbeat, or the id
+  // of another controller's frame.
+  int foreign_owner_ = -1;
+  int foreign_frame_id_ = -1;
+  bool foreign_reported_ = false;
   std::int64_t queue_full_since_us_ = -1;
 
   // Counters (CountersJson).
   std::int64_t frames_received_ = 0, frames_sent_ = 0;
-  std::int64_t malformed_ = 0, unknown_id_ = 0, unexpected_ = 0;
+  std::int64_t malformed_ = 0, unknown_id_ = 0;
   std::int64_t error_frames_ = 0, queue_full_ = 0, send_errors_ = 0;
   std::int64_t clamped_commands_ = 0, heartbeats_ = 0, receive_errors_ = 0;
+  std::int64_t foreign_frames_ = 0, refusing_heartbeats_ = 0;
 };
 
 }  // namespace kcrig

@@ -11,8 +11,8 @@ struct SignalName {
 };
 
 constexpr const char* kMessageNames[] = {
-    "KC_Command", "KC_Setup", "KC_PositionXY", "KC_PositionZToe",
-    "KC_Angles",  "KC_Force", "KC_Heartbeat",
+    "KC_Command",      "KC_Setup",  "KC_Session", "KC_PositionXY",
+    "KC_PositionZToe", "KC_Angles", "KC_Force",   "KC_Heartbeat",
 };
 
 // In the order of KcRigProtocol::Signal.
@@ -22,12 +22,16 @@ constexpr SignalName kSignalNames[] = {
     {KcFrame::kCommand, "Fz_Set"},
     {KcFrame::kCommand, "Sequence"},
     {KcFrame::kCommand, "Enable"},
-    {KcFrame::kCommand, "ResetFault"},
-    {KcFrame::kCommand, "Phase"},
-    {KcFrame::kCommand, "Safety"},
+    {KcFrame::kCommand, "Session"},
     {KcFrame::kSetup, "ActingHeight"},
     {KcFrame::kSetup, "CyclePeriod"},
     {KcFrame::kSetup, "Protocol"},
+    {KcFrame::kSetup, "Phase"},
+    {KcFrame::kSetup, "Safety"},
+    {KcFrame::kSession, "Session"},
+    {KcFrame::kSession, "Claim"},
+    {KcFrame::kSession, "Release"},
+    {KcFrame::kSession, "ResetFault"},
     {KcFrame::kPositionXY, "X"},
     {KcFrame::kPositionXY, "Y"},
     {KcFrame::kPositionXY, "Counter"},
@@ -49,6 +53,8 @@ constexpr SignalName kSignalNames[] = {
     {KcFrame::kHeartbeat, "FaultCode"},
     {KcFrame::kHeartbeat, "Protocol"},
     {KcFrame::kHeartbeat, "SampleCounter"},
+    {KcFrame::kHeartbeat, "Owner"},
+    {KcFrame::kHeartbeat, "Refusing"},
 };
 
 // Integer signals (counters, bits, codes) decode exactly.
@@ -125,10 +131,8 @@ CanFrame KcRigProtocol::EncodeCommand(const KcCommand& command,
   EncodeSignal(signals_[kSequence], command.sequence, frame.data, out_of_range);
   EncodeSignal(signals_[kEnable], command.enable ? 1 : 0, frame.data,
                out_of_range);
-  EncodeSignal(signals_[kResetFault], command.reset_fault ? 1 : 0, frame.data,
+  EncodeSignal(signals_[kCommandSession], command.session, frame.data,
                out_of_range);
-  EncodeSignal(signals_[kPhase], command.phase, frame.data, out_of_range);
-  EncodeSignal(signals_[kSafety], command.safety, frame.data, out_of_range);
   return frame;
 }
 
@@ -139,6 +143,21 @@ CanFrame KcRigProtocol::EncodeSetup(const KcSetup& setup,
   EncodeSignal(signals_[kCyclePeriod], setup.period, frame.data, out_of_range);
   EncodeSignal(signals_[kSetupProtocol], setup.protocol, frame.data,
                out_of_range);
+  EncodeSignal(signals_[kPhase], setup.phase, frame.data, out_of_range);
+  EncodeSignal(signals_[kSafety], setup.safety, frame.data, out_of_range);
+  return frame;
+}
+
+CanFrame KcRigProtocol::EncodeSession(const KcSession& session) const {
+  CanFrame frame = EmptyFrame(messages_[Index(KcFrame::kSession)]);
+  bool ignored = false;
+  EncodeSignal(signals_[kSessionSession], session.session, frame.data,
+               &ignored);
+  EncodeSignal(signals_[kClaim], session.claim ? 1 : 0, frame.data, &ignored);
+  EncodeSignal(signals_[kRelease], session.release ? 1 : 0, frame.data,
+               &ignored);
+  EncodeSignal(signals_[kResetFault], session.reset_fault ? 1 : 0, frame.data,
+               &ignored);
   return frame;
 }
 
@@ -174,6 +193,9 @@ CanFrame KcRigProtocol::EncodeHeartbeat(const KcHeartbeat& heartbeat) const {
                &ignored);
   EncodeSignal(signals_[kHbProtocol], heartbeat.protocol, frame.data, &ignored);
   EncodeSignal(signals_[kHbSample], heartbeat.sample, frame.data, &ignored);
+  EncodeSignal(signals_[kHbOwner], heartbeat.owner, frame.data, &ignored);
+  EncodeSignal(signals_[kHbRefusing], heartbeat.refusing ? 1 : 0, frame.data,
+               &ignored);
   return frame;
 }
 
@@ -187,11 +209,8 @@ KcCommand KcRigProtocol::DecodeCommand(const CanFrame& frame,
   command.sequence =
       static_cast<std::uint8_t>(DecodeInteger(signals_[kSequence], frame.data));
   command.enable = DecodeInteger(signals_[kEnable], frame.data) != 0;
-  command.reset_fault = DecodeInteger(signals_[kResetFault], frame.data) != 0;
-  command.phase =
-      static_cast<std::uint8_t>(DecodeInteger(signals_[kPhase], frame.data));
-  command.safety =
-      static_cast<std::uint8_t>(DecodeInteger(signals_[kSafety], frame.data));
+  command.session = static_cast<std::uint8_t>(
+      DecodeInteger(signals_[kCommandSession], frame.data));
   return command;
 }
 
@@ -202,7 +221,21 @@ KcSetup KcRigProtocol::DecodeSetup(const CanFrame& frame,
   setup.period = DecodeSignal(signals_[kCyclePeriod], frame.data, out_of_range);
   setup.protocol =
       static_cast<int>(DecodeInteger(signals_[kSetupProtocol], frame.data));
+  setup.phase =
+      static_cast<std::uint8_t>(DecodeInteger(signals_[kPhase], frame.data));
+  setup.safety =
+      static_cast<std::uint8_t>(DecodeInteger(signals_[kSafety], frame.data));
   return setup;
+}
+
+KcSession KcRigProtocol::DecodeSession(const CanFrame& frame) const {
+  KcSession session;
+  session.session = static_cast<std::uint8_t>(
+      DecodeInteger(signals_[kSessionSession], frame.data));
+  session.claim = DecodeInteger(signals_[kClaim], frame.data) != 0;
+  session.release = DecodeInteger(signals_[kRelease], frame.data) != 0;
+  session.reset_fault = DecodeInteger(signals_[kResetFault], frame.data) != 0;
+  return session;
 }
 
 KcHeartbeat KcRigProtocol::DecodeHeartbeat(const CanFrame& frame) const {
@@ -216,6 +249,9 @@ KcHeartbeat KcRigProtocol::DecodeHeartbeat(const CanFrame& frame) const {
   bool ignored = false;
   heartbeat.sample = static_cast<std::uint32_t>(
       DecodeSignal(signals_[kHbSample], frame.data, &ignored));
+  heartbeat.owner =
+      static_cast<std::uint8_t>(DecodeInteger(signals_[kHbOwner], frame.data));
+  heartbeat.refusing = DecodeInteger(signals_[kHbRefusing], frame.data) != 0;
   return heartbeat;
 }
 

@@ -4,13 +4,18 @@
 // (CanRig), the emulator's CAN node, and the offline decoder of candump
 // logs, so the three cannot disagree.
 //
+// One master per rig: the controller claims the rig for its session with
+// KC_Session and gives it back the same way; the rig obeys only frames
+// that carry its owner's session and names the owner in its heartbeat.
 // Per controller cycle: KC_Command (set-points, sequence = cycle mod 256,
-// enable, phase, safety) controller -> rig; the rig answers with one
-// sample in four frames (KC_PositionXY, KC_PositionZToe, KC_Angles,
-// KC_Force) that share a Counter (the rig's sample counter mod 256) and
-// carry the rig's status. KC_Setup (acting height, cycle period) goes out
-// at activation and every 100 cycles, KC_Heartbeat (status, fault code,
-// 32-bit sample counter) at 10 Hz and on every status change.
+// enable, session) controller -> rig; the rig answers with one sample in
+// four frames (KC_PositionXY, KC_PositionZToe, KC_Angles, KC_Force) that
+// share a Counter (the rig's sample counter mod 256) and carry the rig's
+// status. KC_Setup (acting height, cycle period, run phase, safety state)
+// goes out at activation, every 100 cycles and before the command of a
+// cycle whose phase or safety state changed; KC_Heartbeat (status, fault
+// code, 32-bit sample counter, owner) at 10 Hz and on every status
+// change.
 #ifndef KCRIG_IO_DRIVERS_KC_RIG_PROTOCOL_H_
 #define KCRIG_IO_DRIVERS_KC_RIG_PROTOCOL_H_
 
@@ -22,15 +27,17 @@
 
 namespace kcrig {
 
-// 2: KC_Command's Phase gained hold (5) and return (6); ramp-down is 7 and
-// done 8 (version 1: ramp-down 5, done 6).
-inline constexpr int kKcRigProtocolVersion = 2;
+// 3: one master (KC_Session, KC_Command's Session, the heartbeat's Owner);
+// Phase and Safety moved from KC_Command to KC_Setup.
+inline constexpr int kKcRigProtocolVersion = 3;
+inline constexpr int kMaxCanSession = 127;  // sessions are 1..127
 inline constexpr int kSetupEveryCycles = 100;
 inline constexpr double kHeartbeatPeriod = 0.1;  // [s]
 
 enum class KcFrame {
   kCommand,
   kSetup,
+  kSession,
   kPositionXY,
   kPositionZToe,
   kAngles,
@@ -45,15 +52,23 @@ struct KcCommand {
   Vec3<double> force = Vec3<double>::Zero();  // [N]
   std::uint8_t sequence = 0;
   bool enable = false;
-  bool reset_fault = false;
-  std::uint8_t phase = 0;   // 0 idle, else 1 + RunPhase
-  std::uint8_t safety = 0;  // SafetyState
+  std::uint8_t session = 0;
 };
 
 struct KcSetup {
   double z_a = 0;     // [m]
   double period = 0;  // [s]
   int protocol = 0;
+  std::uint8_t phase = 0;   // 0 idle, else 1 + RunPhase
+  std::uint8_t safety = 0;  // SafetyState
+};
+
+// What a KC_Session frame carries.
+struct KcSession {
+  std::uint8_t session = 0;
+  bool claim = false;
+  bool release = false;
+  bool reset_fault = false;
 };
 
 struct KcHeartbeat {
@@ -61,6 +76,8 @@ struct KcHeartbeat {
   std::uint16_t fault_code = 0;
   int protocol = 0;
   std::uint32_t sample = 0;
+  std::uint8_t owner = 0;  // 0: unclaimed
+  bool refusing = false;   // refused another session since the last one
 };
 
 class KcRigProtocol {
@@ -78,6 +95,7 @@ class KcRigProtocol {
   // range (never cleared). No allocation.
   CanFrame EncodeCommand(const KcCommand& command, bool* out_of_range) const;
   CanFrame EncodeSetup(const KcSetup& setup, bool* out_of_range) const;
+  CanFrame EncodeSession(const KcSession& session) const;
   // The four frames of one sample, Counter = sample mod 256.
   void EncodeSample(const RigMeasurement& sample, CanFrame* frames,
                     bool* out_of_range) const;
@@ -87,6 +105,7 @@ class KcRigProtocol {
   // at least the message's DLC (the caller counts others as malformed).
   KcCommand DecodeCommand(const CanFrame& frame, bool* out_of_range) const;
   KcSetup DecodeSetup(const CanFrame& frame, bool* out_of_range) const;
+  KcSession DecodeSession(const CanFrame& frame) const;
   KcHeartbeat DecodeHeartbeat(const CanFrame& frame) const;
   // One sample frame into *sample (its channels only); returns its Counter
   // and status.
@@ -106,12 +125,16 @@ class KcRigProtocol {
     kFzSet,
     kSequence,
     kEnable,
-    kResetFault,
-    kPhase,
-    kSafety,
+    kCommandSession,
     kActingHeight,
     kCyclePeriod,
     kSetupProtocol,
+    kPhase,
+    kSafety,
+    kSessionSession,
+    kClaim,
+    kRelease,
+    kResetFault,
     kX,
     kY,
     kXYCounter,
@@ -133,6 +156,8 @@ class KcRigProtocol {
     kHbFault,
     kHbProtocol,
     kHbSample,
+    kHbOwner,
+    kHbRefusing,
     kSignalCount,
   };
   DbcMessage messages_[static_cast<int>(KcFrame::kCount)];

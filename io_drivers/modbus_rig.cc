@@ -68,6 +68,45 @@ Status ParseModbusUri(const std::string& uri, ModbusEndpoint* endpoint) {
   return Status::Ok();
 }
 
+Status CheckRtuWireTime(const ModbusEndpoint& endpoint, const ModbusMap& map,
+                        const ModbusSettings& settings, double period) {
+  if (!endpoint.rtu) return Status::Ok();
+  const int bits_per_character = 1 + settings.data_bits +
+                                 (settings.parity == 'N' ? 0 : 1) +
+                                 settings.stop_bits;
+  auto wire_time = [&](double characters) {
+    return characters * bits_per_character / settings.baud;
+  };
+  // Function 4: request 8 bytes, reply 5 + 2 per register; function 16:
+  // request 9 + 2 per register, reply 8; 3.5 characters before each frame.
+  const double read = wire_time(8 + 5 + 2 * map.input_count() + 2 * 3.5);
+  const double write = wire_time(9 + 2 * map.holding_count() + 8 + 2 * 3.5);
+  auto ms = [](double seconds) {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%.2f ms", seconds * 1e3);
+    return std::string(text);
+  };
+  const std::string where = "--rig modbus-rtu://" + endpoint.device + ": at " +
+                            std::to_string(settings.baud) + " baud ";
+  if (read + write > period) {
+    return Status::Error(where + "one cycle's read and write take " +
+                         ms(read + write) +
+                         " on the wire, more than "
+                         "loop.period (" +
+                         ms(period) +
+                         "): lengthen loop.period in rig.yaml or raise "
+                         "modbus.rtu.baud");
+  }
+  if (read > settings.response_timeout) {
+    return Status::Error(where + "the read's request and reply take " +
+                         ms(read) +
+                         " on the wire, more than "
+                         "modbus.response_timeout (" +
+                         ms(settings.response_timeout) + ")");
+  }
+  return Status::Ok();
+}
+
 ModbusRig::ModbusRig(const ModbusEndpoint& endpoint, const ModbusMap& map,
                      const ModbusSettings& settings)
     : endpoint_(endpoint),

@@ -38,6 +38,13 @@ struct ModbusEndpoint {
 
 Status ParseModbusUri(const std::string& uri, ModbusEndpoint* endpoint);
 
+// Over RTU, whether one cycle's read and write fit `period` on the wire at
+// the line's baud rate (with the 3.5-character silences between frames),
+// and the read's request and reply fit the response timeout; the error
+// gives both times.
+Status CheckRtuWireTime(const ModbusEndpoint& endpoint, const ModbusMap& map,
+                        const ModbusSettings& settings, double period);
+
 class ModbusRig : public RigInterface {
  public:
   ModbusRig(const ModbusEndpoint& endpoint, const ModbusMap& map,

@@ -89,12 +89,53 @@ bool HoldingWrite(const std::uint8_t* pdu, int pdu_length,
   return false;
 }
 
+// Answers one whole request frame (the ADU as libmodbus frames it for the
+// context's backend: MBAP header or RTU address before the PDU, RTU CRC
+// after it); false when the reply could not be sent.
+bool AnswerRequest(modbus_t* context, modbus_mapping_t* mapping,
+                   const ModbusServer::Hooks& hooks, int client,
+                   const std::uint8_t* frame, int length,
+                   std::vector<std::uint16_t>* values) {
+  const int header = modbus_get_header_length(context);
+  const int trailer = header == kHeaderLength ? 0 : 2;  // RTU: the CRC
+  const std::uint8_t* pdu = frame + header;
+  const int pdu_length = length - header - trailer;
+  const int unit = frame[header - 1];
+  if (pdu_length < 1 ||
+      (unit != modbus_get_slave(context) && unit != 0 && unit != 0xff)) {
+    return true;  // for another unit behind a gateway: not ours to answer
+  }
+  if (pdu[0] == MODBUS_FC_READ_INPUT_REGISTERS) hooks.before_input_read();
+  const bool writes_holding = pdu[0] == MODBUS_FC_WRITE_SINGLE_REGISTER ||
+                              pdu[0] == MODBUS_FC_WRITE_MULTIPLE_REGISTERS ||
+                              pdu[0] == MODBUS_FC_WRITE_AND_READ_REGISTERS ||
+                              pdu[0] == MODBUS_FC_MASK_WRITE_REGISTER;
+  int address = 0;
+  if (writes_holding) {
+    // A write the frame does not hold whole is never applied.
+    if (!HoldingWrite(pdu, pdu_length, mapping->tab_registers,
+                      mapping->nb_registers, &address, values)) {
+      return modbus_reply_exception(context, frame,
+                                    MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE) >= 0;
+    }
+    if (hooks.accept_holding_write &&
+        !hooks.accept_holding_write(client, address,
+                                    static_cast<int>(values->size()),
+                                    values->data())) {
+      return modbus_reply_exception(context, frame,
+                                    MODBUS_EXCEPTION_SLAVE_OR_SERVER_BUSY) >= 0;
+    }
+  }
+  return modbus_reply(context, frame, length, mapping) >= 0;
+}
+
 }  // namespace
 
 ModbusServer::ModbusServer(const ModbusMap& map) : map_(map) {}
 
 ModbusServer::~ModbusServer() {
   if (listen_socket_ >= 0) close(listen_socket_);
+  if (!device_.empty()) modbus_close(context_);
   if (mapping_ != nullptr) modbus_mapping_free(mapping_);
   if (context_ != nullptr) modbus_free(context_);
 }
@@ -124,6 +165,31 @@ Status ModbusServer::Listen(const std::string& host, int port) {
   return Status::Ok();
 }
 
+Status ModbusServer::OpenSerial(const std::string& device,
+                                const ModbusSettings& serial) {
+  const std::string what = "--modbus-rtu " + device;
+  context_ = modbus_new_rtu(device.c_str(), serial.baud, serial.parity,
+                            serial.data_bits, serial.stop_bits);
+  if (context_ == nullptr) {
+    return Status::Error(what + ": " + modbus_strerror(errno));
+  }
+  modbus_set_slave(context_, map_.unit_id);
+  // A frame's bytes follow each other within a few character times; a
+  // line that stops mid-frame is given up on soon (the master retries).
+  modbus_set_byte_timeout(context_, 0, 20000);
+  mapping_ = modbus_mapping_new_start_address(
+      0, 0, 0, 0, 0, map_.holding_count(), 0, map_.input_count());
+  if (mapping_ == nullptr) {
+    return Status::Error("modbus server: cannot allocate the register map");
+  }
+  if (modbus_connect(context_) == -1) {
+    return Status::Error(what + ": cannot open (" + modbus_strerror(errno) +
+                         ")");
+  }
+  device_ = device;
+  return Status::Ok();
+}
+
 std::uint16_t* ModbusServer::input_registers() {
   return mapping_->tab_input_registers;
 }
@@ -137,11 +203,10 @@ namespace {
 // The server's loop state; one instance per Serve().
 class Connections {
  public:
-  Connections(modbus_t* context, modbus_mapping_t* mapping, int unit_id,
-              int listen_socket, const ModbusServer::Hooks& hooks)
+  Connections(modbus_t* context, modbus_mapping_t* mapping, int listen_socket,
+              const ModbusServer::Hooks& hooks)
       : context_(context),
         mapping_(mapping),
-        unit_id_(unit_id),
         listen_socket_(listen_socket),
         hooks_(hooks) {}
 
@@ -241,40 +306,13 @@ class Connections {
         const int frame_length = c->received;
         c->received = 0;
         ++answered;
-        if (!Answer(c->id, fd, c->frame.data(), frame_length)) return Close(fd);
+        modbus_set_socket(context_, fd);
+        if (!AnswerRequest(context_, mapping_, hooks_, c->id, c->frame.data(),
+                           frame_length, &values_)) {
+          return Close(fd);
+        }
       }
     }
-  }
-
-  // Answers one whole frame; false when the reply could not be sent.
-  bool Answer(int id, int fd, const std::uint8_t* frame, int length) {
-    modbus_set_socket(context_, fd);
-    const std::uint8_t* pdu = frame + kHeaderLength;
-    const int pdu_length = length - kHeaderLength;
-    if (frame[6] != unit_id_ && frame[6] != 0 && frame[6] != 0xff) {
-      return true;  // for another unit behind a gateway: not ours to answer
-    }
-    if (pdu[0] == MODBUS_FC_READ_INPUT_REGISTERS) hooks_.before_input_read();
-    const bool writes_holding = pdu[0] == MODBUS_FC_WRITE_SINGLE_REGISTER ||
-                                pdu[0] == MODBUS_FC_WRITE_MULTIPLE_REGISTERS ||
-                                pdu[0] == MODBUS_FC_WRITE_AND_READ_REGISTERS ||
-                                pdu[0] == MODBUS_FC_MASK_WRITE_REGISTER;
-    int address = 0;
-    if (writes_holding) {
-      // A write the frame does not hold whole is never applied.
-      if (!HoldingWrite(pdu, pdu_length, mapping_->tab_registers,
-                        mapping_->nb_registers, &address, &values_)) {
-        return modbus_reply_exception(context_, frame,
-                                      MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE) >= 0;
-      }
-      if (hooks_.accept_holding_write &&
-          !hooks_.accept_holding_write(
-              id, address, static_cast<int>(values_.size()), values_.data())) {
-        return modbus_reply_exception(
-                   context_, frame, MODBUS_EXCEPTION_SLAVE_OR_SERVER_BUSY) >= 0;
-      }
-    }
-    return modbus_reply(context_, frame, length, mapping_) >= 0;
   }
 
   void DropStalledFrames(double now) {
@@ -290,7 +328,6 @@ class Connections {
 
   modbus_t* context_;
   modbus_mapping_t* mapping_;
-  int unit_id_;
   int listen_socket_;
   const ModbusServer::Hooks& hooks_;
   std::vector<Client> clients_;
@@ -301,10 +338,37 @@ class Connections {
 
 }  // namespace
 
+Status ModbusServer::ServeSerial(const std::atomic<int>& stop,
+                                 double tick_interval, const Hooks& hooks) {
+  const int fd = modbus_get_socket(context_);
+  std::vector<std::uint8_t> request(MODBUS_RTU_MAX_ADU_LENGTH);
+  std::vector<std::uint16_t> values;
+  while (stop.load() == 0) {
+    pollfd line{fd, POLLIN, 0};
+    const int count =
+        poll(&line, 1, static_cast<int>(tick_interval * 1e3 + 0.5));
+    if (count < 0 && errno != EINTR) {
+      return Status::Error(device_ + ": poll: " + std::strerror(errno));
+    }
+    hooks.tick();
+    if (count <= 0) continue;
+    if (line.revents & (POLLHUP | POLLERR | POLLNVAL)) {
+      return Status::Error(device_ + ": the serial line closed");
+    }
+    // 0: a frame for another unit; -1: a bad CRC or a frame cut short.
+    const int length = modbus_receive(context_, request.data());
+    if (length > 0) {
+      AnswerRequest(context_, mapping_, hooks, 1, request.data(), length,
+                    &values);
+    }
+  }
+  return Status::Ok();
+}
+
 Status ModbusServer::Serve(const std::atomic<int>& stop, double tick_interval,
                            const Hooks& hooks) {
-  Connections connections(context_, mapping_, map_.unit_id, listen_socket_,
-                          hooks);
+  if (!device_.empty()) return ServeSerial(stop, tick_interval, hooks);
+  Connections connections(context_, mapping_, listen_socket_, hooks);
   while (stop.load() == 0) {
     const Status status = connections.Poll(tick_interval);
     if (!status.ok()) return status;

@@ -1,5 +1,8 @@
-// A Modbus TCP server (libmodbus) holding the register map's two tables, for
-// the rig side: the emulator's front end. Serves several clients (the
+// A Modbus TCP or RTU server (libmodbus) holding the register map's two
+// tables, for the rig side: the emulator's front end. Over RTU it serves
+// the one master of its serial line (client 1); a frame with a bad CRC or
+// cut short is dropped (the master times out). Over TCP it serves several
+// clients (the
 // controller, mbpoll, ...) from one thread with poll() and never blocks on
 // one of them: each connection has its own receive buffer, a request is
 // answered once its whole frame has arrived, a frame left unfinished for
@@ -19,6 +22,7 @@
 
 #include "base/status.h"
 #include "io_drivers/modbus_map.h"
+#include "io_drivers/transport_config.h"
 
 typedef struct _modbus modbus_t;
 typedef struct _modbus_mapping_t modbus_mapping_t;
@@ -50,6 +54,9 @@ class ModbusServer {
   // Binds and listens; port 0 picks a free port (see port()).
   Status Listen(const std::string& host, int port);
   int port() const { return port_; }
+  // Opens the serial device with `serial`'s line settings (baud, parity,
+  // data and stop bits) instead.
+  Status OpenSerial(const std::string& device, const ModbusSettings& serial);
 
   // Serves until *stop is non-zero.
   Status Serve(const std::atomic<int>& stop, double tick_interval,
@@ -59,7 +66,11 @@ class ModbusServer {
   std::uint16_t* holding_registers();
 
  private:
+  Status ServeSerial(const std::atomic<int>& stop, double tick_interval,
+                     const Hooks& hooks);
+
   ModbusMap map_;
+  std::string device_;  // RTU: the serial device
   modbus_t* context_ = nullptr;
   modbus_mapping_t* mapping_ = nullptr;
   int listen_socket_ = -1;

@@ -9,13 +9,8 @@
 namespace kcrig {
 namespace {
 
-// KC_Command's Phase (1 + RunPhase) as the run log names it, in the
-// numbering of the log's protocol version (version 1 had no hold and
-// return: 5 was ramp-down, 6 done).
-const char* PhaseName(int wire, int protocol) {
-  if (protocol == 1 && (wire == 5 || wire == 6)) {
-    return RunPhaseName(wire == 5 ? RunPhase::kRampDown : RunPhase::kDone);
-  }
+// KC_Setup's Phase (1 + RunPhase) as the run log names it.
+const char* PhaseName(int wire) {
   if (wire >= 1 && wire <= static_cast<int>(RunPhase::kDone) + 1) {
     return RunPhaseName(static_cast<RunPhase>(wire - 1));
   }
@@ -58,6 +53,7 @@ Status DecodeCanLog(const std::string& path,
   std::uint16_t fault_code = 0;
   std::int64_t cycle = -1;  // unwrapped command sequence
   std::uint8_t last_sequence = 0;
+  int owner = -1;  // the session of the log's first claim or command
   for (const CandumpRecord& record : records) {
     const CanFrame& frame = record.frame.frame;
     ++counts->frames;
@@ -78,14 +74,32 @@ Status DecodeCanLog(const std::string& path,
     switch (kind) {
       case KcFrame::kSetup:
         setup = protocol.DecodeSetup(frame, &clamped);
+        if (setup.protocol != kKcRigProtocolVersion) {
+          return Status::Error(
+              path + ": a log of CAN protocol " +
+              std::to_string(setup.protocol) +
+              " (KC_Setup); this kcrig reads " +
+              std::to_string(kKcRigProtocolVersion) +
+              ": decode it with the kcrig and DBC it was recorded with");
+        }
         have_setup = true;
         break;
+      case KcFrame::kSession: {
+        const KcSession session = protocol.DecodeSession(frame);
+        if (owner < 0 && session.claim) owner = session.session;
+        break;
+      }
       case KcFrame::kHeartbeat:
         fault_code = protocol.DecodeHeartbeat(frame).fault_code;
         break;
       case KcFrame::kCommand: {
         const KcCommand command = protocol.DecodeCommand(frame, &clamped);
-        if (command.phase == 0) break;  // lifecycle, outside the loop
+        if (owner < 0) owner = command.session;  // a capture from mid-run
+        if (command.session != owner) {
+          ++counts->foreign;  // another controller's, refused by the rig
+          break;
+        }
+        if (setup.phase == 0) break;  // lifecycle, outside the loop
         if (!have_setup || setup.period <= 0) {
           return Status::Error(path +
                                ": no KC_Setup (acting height, cycle period) "
@@ -113,8 +127,8 @@ Status DecodeCanLog(const std::string& path,
         row.y = latest.y;
         row.commanded = command.force;
         row.fresh = fresh;
-        row.phase = PhaseName(command.phase, setup.protocol);
-        row.safety = command.safety;
+        row.phase = PhaseName(setup.phase);
+        row.safety = setup.safety;
         row.rig_sample = latest.sample;
         row.rig_status = latest.status;
         log->samples.push_back(row);
@@ -135,7 +149,8 @@ Status DecodeCanLog(const std::string& path,
   if (log->samples.size() < 2) {
     return Status::Error(path +
                          ": fewer than two controller cycles (KC_Command "
-                         "frames with a run phase) in the log");
+                         "frames after a KC_Setup with a run phase) in the "
+                         "log");
   }
   return Status::Ok();
 }

@@ -80,6 +80,7 @@ Status ReadTimingDocument(const std::string& path, const nlohmann::json& doc,
   t->compute_p999_fraction = budget.value("compute_p999_fraction", 0.0);
   t->wakeup_p99_us = budget.value("wakeup_p99_us", 0.0);
   t->cycle_p999_fraction = budget.value("cycle_p999_fraction", 0.0);
+  t->overrun_max_fraction = budget.value("overrun_max_fraction", 0.0);
   t->within_budget = budget.value("within", false);
   t->violations = budget.value("violations", std::vector<std::string>());
   return Status::Ok();
@@ -111,6 +112,7 @@ std::string TimingFileToJson(const TimingFile& t) {
   doc["budget"] = {{"compute_p999_fraction", t.compute_p999_fraction},
                    {"wakeup_p99_us", t.wakeup_p99_us},
                    {"cycle_p999_fraction", t.cycle_p999_fraction},
+                   {"overrun_max_fraction", t.overrun_max_fraction},
                    {"within", t.within_budget},
                    {"violations", t.violations}};
   if (t.has_baseline) {

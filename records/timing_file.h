@@ -49,6 +49,7 @@ struct TimingFile {
   // `budget_checked` false in a file without one.
   bool budget_checked = false;
   double compute_p999_fraction = 0, wakeup_p99_us = 0, cycle_p999_fraction = 0;
+  double overrun_max_fraction = 0;
   bool within_budget = false;
   std::vector<std::string> violations;
   bool has_baseline = false;

@@ -9,7 +9,7 @@ packages=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libsundials-dev can-utils minpack-dev
-  mbpoll python3-pymodbus python3-serial python3-serial-asyncio rt-tests
+  mbpoll socat python3-pymodbus python3-serial python3-serial-asyncio rt-tests
   qemu-system-x86 busybox-static cpio python3-can python3-canmatrix
   clang-14 libclang-rt-14-dev
   python3-plotly chromium fonts-dejavu-core

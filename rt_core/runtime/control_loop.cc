@@ -47,6 +47,18 @@ bool ControlLoop::Valid(const RigMeasurement& m) const {
   return m.force.allFinite() && m.y.allFinite();
 }
 
+// The rig takes one sample per request, so a step of the counter can miss
+// at most one sample per cycle since the last fresh one; a larger step, or
+// one backwards, is no loss but a discontinuity (a restarted rig, a counter
+// read in the wrong word order, a garbled reply).
+void ControlLoop::CountSampleGap(std::uint32_t step, std::int64_t cycles) {
+  if (step >= 1 && step - 1 <= static_cast<std::uint64_t>(cycles)) {
+    result_.lost_rig_samples += step - 1;
+  } else {
+    ++result_.rig_sample_jumps;
+  }
+}
+
 bool ControlLoop::Cycle(std::int64_t cycle, std::int64_t skipped) {
   ++result_.cycles;
   const std::int64_t t0 = MonotonicNanoseconds();
@@ -71,12 +83,12 @@ bool ControlLoop::Cycle(std::int64_t cycle, std::int64_t skipped) {
     }
     if (fresh) {
       ++result_.fresh;
-      // A counter that went backwards is a restarted rig, not a loss.
-      const std::uint32_t step = measurement_.sample - previous;
-      if (have_sample_ && step > 1 && step < (1u << 31)) {
-        result_.lost_rig_samples += step - 1;
+      if (have_sample_) {
+        CountSampleGap(measurement_.sample - previous,
+                       cycle - last_fresh_cycle_);
       }
       have_sample_ = true;
+      last_fresh_cycle_ = cycle;
       last_good_ = measurement_;
     }
   }

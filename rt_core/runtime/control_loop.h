@@ -56,8 +56,12 @@ struct LoopResult {
   // those of them the transport could not deliver.
   std::int64_t commands_after_trip = 0;
   std::int64_t undelivered_after_trip = 0;
-  std::int64_t lost_rig_samples = 0;  // gaps in the rig's sample counter
-  std::int64_t overruns = 0;          // cycles that ran past a deadline
+  // Samples the rig took for this controller's requests that never reached
+  // it (gaps in the rig's counter), and steps of the counter that no such
+  // loss explains (a restarted rig, a garbled counter).
+  std::int64_t lost_rig_samples = 0;
+  std::int64_t rig_sample_jumps = 0;
+  std::int64_t overruns = 0;  // cycles that ran past a deadline
   std::int64_t skipped_cycles = 0;
   // Of skipped_cycles: the loop woke after them (the machine did not run
   // it), not lost to the cycle's own work or transport.
@@ -107,6 +111,7 @@ class ControlLoop {
                CycleRecord* record);
   // A sample with a non-finite value: replaced by the last good one.
   bool Valid(const RigMeasurement& m) const;
+  void CountSampleGap(std::uint32_t step, std::int64_t cycles);
 
   SuspensionModel<double> model_;
   LoopOptions options_;
@@ -127,6 +132,7 @@ class ControlLoop {
   Vec6<double> tare_sum_ = Vec6<double>::Zero();
   int tare_count_ = 0;
   bool have_sample_ = false;
+  std::int64_t last_fresh_cycle_ = 0;
   std::int64_t end_cycle_ = 0;
   LoopResult result_;
   LoopTiming timing_;

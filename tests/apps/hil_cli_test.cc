@@ -411,6 +411,59 @@ TEST_F(HilCliTest, TheRigObeysOneMaster) {
   EXPECT_NE(status.output.find("[0]: \t0"), std::string::npos) << status.output;
 }
 
+// Modbus RTU over a pseudo-terminal pair (socat): the emulator serves RTU
+// on one end and kcrig runs on the other, at a period that fits the wire
+// time at 115200 baud (a cycle's read and write take about 10 ms there); a
+// 1 kHz loop is refused in one line before the line is opened.
+TEST_F(HilCliTest, ModbusRtuOverAPseudoTerminalPair) {
+  const std::string rig_tty = Path("rig.tty"), kcrig_tty = Path("kcrig.tty");
+  ChildProcess socat({"/usr/bin/socat", "pty,raw,echo=0,link=" + rig_tty,
+                      "pty,raw,echo=0,link=" + kcrig_tty},
+                     Path("socat.out"));
+  for (int k = 0; k < 500 && !(std::filesystem::exists(rig_tty) &&
+                               std::filesystem::exists(kcrig_tty));
+       ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_TRUE(std::filesystem::exists(kcrig_tty)) << socat.Output();
+  const std::string rig = "modbus-rtu://" + kcrig_tty;
+  const CliResult fast = RunKcrig("run --config " + config_ + " --rig " + rig +
+                                  " --log-dir " + Path("fast"));
+  EXPECT_EQ(fast.exit_code, 1) << fast.output;
+  EXPECT_NE(fast.output.find("at 115200 baud one cycle's read and write take "
+                             "10.24 ms on the wire, more than loop.period "
+                             "(1.00 ms)"),
+            std::string::npos)
+      << fast.output;
+  EXPECT_EQ(CountLines(fast.output), 1) << fast.output;
+
+  EditedConfig("rig.yaml", "period: 0.001", "period: 0.02");
+  // At 50 Hz the command leads the load cell by 20 kN/s x 2 cycles = 800 N.
+  EditedConfig("rig.yaml", "force_error_max: 500.0", "force_error_max: 1500.0");
+  const std::string config = EditedConfig(
+      "rig.yaml", "response_timeout: 0.0004", "response_timeout: 0.009");
+  ChildProcess emulator(
+      {KCRIG_BINARY, "emulate", "--config", config, "--modbus-rtu", rig_tty},
+      Path("emulate.out"));
+  ASSERT_FALSE(
+      emulator.WaitForOutput("serving modbus-rtu://" + rig_tty).empty())
+      << emulator.Output();
+  const std::string log_dir = Path("run");
+  ChildProcess run({KCRIG_BINARY, "run", "--config", config, "--rig", rig,
+                    "--log-dir", log_dir, "--quiet"},
+                   Path("run.out"));
+  ASSERT_EQ(run.Wait(), 0) << run.Output() << emulator.Output();
+  const nlohmann::json sidecar = ReadJson(log_dir + "/run.json");
+  EXPECT_EQ(sidecar["transport"], rig);
+  const nlohmann::json& hil = sidecar["hil"];
+  // 6.7 s at 50 Hz: every cycle a row, nearly all with a fresh sample.
+  const Csv csv = ReadCsv(log_dir + "/run.csv");
+  ASSERT_EQ(csv.rows.size(), 335u);
+  EXPECT_EQ(hil["cycles"].get<long>() + hil["skipped_cycles"].get<long>(), 335);
+  EXPECT_GE(hil["fresh_samples"].get<long>(), 320) << hil.dump();
+  EXPECT_EQ(hil["rig_sample_jumps"], 0) << hil.dump();
+}
+
 // A rig front end that reports ownership but does not enforce it (the
 // pymodbus peer) obeys the rogue: kcrig sees its own sequence echo replaced
 // by one it never sent and trips at once, naming the cause.
@@ -540,6 +593,13 @@ TEST_F(HilCliTest, TimingCheckReportsPhasesBaselineAndBudget) {
   }
   EXPECT_GT(timing["baseline_wakeup"]["count"].get<long>(), 450);
   EXPECT_EQ(r.exit_code == 0, timing["budget"]["within"].get<bool>());
+  // Overruns are part of the budget.
+  EXPECT_EQ(timing["budget"]["overrun_max_fraction"], 0.001);
+  const bool overran =
+      timing["overruns"].get<double>() > 0.001 * timing["cycles"].get<double>();
+  EXPECT_EQ(overran, timing["budget"]["violations"].dump().find("overruns") !=
+                         std::string::npos)
+      << timing.dump();
   EXPECT_NE(r.output.find("baseline wake-up"), std::string::npos);
   // Without the privileges (a user namespace has no CAP_SYS_NICE in the
   // host), the loop goes on and says so, on the terminal and in the file.

@@ -19,6 +19,17 @@ namespace {
 constexpr double kPeriod = 1e-3;
 constexpr int kLateral = 1;
 
+// A command from the rig's one master (session 7, claimed on first use).
+void Command(RigEmulator* rig, const RigCommand& command) {
+  RigRequest request;
+  request.command = command;
+  request.ownership.has_session = true;
+  request.ownership.session = 7;
+  request.ownership.claim = true;
+  request.ownership.enable = command.enable;
+  EXPECT_TRUE(rig->Request(request));
+}
+
 struct Trace {
   std::vector<RigMeasurement> samples;  // one per ms
 };
@@ -49,7 +60,7 @@ Trace Drive(const char* effect, const std::function<double(double)>& force,
     trace.samples.push_back(rig.TakeSample());
     command.force << 0, force(t), 0;
     ++command.sequence;
-    rig.ApplyCommand(command, false);
+    Command(&rig, command);
   }
   return trace;
 }
@@ -119,7 +130,7 @@ TEST(RigEmulatorTest, ASilentControllerFaultsTheRigAndItsForceRampsDown) {
   RigCommand command;
   command.enable = true;
   command.force << 0, 1000, 0;
-  rig.ApplyCommand(command, false);
+  Command(&rig, command);
   rig.AdvanceTo(0.04);  // within command_timeout (0.05 s)
   EXPECT_EQ(rig.fault(), kFaultNone);
   EXPECT_NEAR(rig.actuator_force()(kLateral), 1000, 5);

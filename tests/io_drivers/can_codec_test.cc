@@ -31,7 +31,7 @@ Dbc LoadRigDbc() {
 TEST(DbcTest, RigDbcHasTheProtocolWithTheIssuesResolution) {
   const Dbc dbc = LoadRigDbc();
   EXPECT_EQ(dbc.version, "kcrig 1");
-  ASSERT_EQ(dbc.messages.size(), 7u);
+  ASSERT_EQ(dbc.messages.size(), 8u);
   EXPECT_EQ(dbc.nodes, (std::vector<std::string>{"Controller", "Rig"}));
   const DbcMessage* command = dbc.FindMessage("KC_Command");
   ASSERT_NE(command, nullptr);
@@ -330,13 +330,12 @@ TEST_F(RigProtocolTest, SampleRoundTripsToTheDbcResolution) {
   EXPECT_EQ(decoded.sample, 300u & 0xFF);  // the first sample: the counter
 }
 
-TEST_F(RigProtocolTest, CommandAndSetupRoundTrip) {
+TEST_F(RigProtocolTest, CommandSetupSessionAndHeartbeatRoundTrip) {
   KcCommand command;
   command.force << -4999.5, 0.5, 12000;
   command.sequence = 201;
   command.enable = true;
-  command.phase = 5;
-  command.safety = 1;
+  command.session = kMaxCanSession;
   bool flagged = false;
   const CanFrame frame = protocol_.EncodeCommand(command, &flagged);
   EXPECT_FALSE(flagged);
@@ -345,26 +344,53 @@ TEST_F(RigProtocolTest, CommandAndSetupRoundTrip) {
   EXPECT_EQ(back.force, command.force);
   EXPECT_EQ(back.sequence, 201);
   EXPECT_TRUE(back.enable);
-  EXPECT_FALSE(back.reset_fault);
-  EXPECT_EQ(back.phase, 5);
-  EXPECT_EQ(back.safety, 1);
-  const KcSetup setup{-0.45, 1e-3, kKcRigProtocolVersion};
+  EXPECT_EQ(back.session, kMaxCanSession);
+  const KcSetup setup{-0.45, 1e-3, kKcRigProtocolVersion, 5, 1};
   const KcSetup setup_back =
       protocol_.DecodeSetup(protocol_.EncodeSetup(setup, &flagged), &flagged);
   EXPECT_NEAR(setup_back.z_a, -0.45, 1e-9);
   EXPECT_NEAR(setup_back.period, 1e-3, 1e-12);
   EXPECT_EQ(setup_back.protocol, kKcRigProtocolVersion);
+  EXPECT_EQ(setup_back.phase, 5);
+  EXPECT_EQ(setup_back.safety, 1);
   EXPECT_FALSE(flagged);
+  for (const KcSession session :
+       {KcSession{42, true, false, true}, KcSession{1, false, true, false}}) {
+    const CanFrame encoded = protocol_.EncodeSession(session);
+    EXPECT_EQ(encoded.id, 0x102u);
+    const KcSession decoded = protocol_.DecodeSession(encoded);
+    EXPECT_EQ(decoded.session, session.session);
+    EXPECT_EQ(decoded.claim, session.claim);
+    EXPECT_EQ(decoded.release, session.release);
+    EXPECT_EQ(decoded.reset_fault, session.reset_fault);
+  }
+  KcHeartbeat heartbeat;
+  heartbeat.status = 1;
+  heartbeat.protocol = kKcRigProtocolVersion;
+  heartbeat.sample = 0xFFFFFFFFu;
+  heartbeat.owner = 99;
+  heartbeat.refusing = true;
+  const KcHeartbeat heartbeat_back =
+      protocol_.DecodeHeartbeat(protocol_.EncodeHeartbeat(heartbeat));
+  EXPECT_EQ(heartbeat_back.sample, 0xFFFFFFFFu);
+  EXPECT_EQ(heartbeat_back.owner, 99);
+  EXPECT_TRUE(heartbeat_back.refusing);
 }
 
-// The offline reader names each cycle's phase in the numbering of the log's
-// protocol version: version 2 added hold and return before ramp-down.
-TEST_F(RigProtocolTest, DecodedPhasesFollowTheLogsProtocolVersion) {
+// The offline reader names each cycle's phase from the last KC_Setup, keeps
+// the claiming session's commands only, and refuses a log of another
+// protocol version in one line.
+TEST_F(RigProtocolTest, DecodedRowsFollowTheSetupAndTheClaimingSession) {
   const std::string path =
       (std::filesystem::temp_directory_path() /
        ("kcrig_phases_" + std::to_string(::getpid()) + ".log"))
           .string();
-  auto decode = [&](int version, const std::vector<int>& phases) {
+  struct Cycle {
+    int phase;
+    int session;
+  };
+  auto decode = [&](int version, const std::vector<Cycle>& cycles, RunLog* log,
+                    CanLogCounts* counts) {
     std::ofstream out(path);
     char line[kCandumpLineMax];
     bool flagged = false;
@@ -372,32 +398,46 @@ TEST_F(RigProtocolTest, DecodedPhasesFollowTheLogsProtocolVersion) {
     auto write = [&](const CanFrame& frame) {
       out.write(line, FormatCandumpLine({t += 1000, frame}, "vcan0", line));
     };
-    write(protocol_.EncodeSetup({-0.45, 1e-3, version}, &flagged));
-    for (size_t k = 0; k < phases.size(); ++k) {
+    write(protocol_.EncodeSession({7, true, false, true}));
+    int phase = -1;
+    for (size_t k = 0; k < cycles.size(); ++k) {
+      if (cycles[k].phase != phase) {
+        phase = cycles[k].phase;
+        write(protocol_.EncodeSetup(
+            {-0.45, 1e-3, version, static_cast<std::uint8_t>(phase), 0},
+            &flagged));
+      }
       KcCommand command;
-      command.sequence = static_cast<std::uint16_t>(k);
+      command.sequence = static_cast<std::uint8_t>(k);
       command.enable = true;
-      command.phase = phases[k];
+      command.session = static_cast<std::uint8_t>(cycles[k].session);
       write(protocol_.EncodeCommand(command, &flagged));
     }
     out.close();
-    RunLog log;
     CanLogDecoderOptions options;
     options.dbc_file = kDbcPath;
     options.sigma_position = 2e-5;
     options.sigma_angle = 1.7e-4;
-    const Status status = DecodeCanLog(path, options, &log);
-    EXPECT_TRUE(status.ok()) << status.message();
-    std::vector<std::string> names;
-    for (const LogSample& s : log.samples) names.emplace_back(s.phase);
-    return names;
+    return DecodeCanLog(path, options, log, counts);
   };
-  EXPECT_EQ(decode(2, {4, 5, 6, 7, 8}),
-            (std::vector<std::string>{"ramp", "hold", "return", "ramp_down",
-                                      "done"}));
-  EXPECT_EQ(decode(1, {4, 5, 6}),
-            (std::vector<std::string>{"ramp", "ramp_down", "done"}));
-  EXPECT_EQ(decode(2, {4, 9}), (std::vector<std::string>{"ramp", "unknown"}));
+  RunLog log;
+  CanLogCounts counts;
+  const Status status =
+      decode(kKcRigProtocolVersion,
+             {{0, 7}, {4, 7}, {4, 9}, {5, 7}, {6, 7}, {7, 7}, {8, 7}, {9, 7}},
+             &log, &counts);
+  ASSERT_TRUE(status.ok()) << status.message();
+  std::vector<std::string> names;
+  for (const LogSample& s : log.samples) names.emplace_back(s.phase);
+  // Cycle 2 is another session's (the rig refused it): a skipped cycle.
+  EXPECT_EQ(names, (std::vector<std::string>{"ramp", "ramp", "hold", "return",
+                                             "ramp_down", "done", "unknown"}));
+  EXPECT_EQ(counts.commands, 6);
+  EXPECT_EQ(counts.foreign, 1);
+  const Status old = decode(2, {{4, 7}, {5, 7}}, &log, &counts);
+  ASSERT_FALSE(old.ok());
+  EXPECT_NE(old.message().find("a log of CAN protocol 2"), std::string::npos)
+      << old.message();
   std::filesystem::remove(path);
 }
 

@@ -146,8 +146,13 @@ class InProcessRig {
         LoadPlantConfig(KCRIG_TEST_CONFIG_DIR, config_.model, &plant_).ok());
     emulator_ = std::make_unique<RigEmulator>(config_, plant_, PlantEffects());
     thread_ = std::thread([this, map, port] {
-      const Status status = ServeModbus(emulator_.get(), map, "127.0.0.1", port,
-                                        stop_, [this](int p) { port_ = p; });
+      ModbusServeAt at;
+      at.host = "127.0.0.1";
+      at.port = port;
+      const Status status = ServeModbus(
+          emulator_.get(), map, at, stop_, [this](const std::string& uri) {
+            port_ = std::stoi(uri.substr(uri.rfind(':') + 1));
+          });
       EXPECT_TRUE(status.ok()) << status.message();
     });
     while (port_ == 0)

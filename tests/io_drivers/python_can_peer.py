@@ -9,10 +9,11 @@ knowledge.
       Fx,Fy,Fz rows.
 
   python_can_peer.py rig DBC IFACE CYCLES OUT_CSV
-      A stand-in rig on IFACE with python-can: sends KC_Heartbeat, answers
-      each KC_Command with a sample (X = Counter um, Fx = 0.5 N x Counter,
-      enabled while the command enables) for CYCLES commands after enable,
-      then falls silent; writes the samples it sent as above.
+      A stand-in rig on IFACE with python-can: takes the first KC_Session
+      claim as its owner and names it in KC_Heartbeat, answers each of the
+      owner's KC_Command with a sample (X = Counter um, Fx = 0.5 N x
+      Counter, enabled while the command enables) for CYCLES commands after
+      enable, then falls silent; writes the samples it sent as above.
 """
 import decimal
 import sys
@@ -72,11 +73,13 @@ def write(out_path, samples):
 def stand_in_rig(dbc, iface, cycles, out_path):
     db = load(dbc)
     command = frame_of(db, "KC_Command")
+    session = frame_of(db, "KC_Session")
     heartbeat = frame_of(db, "KC_Heartbeat")
     frames = [frame_of(db, n) for n in SAMPLE_FRAMES]
     bus = can.Bus(interface="socketcan", channel=iface,
-                  can_filters=[{"can_id": command.arbitration_id.id,
-                                "can_mask": 0x7FF, "extended": False}])
+                  can_filters=[{"can_id": f.arbitration_id.id,
+                                "can_mask": 0x7FF, "extended": False}
+                               for f in (command, session)])
 
     def send(frame, values):
         bus.send(can.Message(arbitration_id=frame.arbitration_id.id,
@@ -84,6 +87,7 @@ def stand_in_rig(dbc, iface, cycles, out_path):
                              data=frame.encode(values)))
 
     enabled = False
+    owner = 0
     counter = 0
     answered = 0
     samples = []
@@ -94,18 +98,27 @@ def stand_in_rig(dbc, iface, cycles, out_path):
         now = time.monotonic()
         if now >= next_heartbeat:
             send(heartbeat, {"Status": 1 if enabled else 0, "FaultCode": 0,
-                             "Protocol": 2, "SampleCounter": counter})
+                             "Protocol": 3, "SampleCounter": counter,
+                             "Owner": owner, "Refusing": 0})
             next_heartbeat = now + 0.1
         message = bus.recv(0.01)
         if message is None:
             continue
+        if message.arbitration_id == session.arbitration_id.id:
+            claim = session.decode(message.data)
+            if owner == 0 and int(claim["Claim"].raw_value) == 1:
+                owner = int(claim["Session"].raw_value)
+                next_heartbeat = 0.0
+            continue
         # Answer the newest command only, so a slow interpreter never lags.
         while True:
             newer = bus.recv(0)
-            if newer is None:
+            if newer is None or newer.arbitration_id != message.arbitration_id:
                 break
             message = newer
         decoded = command.decode(message.data)
+        if int(decoded["Session"].raw_value) != owner:
+            continue
         enabled = int(decoded["Enable"].raw_value) == 1
         counter = (counter + 1) % 256
         status = 1 if enabled else 0

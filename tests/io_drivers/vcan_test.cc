@@ -387,6 +387,98 @@ TEST_F(VcanTest, PythonCanStandInRigDrivesTheController) {
   std::printf("python-can stand-in rig: %ld fresh samples in the log\n", fresh);
 }
 
+// The session the run claimed the rig with: the Session byte of the first
+// KC_Session (id 0x102) in its bus log.
+int ClaimedSession(const std::string& bus_log) {
+  std::vector<CandumpRecord> records;
+  EXPECT_TRUE(ReadCandumpLog(bus_log, &records).ok());
+  for (const CandumpRecord& r : records) {
+    if (r.frame.frame.id == 0x102) return r.frame.frame.data[0] & 0x7F;
+  }
+  ADD_FAILURE() << "no KC_Session in " << bus_log;
+  return 0;
+}
+
+// One master on CAN too: a second kcrig is refused before it sends a frame;
+// another session's commands and claims are refused by the rig, counted on
+// both sides and never move it, during the run and after it (an unclaimed
+// rig obeys no enable); a frame that carries the owner's session, which the
+// rig cannot tell apart, trips the owner.
+TEST_F(VcanTest, TheRigObeysOneMasterOnCanToo) {
+  StartEmulator();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(log_dir);
+  WaitForLoop(log_dir);
+  const CliResult second =
+      RunKcrig("run --config " + config_ + " --rig can:vcan0 --log-dir " +
+               Path("second"));
+  EXPECT_EQ(second.exit_code, 1) << second.output;
+  EXPECT_NE(second.output.find("the rig refuses this controller: another "
+                               "master (session "),
+            std::string::npos)
+      << second.output;
+  EXPECT_EQ(CountLines(second.output), 1) << second.output;
+  EXPECT_FALSE(std::filesystem::exists(Path("second/run.csv")));
+  // Enable with 6 kN in Fz under session 0 (never granted), and a claim for
+  // session 5, 20 times each.
+  const int rounds = 20;
+  auto rogue = [&](bool claims) {
+    const std::string path = Path(claims ? "rogue.log" : "enables.log");
+    std::ofstream out(path);
+    for (int k = 0; k < rounds; ++k) {
+      out << "(1700000000." << 100000 + 2000 * k
+          << ") vcan0 100#00000000E02E0001\n";
+      if (claims) {
+        out << "(1700000000." << 101000 + 2000 * k
+            << ") vcan0 102#0501000000000000\n";
+      }
+    }
+    out.close();
+    return RunCommand("/usr/bin/canplayer -I " + path).exit_code;
+  };
+  ASSERT_EQ(rogue(true), 0);
+  ASSERT_TRUE(std::filesystem::exists(log_dir + "/run.csv.partial"))
+      << "the run ended before the rogue's frames were sent";
+  ASSERT_EQ(run->Wait(300), 0) << run->Output();
+  const nlohmann::json transport =
+      ReadJson(log_dir + "/run.json")["hil"]["transport"];
+  EXPECT_EQ(transport["foreign_frames"], 2 * rounds);
+  EXPECT_GE(transport["refusing_heartbeats"].get<int>(), 1);
+  // Fz is never commanded (phi lies in the x-y plane): 6 kN would show.
+  const Csv csv = ReadCsv(log_dir + "/run.csv");
+  for (size_t j = 0; j < csv.rows.size(); ++j) {
+    ASSERT_LT(std::abs(csv.Value(j, "Fz")), 100.0) << "row " << j;
+  }
+  // can.log still decodes to the owner's rows alone.
+  EXPECT_EQ(Decode(log_dir + "/can.log").samples.size(), csv.rows.size());
+  ASSERT_EQ(rogue(false), 0);  // the rig is unclaimed now
+
+  const std::string impersonated = Path("run2");
+  run = StartRun(impersonated);
+  WaitForLoop(impersonated);
+  const int session = ClaimedSession(impersonated + "/can.log.partial");
+  char frame[64];
+  std::snprintf(frame, sizeof(frame), "100#00000000E02E00%02X",
+                1 | (session << 1));
+  ASSERT_EQ(
+      RunCommand(std::string("/usr/bin/cansend vcan0 ") + frame).exit_code, 0);
+  const int code = run->Wait(300);
+  ExpectSafeStop(code, impersonated, "foreign_master", run->Output());
+  const std::string fault =
+      ReadJson(impersonated + "/run.json")["hil"]["transport"]["fault"];
+  EXPECT_NE(fault.find("with this controller's session"), std::string::npos)
+      << fault;
+
+  emulator_->Signal(SIGINT);
+  ASSERT_EQ(emulator_->Wait(60), 0) << emulator_->Output();
+  const std::string refused =
+      emulator_->WaitForOutput("refused frames ([0-9]+)", 1);
+  ASSERT_FALSE(refused.empty()) << emulator_->Output();
+  // During the run: 20 commands and 20 claims; after it: 20 enables without
+  // a claim; and the impersonating frame is obeyed (indistinguishable).
+  EXPECT_EQ(std::stol(refused), 3 * rounds) << emulator_->Output();
+}
+
 TEST_F(VcanTest, SilencedEmulatorTripsTheWatchdogAndTheForceRampsToZero) {
   StartEmulator();
   const std::string log_dir = Path("run");

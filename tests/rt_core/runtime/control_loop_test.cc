@@ -31,7 +31,10 @@ class FakeRig : public RigInterface {
   void OnError() override {}
   IoResult Read(RigMeasurement* m) override {
     if (silent) return IoResult::kError;
+    if (counter_jumps_to != 0) sample_ = counter_jumps_to - 1;
+    counter_jumps_to = 0;
     m->sample = ++sample_;
+    sample_ += extra_samples;
     m->force = force_ + force_offset;
     m->y = plant_.pose() + offset;
     m->status = kRigEnabled;
@@ -48,6 +51,8 @@ class FakeRig : public RigInterface {
   std::string CountersJson() const override { return "{}"; }
 
   bool silent = false;
+  std::uint32_t extra_samples = 0;     // taken after each read, for others
+  std::uint32_t counter_jumps_to = 0;  // the next sample's number, once
   Vec3<double> force_offset = Vec3<double>::Zero();  // another master's push
   Vec6<double> offset = Vec6<double>::Zero();
   std::vector<Vec3<double>> commands;
@@ -224,6 +229,21 @@ TEST_F(ControlLoopTest, CommandsRespectForceAndRateLimits) {
                 3.0 + 1e-9);
     }
   }
+}
+
+// Lost samples are those the rig took for this controller and it never
+// got; a counter that jumps (a restarted rig, a garbled or word-swapped
+// counter) is counted apart and adds no loss.
+TEST_F(ControlLoopTest, OnlySamplesTheRigTookAndTheLoopMissedCountAsLost) {
+  ControlLoop loop(config_.model, options_, &rig_, &ring_, &stop_);
+  Step(&loop, 3000, [&](std::int64_t k) {
+    rig_.silent = k >= 100 && k < 105;      // 5 failed reads
+    rig_.extra_samples = k == 200 ? 1 : 0;  // one sample read elsewhere
+    if (k == 500) rig_.counter_jumps_to = 7000 * 65536u;  // word order
+    if (k == 800) rig_.counter_jumps_to = 3;              // the rig restarted
+  });
+  EXPECT_EQ(loop.result().lost_rig_samples, 1);
+  EXPECT_EQ(loop.result().rig_sample_jumps, 2);
 }
 
 TEST_F(ControlLoopTest, ACycleNeverAllocates) {
