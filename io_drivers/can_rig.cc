@@ -138,7 +138,9 @@ Status CanRig::ClaimedElsewhere() const {
 }
 
 void CanRig::SetFault(const char* what) {
-  if (fault_ == nullptr) fault_ = what;
+  if (fault_ != nullptr) return;
+  fault_ = what;
+  fault_came_first_ = foreign_owner_ < 0 && foreign_frame_id_ < 0;
 }
 
 void CanRig::Take(const TimedCanFrame& timed) {
@@ -399,26 +401,36 @@ std::string CanRig::CountersJson() const {
   const CanFrameSink* log = options_.bus_log.get();
   j["bus_log_frames"] = log != nullptr ? log->written() : 0;
   j["bus_log_dropped"] = log != nullptr ? log->dropped() : 0;
-  if (fault_ != nullptr) j["fault"] = fault_;
-  if (foreign_owner_ > 0) {
-    j["fault"] = "the rig obeys another master: it reports session " +
-                 std::to_string(foreign_owner_) +
-                 " in control, not this controller's " +
-                 std::to_string(session_);
-  } else if (foreign_owner_ == 0) {
-    j["fault"] =
-        "the rig released this controller's claim (its command watchdog, "
-        "or a restart): it obeys no master now";
-  } else if (foreign_frame_id_ >= 0) {
-    j["fault"] =
-        "the rig may obey another master: another controller sends " +
-        Hex(foreign_frame_id_) +
-        (foreign_frame_id_ == static_cast<int>(protocol_.id(KcFrame::kSetup))
-             ? " (which carries no session)"
-             : " with this controller's session " + std::to_string(session_)) +
-        " on the bus";
+  // The first of a transport fault and a second master is what tripped the
+  // run; one that followed (a rig releasing a claim the ramp-down could not
+  // renew) is named after it.
+  std::string first = fault_ != nullptr ? fault_ : "";
+  std::string then = ForeignMasterText();
+  if (first.empty() || (!then.empty() && !fault_came_first_)) {
+    std::swap(first, then);
   }
+  if (!then.empty()) first += "; then " + then;
+  if (!first.empty()) j["fault"] = first;
   return j.dump();
+}
+
+std::string CanRig::ForeignMasterText() const {
+  if (foreign_owner_ > 0) {
+    return "the rig obeys another master: it reports session " +
+           std::to_string(foreign_owner_) +
+           " in control, not this controller's " + std::to_string(session_);
+  }
+  if (foreign_owner_ == 0) {
+    return "the rig released this controller's claim (its command watchdog, "
+           "or a restart): it obeys no master now";
+  }
+  if (foreign_frame_id_ < 0) return "";
+  return "the rig may obey another master: another controller sends " +
+         Hex(foreign_frame_id_) +
+         (foreign_frame_id_ == static_cast<int>(protocol_.id(KcFrame::kSetup))
+              ? " (which carries no session)"
+              : " with this controller's session " + std::to_string(session_)) +
+         " on the bus";
 }
 
 }  // namespace kcrig

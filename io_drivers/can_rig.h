@@ -88,6 +88,8 @@ class CanRig : public RigInterface {
   // KC_Setup for the current acting height, phase and safety state.
   bool SendSetup(std::uint8_t phase, std::uint8_t safety);
   Status ClaimedElsewhere() const;
+  // What the signs of a second master say, or "" without any.
+  std::string ForeignMasterText() const;
   void SetFault(const char* what);
   // Keeps the bus log of an activated rig, drops that of one never
   // activated.
@@ -111,7 +113,8 @@ class CanRig : public RigInterface {
   KcHeartbeat heartbeat_;
   std::uint16_t fault_code_ = 0;
 
-  const char* fault_ = nullptr;  // the transport fault, once seen
+  const char* fault_ = nullptr;    // the transport fault, once seen
+  bool fault_came_first_ = false;  // before any sign of a second master
   bool fault_reported_ = false;
   bool claim_sent_ = false;  // from the claim until the release
   bool claimed_ = false;     // the rig named this session its owner

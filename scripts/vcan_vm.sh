@@ -16,17 +16,28 @@
 # the serial console; this script returns it. A guest that does not report
 # one (boot failure, timeout) is an error (125), never a pass.
 #
+# The guest is paced by guest time, not the host's: one vCPU under
+# `-icount shift=1,sleep=off`, so its clock advances 2 ns per executed
+# instruction (a steady 500 MIPS machine) and jumps over idle time. A host
+# that deschedules qemu stops the guest's clock with it, so a busy host
+# makes a run longer, never late: the guest's 1 kHz loop keeps its period
+# and the tests keep rig.yaml's watchdog and tracking limits. The price:
+# guest time says nothing about a real machine's latency, and it races
+# ahead while the guest waits for the host (9p reads), so waits in the
+# guest are for a state, not a duration.
+#
 # Environment: KCRIG_VM_CACHE (default ~/.cache/kcrig-vm),
 # KCRIG_VM_TIMEOUT [s] (default 900), KCRIG_VM_FORCE=1 (use the VM even
-# where the host has vcan), KCRIG_VM_SMP (default 2), KCRIG_VM_KEEP=1 (keep
-# the scratch directory, for a look at what the guest wrote).
+# where the host has vcan), KCRIG_VM_KEEP=1 (keep the scratch directory,
+# for a look at what the guest wrote).
 set -euo pipefail
 
 cache=${KCRIG_VM_CACHE:-${HOME:-/root}/.cache/kcrig-vm}
-# In load order; sch_tbf lets a test fill vcan0's transmit queue (ENOBUFS).
+# In load order; sch_prio, cls_basic, em_canid and sch_tbf let a test fill
+# the transmit queue of the controller's frames alone (ENOBUFS).
 modules=(virtio_ring virtio virtio_pci_modern_dev virtio_pci_legacy_dev
   virtio_pci netfs fscache 9pnet 9pnet_virtio 9p can can-raw can-dev vcan
-  sch_tbf)
+  sch_prio cls_basic em_canid sch_tbf)
 
 die() {
   echo "vcan_vm: $*" >&2
@@ -87,7 +98,7 @@ keep=$(sed -n 's/.*kcrig_keep=\([^ ]*\).*/\1/p' /proc/cmdline | tr ',' ' ')
 for m in $(cat /modules/order); do
   insmod /modules/$m.ko || say "KCRIG_VM_ERROR insmod $m"
 done
-mount -t 9p -o trans=virtio,version=9p2000.L,ro host /host ||
+mount -t 9p -o trans=virtio,version=9p2000.L,msize=262144,cache=loose,ro host /host ||
   say "KCRIG_VM_ERROR mount host"
 mount -t proc proc /host/proc
 mount -t sysfs sys /host/sys
@@ -174,8 +185,8 @@ run() {
   keep_list=$(IFS=,; echo "${keep[*]}")
   local console=$scratch/console
   local status=0
-  timeout "${KCRIG_VM_TIMEOUT:-900}" qemu-system-x86_64 -accel tcg \
-    -m 1536 -smp "${KCRIG_VM_SMP:-2}" -nographic -no-reboot -nic none \
+  timeout "${KCRIG_VM_TIMEOUT:-900}" qemu-system-x86_64 -accel tcg -icount shift=1,sleep=off \
+    -m 1536 -smp 1 -nographic -no-reboot -nic none \
     -kernel "$cache/vmlinuz" -initrd "$cache/initramfs.cpio.gz" \
     -append "console=ttyS0 quiet loglevel=3 panic=-1 kcrig_job=$scratch/job.sh kcrig_scratch=$scratch kcrig_keep=$keep_list" \
     -virtfs local,path=/,mount_tag=host,security_model=none,readonly=on,multidevs=remap \
