@@ -134,8 +134,12 @@ std::string ModbusRig::Describe() const {
 }
 
 std::string ModbusRig::CountersJson() const {
+  char late[96];
+  std::snprintf(late, sizeof(late),
+                ", \"late_replies\": %lld, \"late_reply_max_ms\": %.3f",
+                static_cast<long long>(late_replies_), late_reply_max_s_ * 1e3);
   std::string json = "{\"reconnects\": " + std::to_string(reconnects_.load()) +
-                     ", \"session\": " + std::to_string(session_);
+                     ", \"session\": " + std::to_string(session_) + late;
   if (foreign_) {
     json += ", \"fault\": \"the rig obeys another master: ";
     json += foreign_echo_ours_
@@ -311,9 +315,17 @@ IoResult ModbusRig::Read(RigMeasurement* measurement) {
   if (!connected_.load(std::memory_order_acquire)) return IoResult::kError;
   FlushIfNeeded();
   const int count = map_.input_count();
+  const auto asked = std::chrono::steady_clock::now();
   if (modbus_read_input_registers(context_, 0, count, input_) != count) {
     OnRequestFailed();
     return IoResult::kError;
+  }
+  const double took =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - asked)
+          .count();
+  if (took > settings_.response_timeout) {
+    ++late_replies_;
+    late_reply_max_s_ = std::max(late_reply_max_s_, took);
   }
   if (ForeignMasterSeen()) return IoResult::kForeign;
   const bool order = map_.high_word_first;

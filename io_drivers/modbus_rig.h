@@ -106,6 +106,12 @@ class ModbusRig : public RigInterface {
   std::uint16_t foreign_echo_ = 0;
   bool foreign_echo_ours_ = true;
   bool foreign_ = false;
+  // Reads answered after modbus.response_timeout. libmodbus bounds the whole
+  // reply by it (byte timeout 0), so such a read means this thread ran late
+  // after its wait (a late wake-up: the machine's scheduling, a VM's stolen
+  // time), by at least the excess; not a rig that libmodbus waited for.
+  std::int64_t late_replies_ = 0;
+  double late_reply_max_s_ = 0;
 };
 
 }  // namespace kcrig

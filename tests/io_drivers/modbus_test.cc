@@ -4,6 +4,8 @@
 #include <arpa/inet.h>
 #include <modbus/modbus.h>
 #include <netinet/in.h>
+#include <pthread.h>
+#include <signal.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -428,6 +430,62 @@ TEST_F(ModbusRigTest, TheOwnersConnectionClosingFaultsTheRigAndEndsTheClaim) {
   ASSERT_TRUE(next->Configure().ok());
   const Status status = next->Activate();
   EXPECT_TRUE(status.ok()) << status.message();
+}
+
+// A read longer than modbus.response_timeout that still returns a sample is
+// one this thread collected late (libmodbus bounds the whole reply by the
+// timeout): counted as a late reply, with its time. The thread is held off
+// its wait by a signal handler that runs 12 ms, as a preemption or a VM's
+// stolen time would hold it, while the rig answers within the timeout.
+void SpinTwelveMilliseconds(int) {
+  const auto end =
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(12);
+  while (std::chrono::steady_clock::now() < end) {
+  }
+}
+
+TEST_F(ModbusRigTest, AReplyCollectedLateIsCountedAsLate) {
+  InProcessRig rig(map_);
+  auto master = Master(rig.port());
+  ASSERT_TRUE(master->Configure().ok());
+  RigMeasurement m;
+  for (int k = 0; k < 20; ++k) ASSERT_NE(master->Read(&m), IoResult::kError);
+  EXPECT_NE(master->CountersJson().find("\"late_replies\": 0,"),
+            std::string::npos)
+      << master->CountersJson();
+
+  struct sigaction spin {};
+  spin.sa_handler = SpinTwelveMilliseconds;
+  spin.sa_flags = SA_RESTART;
+  struct sigaction previous {};
+  ASSERT_EQ(sigaction(SIGUSR1, &spin, &previous), 0);
+  const pthread_t reader = pthread_self();
+  std::atomic<bool> done{false};
+  std::thread holder([&] {
+    while (!done.load()) {
+      pthread_kill(reader, SIGUSR1);
+      std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    }
+  });
+  // Back-to-back reads for 0.3 s: most of the holds fall inside one.
+  int reads = 0, answered = 0;
+  const auto end =
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
+  while (std::chrono::steady_clock::now() < end) {
+    ++reads;
+    answered += master->Read(&m) != IoResult::kError;
+  }
+  done = true;
+  holder.join();
+  sigaction(SIGUSR1, &previous, nullptr);
+  EXPECT_GE(answered, reads - 2);  // held, not timed out
+  const std::string counters = master->CountersJson();
+  const size_t at = counters.find("\"late_replies\": ");
+  ASSERT_NE(at, std::string::npos) << counters;
+  EXPECT_GE(std::stoi(counters.substr(at + 16)), 3) << counters;
+  const size_t max_at = counters.find("\"late_reply_max_ms\": ");
+  ASSERT_NE(max_at, std::string::npos) << counters;
+  EXPECT_GE(std::stod(counters.substr(max_at + 21)), 10.0) << counters;
 }
 
 // Raw TCP clients that misbehave: half a frame, a byte at a time, garbage,
