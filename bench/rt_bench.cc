@@ -327,8 +327,8 @@ BENCHMARK(BM_CanCycleCodec);
 
 // Controller -> `kcrig emulate --can vcan0` -> controller: KC_Command out,
 // the sample's four frames back, 2000 times at 1 kHz. Needs vcan0 (run
-// inside scripts/vcan_vm.sh: under qemu's TCG the figures are the
-// emulator's, not a real machine's).
+// inside scripts/vcan_vm.sh: on its guest time the figures are those of a
+// steady 500 MIPS virtual machine, not a real one's).
 void BM_CanRoundTrip(benchmark::State& state) {
   if (access("/sys/class/net/vcan0", F_OK) != 0) {
     state.SkipWithError("no vcan0 (run through scripts/vcan_vm.sh run)");

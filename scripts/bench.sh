@@ -19,7 +19,7 @@ done
 build/bin/rt_bench --benchmark_filter='^BM_(CycleCompute|ModbusRoundTrip|WakeupVsCyclictest|CanCycleCodec)(/.*)?$' \
   --benchmark_out=build/bench/rt_bench.json --benchmark_out_format=json "$@"
 # The CAN round trip needs vcan0: inside the guest of scripts/vcan_vm.sh
-# where the host kernel has no CAN (TCG: not a real machine's figures).
+# where the host kernel has no CAN (guest time: not a real machine's figures).
 # (one line: the VM harness passes the command through its kernel command
 # line, where a newline does not survive).
 guest='build/bin/rt_bench --benchmark_filter=BM_CanRoundTrip --benchmark_out="$KCRIG_VM_SCRATCH/rtt.json" --benchmark_out_format=json >/dev/null 2>&1; cat "$KCRIG_VM_SCRATCH/rtt.json"'

@@ -467,7 +467,8 @@ def rows(d):
             percentiles(rtt, tail=False), count(rtt.counter("timeouts")),
             count(rtt.counter("count")))
         if rtt else d.why_not("can_round_trip_vcan", "BM_CanRoundTrip"),
-        note="inside qemu TCG (scripts/vcan_vm.sh): not a real machine's figure")
+        note="inside qemu on guest time (scripts/vcan_vm.sh: icount, a steady "
+             "500 MIPS guest): not a real machine's figure")
     return out
 
 
