@@ -59,6 +59,8 @@ int RunTimingCheck(const TimingCheckArgs& args) {
       return fail(Status::Error("--rate: must be within [10, 10000] Hz"));
     }
     rig_config.period = 1.0 / *args.rate;
+    status = CheckLimitsAtPeriod(rig_config);
+    if (!status.ok()) return fail(Status::Error("--rate: " + status.message()));
     if (rig_config.modbus.response_timeout > 0.5 * rig_config.period) {
       return fail(Status::Error(
           "--rate: the period is shorter than twice modbus.response_timeout "

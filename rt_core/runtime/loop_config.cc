@@ -1,5 +1,8 @@
 #include "rt_core/runtime/loop_config.h"
 
+#include <string>
+#include <utility>
+
 #include "base/yaml_reader.h"
 #include "rt_core/model/channels.h"
 
@@ -65,6 +68,35 @@ Status LoadSafetyLimits(const YamlReader& reader, const YAML::Node& root,
 }
 
 }  // namespace
+
+Status CheckLimitsAtPeriod(const LoopConfig& config) {
+  const double period = config.period;
+  const SafetyLimits& l = config.safety;
+  auto fail = [](const std::string& key, const std::string& why) {
+    return Status::Error("rig.yaml " + key + ": " + why + " at this period");
+  };
+  for (const auto& [key, cycles] :
+       {std::pair<const char*, int>{"safety.watchdog_cycles",
+                                    l.watchdog_cycles},
+        {"safety.force_error_cycles", l.force_error_cycles}}) {
+    if (cycles * period > 1.0) {
+      return fail(key, std::to_string(cycles) + " cycles are more than 1 s");
+    }
+  }
+  for (const auto& [key, time] :
+       {std::pair<const char*, double>{"safety.ramp_down_time",
+                                       l.ramp_down_time},
+        {"run_profile.tare", config.profile.tare},
+        {"run_profile.lead_in", config.profile.lead_in},
+        {"run_profile.ramp_down", config.profile.ramp_down}}) {
+    if (time < period) return fail(key, "shorter than one cycle");
+  }
+  if (l.force_error_max <= 2 * period * l.force_rate_max) {
+    return fail("safety.force_error_max",
+                "does not exceed force_rate_max x 2 cycles");
+  }
+  return Status::Ok();
+}
 
 Status LoadLoopConfig(const YamlReader& reader, const YAML::Node& root,
                       LoopConfig* config) {

@@ -23,6 +23,12 @@ struct LoopConfig {
   SafetyLimits safety;
 };
 
+// The limits that LoadLoopConfig checks against loop.period, checked again
+// for a period set after loading (timing-check --rate): counts of cycles
+// within 1 s, times of at least one cycle, force tracking's band beyond two
+// cycles at the rate limit. The error names the rig.yaml key.
+Status CheckLimitsAtPeriod(const LoopConfig& config);
+
 // Reads the sections loop, realtime, run_profile and safety of `root`.
 Status LoadLoopConfig(const YamlReader& reader, const YAML::Node& root,
                       LoopConfig* loop_config);

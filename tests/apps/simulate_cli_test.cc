@@ -158,6 +158,12 @@ TEST_F(SimulateCliTest, NumbersAreDecimalFiniteAndInRange) {
   ExpectCleanFailure(
       RunKcrig("screen --trajectories 1000000000 --log " + Out()),
       "--trajectories: Value 1000000000 not in range");
+  // A slower loop stretches rig.yaml's cycle counts: 20 watchdog cycles at
+  // 10 Hz would be 2 s without a sample.
+  ExpectCleanFailure(
+      RunKcrig("timing-check --rate 10 --quiet --out " + Out()),
+      "--rate: rig.yaml safety.watchdog_cycles: 20 cycles are more than 1 s "
+      "at this period");
 }
 
 TEST_F(SimulateCliTest, InconsistentRateAndEffectsFailCleanly) {
