@@ -1,7 +1,12 @@
 #include "hil/internal/run_logger.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <utility>
 
 namespace kcrig {
@@ -31,13 +36,51 @@ RunLogger::RunLogger(Options options) : options_(std::move(options)) {
   log_.has_loop_columns = true;
 }
 
-RunLogger::~RunLogger() { Stop(); }
+RunLogger::~RunLogger() {
+  Stop();
+  ReleaseReserve();
+}
 
 Status RunLogger::Open() {
   if (options_.csv_path.empty()) return Status::Ok();
   KCRIG_RETURN_IF_ERROR(partial_.Open(options_.csv_path));
+  const Status reserved = Reserve();
+  if (!reserved.ok()) {
+    partial_.Discard();
+    return reserved;
+  }
   pending_ = RunLogCsvHeader(log_);
   return Status::Ok();
+}
+
+Status RunLogger::Reserve() {
+  const std::string path = options_.csv_path + ".reserve";
+  const int fd =
+      open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC,
+           0600);
+  if (fd < 0) {
+    return Status::Error(path +
+                         ": cannot create the reserve for the run's "
+                         "record: " +
+                         std::strerror(errno));
+  }
+  reserve_path_ = path;
+  const int error = posix_fallocate(fd, 0, kRecordReserveBytes);
+  close(fd);
+  if (error != 0) {
+    ReleaseReserve();
+    return Status::Error(path + ": cannot reserve " +
+                         std::to_string(kRecordReserveBytes >> 10) +
+                         " KiB for the run's record (sidecar, timing.json): " +
+                         std::strerror(error));
+  }
+  return Status::Ok();
+}
+
+void RunLogger::ReleaseReserve() {
+  if (reserve_path_.empty()) return;
+  unlink(reserve_path_.c_str());
+  reserve_path_.clear();
 }
 
 void RunLogger::Start(SpscRing<CycleRecord>* ring) {
@@ -119,9 +162,13 @@ std::string RunLogger::WriteFailure() const {
 
 void RunLogger::Stop() { worker_.Stop(); }
 
-void RunLogger::Discard() { partial_.Discard(); }
+void RunLogger::Discard() {
+  partial_.Discard();
+  ReleaseReserve();
+}
 
 Status RunLogger::Finish(const std::string& log_dir) {
+  ReleaseReserve();
   if (rows_ < 2) {
     Discard();
     return Status::Error(log_dir +

@@ -5,9 +5,12 @@
 // only counters and the last row: its memory does not grow with the run.
 // A row the disk refuses (full, or a file-size limit) raises
 // write_failed() — the loop trips on it — and waits in a bounded buffer
-// that is retried; the file always ends on a whole row. It reports
-// progress and overrun warnings. Finish writes the sidecar and renames the
-// partial file to run.csv.
+// that is retried; the file always ends on a whole row. Room for the
+// run's record (the sidecar, timing.json) is reserved on the log's disk at
+// Open (run.csv.reserve) and handed back at Finish, so a full disk still
+// gets the sidecar that says why. It reports progress and overrun
+// warnings. Finish writes the sidecar and renames the partial file to
+// run.csv.
 #ifndef KCRIG_HIL_INTERNAL_RUN_LOGGER_H_
 #define KCRIG_HIL_INTERNAL_RUN_LOGGER_H_
 
@@ -44,7 +47,8 @@ class RunLogger {
   RunLogger(const RunLogger&) = delete;
   RunLogger& operator=(const RunLogger&) = delete;
 
-  // Creates run.csv.partial with the header of log()'s columns.
+  // Creates run.csv.partial with the header of log()'s columns and reserves
+  // kRecordReserveBytes beside it; an error when the disk has not that room.
   Status Open();
   // Starts the thread that drains `ring` (which must outlive Stop).
   void Start(SpscRing<CycleRecord>* ring);
@@ -52,7 +56,9 @@ class RunLogger {
   void Stop();
   // Closes and removes the partial file (the experiment never started).
   void Discard();
-  // After Stop, with log().metadata filled: the sidecar, and the partial
+  // After Stop, with log().metadata filled: frees the reserve for the
+  // run's record (the caller writes timing.json next), the sidecar, and the
+  // partial
   // file renamed to run.csv. Errors name the file (or `log_dir` when fewer
   // than two cycles were logged); after a write failure the partial file
   // stays, ending on a whole row, with the sidecar of its rows beside it.
@@ -79,6 +85,11 @@ class RunLogger {
   // Text of rows the disk refused, kept for a retry: a few minutes of rows
   // at 1 kHz; beyond it rows are counted as lost.
   static constexpr size_t kMaxPendingBytes = 32u << 20;
+  // The sidecar (a few KiB) and timing.json (its histograms, ~120 KiB).
+  static constexpr long kRecordReserveBytes = 512L << 10;
+
+  Status Reserve();
+  void ReleaseReserve();
 
   Options options_;
   PartialFile partial_;
@@ -96,6 +107,7 @@ class RunLogger {
   std::int64_t written_rows_ = 0;
   std::int64_t lost_rows_ = 0;  // beyond kMaxPendingBytes
   std::atomic<bool> write_failed_{false};
+  std::string reserve_path_;  // while the reserve exists
 };
 
 }  // namespace kcrig

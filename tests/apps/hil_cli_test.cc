@@ -503,7 +503,7 @@ TEST_F(HilCliTest, ALogTheDiskRefusesTripsTheRunAndKeepsWholeRows) {
   const int port = StartEmulator();
   const std::string log_dir = Path("run");
   ChildProcess run(
-      {"/usr/bin/prlimit", "--fsize=400000", KCRIG_BINARY, "run", "--config",
+      {"/usr/bin/prlimit", "--fsize=1000000", KCRIG_BINARY, "run", "--config",
        config_, "--rig", "modbus-tcp://127.0.0.1:" + std::to_string(port),
        "--log-dir", log_dir, "--quiet"},
       Path("run.out"));
@@ -516,7 +516,7 @@ TEST_F(HilCliTest, ALogTheDiskRefusesTripsTheRunAndKeepsWholeRows) {
   std::ifstream in(log_dir + "/run.csv.partial");
   const std::string text((std::istreambuf_iterator<char>(in)), {});
   ASSERT_FALSE(text.empty());
-  EXPECT_LE(text.size(), 400000u);
+  EXPECT_LE(text.size(), 1000000u);
   EXPECT_EQ(text.back(), '\n');
   const long rows = std::count(text.begin(), text.end(), '\n') - 1;
   const nlohmann::json sidecar = ReadJson(log_dir + "/run.json");
@@ -527,6 +527,40 @@ TEST_F(HilCliTest, ALogTheDiskRefusesTripsTheRunAndKeepsWholeRows) {
   std::filesystem::rename(log_dir + "/run.csv.partial", log_dir + "/run.csv");
   const Csv csv = ReadCsv(log_dir + "/run.csv");
   EXPECT_EQ(static_cast<long>(csv.rows.size()), rows);
+}
+
+// A disk that fills up: a 1 MiB tmpfs, mounted in a mount namespace of its
+// own (nothing stays mounted; needs root, as the realtime tier does). The
+// room reserved at the start still takes the sidecar and timing.json.
+TEST_F(HilCliTest, AFullDiskTripsTheRunAndStillGetsItsRecord) {
+  const int port = StartEmulator();
+  const std::string disk = Path("disk"), kept = Path("kept");
+  std::filesystem::create_directories(disk);
+  const char script[] =
+      "mount -t tmpfs -o size=1m kcrig-full \"$1\" || exit 99; "
+      "\"$2\" run --config \"$3\" --rig \"$4\" --log-dir \"$1/run\" --quiet; "
+      "code=$?; cp -a \"$1/run\" \"$5\"; exit $code";
+  ChildProcess run({"/usr/bin/unshare", "-m", "--propagation", "private",
+                    "/bin/sh", "-c", script, "sh", disk, KCRIG_BINARY, config_,
+                    "modbus-tcp://127.0.0.1:" + std::to_string(port), kept},
+                   Path("run.out"));
+  ASSERT_EQ(run.Wait(), 3) << run.Output();
+  EXPECT_NE(run.Output().find("tripped: log_write_error (" + disk +
+                              "/run/run.csv.partial: No space left on device; "
+                              "its "),
+            std::string::npos)
+      << run.Output();
+  EXPECT_FALSE(std::filesystem::exists(kept + "/run.csv"));
+  EXPECT_FALSE(std::filesystem::exists(kept + "/run.csv.reserve"));
+  std::ifstream in(kept + "/run.csv.partial");
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  ASSERT_FALSE(text.empty());
+  EXPECT_EQ(text.back(), '\n');
+  const long rows = std::count(text.begin(), text.end(), '\n') - 1;
+  const nlohmann::json sidecar = ReadJson(kept + "/run.json");
+  EXPECT_EQ(sidecar["samples"].get<long>(), rows);
+  EXPECT_EQ(sidecar["hil"]["safety"]["cause"], "log_write_error");
+  EXPECT_FALSE(ReadJson(kept + "/timing.json")["budget"]["within"].get<bool>());
 }
 
 TEST_F(HilCliTest, SigtermRampsDownAndKeepsTheLog) {
