@@ -164,6 +164,13 @@ TEST_F(SimulateCliTest, NumbersAreDecimalFiniteAndInRange) {
       RunKcrig("timing-check --rate 10 --quiet --out " + Out()),
       "--rate: rig.yaml safety.watchdog_cycles: 20 cycles are more than 1 s "
       "at this period");
+  // An address that is not one (it once listened on 255.255.255.255).
+  ExpectCleanFailure(RunKcrig("emulate --modbus-tcp 300.1.1.1:1502"),
+                     "host '300.1.1.1' must be an IPv4 address");
+  ExpectCleanFailure(
+      RunKcrig("run --rig modbus-tcp://300.1.1.1:1502 --log-dir " +
+               (dir_ / "run").string()),
+      "host '300.1.1.1' must be an IPv4 address");
 }
 
 TEST_F(SimulateCliTest, InconsistentRateAndEffectsFailCleanly) {
