@@ -1,5 +1,7 @@
 #include "hil/rig_session.h"
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -203,6 +205,11 @@ std::string HilJson(const RigConfig& rig_config,
       std::vector<double>(lr.rest_pose.data(), lr.rest_pose.data() + 6);
   hil["realtime_warnings"] = result.realtime.warnings;
   hil["transport"] = transport;
+  // The process's peak resident memory (locked, under mlockall): what the
+  // rig PC must hold, the same for a run of seconds or of an hour.
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  hil["peak_memory_mib"] = static_cast<double>(usage.ru_maxrss) / 1024.0;
   return hil.dump();
 }
 
