@@ -2,7 +2,7 @@
 //  - one semi-implicit Euler step with double (target: median <= 2 us);
 //  - the paper's 4 s ramp at 1 kHz (4000 steps) with double (<= 10 ms) and
 //    with exact sensitivities for the 5 bushing stiffnesses, ceres::Jet
-//    (<= 60 ms);
+//    (<= 60 ms) and the tangent-linear step (#18: <= 2.5x double);
 //  - the same trajectory with SUNDIALS CVODE (BDF) at the tolerance whose
 //    error matches the semi-implicit Euler's at h = 1 ms, in the same run.
 // Run: build/bin/model_bench --benchmark_format=json
@@ -14,6 +14,7 @@
 #include "ceres/jet.h"
 #include "rt_core/model/model_config.h"
 #include "rt_core/model/simulation.h"
+#include "rt_core/model/tangent_linear.h"
 #include "tests/support/reference_integrators.h"
 
 namespace kcrig {
@@ -60,13 +61,16 @@ void BM_Trajectory4sDouble(benchmark::State& state) {
 }
 BENCHMARK(BM_Trajectory4sDouble)->Unit(benchmark::kMillisecond);
 
-void BM_Trajectory4sJetSensitivities(benchmark::State& state) {
+// The five stiffness sensitivities by the Jet reference (SuspensionModel)
+// and by the tangent-linear step (TangentLinearModel, issue #18), one thread.
+template <template <typename> class Model>
+void BM_Trajectory4sSensitivities(benchmark::State& state) {
   SuspensionParameters<Jet5> parameters = Config().model.Cast<Jet5>();
   for (int i = 0; i < kNumBushings; ++i) {
     parameters.bushings[i].stiffness =
         Config().model.bushings[i].stiffness * Jet5(1.0, i);
   }
-  const SuspensionModel<Jet5> model(parameters);
+  const Model<Jet5> model(parameters);
   const RampExcitation<Jet5> ramp = PaperRamp().Cast<Jet5>();
   std::vector<TrajectorySample<Jet5>> samples;
   for (auto _ : state) {
@@ -74,12 +78,20 @@ void BM_Trajectory4sJetSensitivities(benchmark::State& state) {
     benchmark::DoNotOptimize(samples.data());
   }
 }
+void BM_Trajectory4sJetSensitivities(benchmark::State& state) {
+  BM_Trajectory4sSensitivities<SuspensionModel>(state);
+}
+void BM_Trajectory4sTangentLinearSensitivities(benchmark::State& state) {
+  BM_Trajectory4sSensitivities<TangentLinearModel>(state);
+}
 BENCHMARK(BM_Trajectory4sJetSensitivities)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Trajectory4sTangentLinearSensitivities)
+    ->Unit(benchmark::kMillisecond);
 
 // What the estimator runs on two cores: the five directions split as a
 // Jet<4> (three, padded to an even size that vectorizes) and a Jet<2>, each
 // its own trajectory on its own thread. Wall time.
-template <int N>
+template <int N, template <typename> class Model>
 void SimulateDirections(
     int first, int count,
     std::vector<TrajectorySample<ceres::Jet<double, N>>>* out) {
@@ -91,22 +103,33 @@ void SimulateDirections(
     parameters.bushings[first + k].stiffness =
         Config().model.bushings[first + k].stiffness * s;
   }
-  SimulateTrajectory(SuspensionModel<Jet>(parameters), PaperRamp().Cast<Jet>(),
+  SimulateTrajectory(Model<Jet>(parameters), PaperRamp().Cast<Jet>(),
                      SimulationOptions{}, out);
 }
 
-void BM_Trajectory4sJetSensitivitiesTwoThreads(benchmark::State& state) {
+template <template <typename> class Model>
+void BM_Trajectory4sSensitivitiesTwoThreads(benchmark::State& state) {
   std::vector<TrajectorySample<ceres::Jet<double, 4>>> first;
   std::vector<TrajectorySample<ceres::Jet<double, 2>>> second;
   for (auto _ : state) {
-    std::thread helper([&] { SimulateDirections<4>(0, 3, &first); });
-    SimulateDirections<2>(3, 2, &second);
+    std::thread helper([&] { SimulateDirections<4, Model>(0, 3, &first); });
+    SimulateDirections<2, Model>(3, 2, &second);
     helper.join();
     benchmark::DoNotOptimize(first.data());
     benchmark::DoNotOptimize(second.data());
   }
 }
+void BM_Trajectory4sJetSensitivitiesTwoThreads(benchmark::State& state) {
+  BM_Trajectory4sSensitivitiesTwoThreads<SuspensionModel>(state);
+}
+void BM_Trajectory4sTangentLinearSensitivitiesTwoThreads(
+    benchmark::State& state) {
+  BM_Trajectory4sSensitivitiesTwoThreads<TangentLinearModel>(state);
+}
 BENCHMARK(BM_Trajectory4sJetSensitivitiesTwoThreads)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_Trajectory4sTangentLinearSensitivitiesTwoThreads)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

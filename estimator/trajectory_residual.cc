@@ -1,12 +1,14 @@
 #include "estimator/trajectory_residual.h"
 
 #include <algorithm>
-#include <thread>
+#include <type_traits>
 #include <utility>
 
+#include "base/parallel_for.h"
 #include "ceres/jet.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/simulation.h"
+#include "rt_core/model/tangent_linear.h"
 
 namespace kcrig {
 namespace {
@@ -61,8 +63,11 @@ bool TrajectoryResidual::SimulateAndFill(double const* const* parameters,
                                          int first, int count,
                                          double* residuals,
                                          double** jacobians) const {
-  const SuspensionModel<T> model(ScaledParameters<T>(
-      *nominal_, parameter_indices_, parameters, first, count));
+  // Sensitivities by the tangent-linear step (exactly the Jet reference's).
+  using Model = std::conditional_t<std::is_same_v<T, double>,
+                                   SuspensionModel<T>, TangentLinearModel<T>>;
+  const Model model(ScaledParameters<T>(*nominal_, parameter_indices_,
+                                        parameters, first, count));
   const SampledLoad<T> load{
       &experiment_->forces, experiment_->sample_period, T(experiment_->z_a),
       experiment_->sample_period * (experiment_->forces.size() - 1)};
@@ -100,57 +105,58 @@ bool TrajectoryResidual::Evaluate(double const* const* parameters,
     const double s = parameters[i][0];
     if (!(s >= lower_scale_ && s <= upper_scale_)) return false;
   }
-  if (jacobians != nullptr) {
-    const size_t n = parameter_indices_.size();
-    const size_t m = static_cast<size_t>(num_residuals());
-    std::lock_guard<std::mutex> lock(cache_mutex_);
-    bool cached = cached_parameters_.size() == n;
-    for (size_t i = 0; cached && i < n; ++i) {
-      cached = cached_parameters_[i] == parameters[i][0];
-    }
-    if (!cached) {
-      // Evaluate into the cache with every column requested.
-      cached_residuals_.assign(m, 0.0);
-      cached_jacobian_.assign(n, std::vector<double>(m, 0.0));
-      std::vector<double*> columns(n);
-      for (size_t i = 0; i < n; ++i) columns[i] = cached_jacobian_[i].data();
-      bool ok = true;
-      if (split_across_threads_ && n >= 3) {
-        // Two threads, each a trajectory carrying half of the directions
-        // (with two or fewer, one Jet<2> is already the cheapest).
-        // The helper thread writes its own copy of the residuals.
-        const int half = static_cast<int>(n + 1) / 2;
-        std::vector<double> helper_residuals(m);
-        bool helper_ok = true;
-        std::thread helper([&] {
-          helper_ok = SimulateJetBlock(parameters, 0, half,
-                                       helper_residuals.data(), columns.data());
-        });
-        ok = SimulateJetBlock(parameters, half, static_cast<int>(n) - half,
-                              cached_residuals_.data(), columns.data());
-        helper.join();
-        ok = ok && helper_ok;
-      } else {
-        ok = SimulateJetBlock(parameters, 0, static_cast<int>(n),
-                              cached_residuals_.data(), columns.data());
-      }
-      if (!ok) {
-        cached_parameters_.clear();
-        return false;
-      }
-      cached_parameters_.assign(n, 0.0);
-      for (size_t i = 0; i < n; ++i) cached_parameters_[i] = parameters[i][0];
-    }
-    std::copy(cached_residuals_.begin(), cached_residuals_.end(), residuals);
-    for (size_t i = 0; i < n; ++i) {
-      if (jacobians[i] != nullptr) {
-        std::copy(cached_jacobian_[i].begin(), cached_jacobian_[i].end(),
-                  jacobians[i]);
-      }
-    }
-    return true;
+  if (jacobians == nullptr) {
+    return SimulateAndFill<double>(parameters, 0, 0, residuals, nullptr);
   }
-  return SimulateAndFill<double>(parameters, 0, 0, residuals, nullptr);
+  const size_t n = parameter_indices_.size();
+  const size_t m = static_cast<size_t>(num_residuals());
+  std::lock_guard<std::mutex> lock(cache_mutex_);
+  bool cached = cached_parameters_.size() == n;
+  for (size_t i = 0; cached && i < n; ++i) {
+    cached = cached_parameters_[i] == parameters[i][0];
+  }
+  if (!cached) {
+    // Evaluate into the cache with every column requested.
+    cached_residuals_.assign(m, 0.0);
+    cached_jacobian_.assign(n, std::vector<double>(m, 0.0));
+    if (!EvaluateAllColumns(parameters)) {
+      cached_parameters_.clear();
+      return false;
+    }
+    cached_parameters_.assign(n, 0.0);
+    for (size_t i = 0; i < n; ++i) cached_parameters_[i] = parameters[i][0];
+  }
+  std::copy(cached_residuals_.begin(), cached_residuals_.end(), residuals);
+  for (size_t i = 0; i < n; ++i) {
+    if (jacobians[i] != nullptr) {
+      std::copy(cached_jacobian_[i].begin(), cached_jacobian_[i].end(),
+                jacobians[i]);
+    }
+  }
+  return true;
+}
+
+bool TrajectoryResidual::EvaluateAllColumns(
+    double const* const* parameters) const {
+  // One tangent-linear trajectory carrying every direction, or with
+  // `split_across_threads` two carrying half each side by side (with two or
+  // fewer directions one is already the cheapest). The first block writes
+  // the residuals (both compute the same values).
+  const int n = static_cast<int>(parameter_indices_.size());
+  const int blocks = split_across_threads_ && n >= 3 ? 2 : 1;
+  const int half = (n + 1) / 2;
+  std::vector<double*> columns(n);
+  for (int i = 0; i < n; ++i) columns[i] = cached_jacobian_[i].data();
+  std::vector<double> scratch(cached_residuals_.size());
+  char ok[2] = {0, 0};
+  ParallelFor(blocks, blocks, [&](int block) {
+    const int first = block == 0 ? 0 : half;
+    const int count = blocks == 1 ? n : block == 0 ? half : n - half;
+    double* residuals = block == 0 ? cached_residuals_.data() : scratch.data();
+    ok[block] =
+        SimulateJetBlock(parameters, first, count, residuals, columns.data());
+  });
+  return ok[0] && (blocks == 1 || ok[1]);
 }
 
 bool TrajectoryResidual::SimulateJetBlock(double const* const* parameters,
@@ -158,8 +164,7 @@ bool TrajectoryResidual::SimulateJetBlock(double const* const* parameters,
                                           double* residuals,
                                           double** jacobians) const {
   // Jets of even size vectorize in pairs; odd sizes cost nearly as much as
-  // the next even one (4 s ramp: Jet<2> 29 ms, <3> 42, <4> 40, <5> 52, <6>
-  // 49), so blocks are padded to even sizes.
+  // the next even one, so blocks are padded to even sizes.
   switch ((count + 1) / 2) {
     case 1:
       return SimulateAndFill<ceres::Jet<double, 2>>(parameters, first, count,

@@ -1,14 +1,14 @@
 // The weighted residuals of eq. (6) of the paper for one experiment,
 //   f_jk(s) = (x_k(t_j, p(s)) - eta_jk) / sigma_k,
 // over the selected channels k, as a Ceres cost function whose Jacobian is
-// the exact sensitivity of the discrete semi-implicit Euler solution
-// (ceres::Jet through the whole trajectory, no finite differences).
+// the exact sensitivity of the discrete semi-implicit Euler solution (the
+// tangent-linear step of rt_core/model/tangent_linear.h, equal to ceres::Jet
+// through the whole trajectory; no finite differences).
 // Parameters are scaled, s_i = p_i / p_i,nominal, one parameter block of
 // size 1 each so that any of them can be held constant (profiles).
 //
 // With `split_across_threads` the sensitivity directions are divided over
-// two threads, each integrating its own Jet trajectory (two cores: a Jet<3>
-// and a Jet<2> side by side instead of one Jet<5>).
+// two threads, each integrating its own tangent-linear trajectory.
 //
 // The box lower <= s_i <= upper is enforced here: a point outside it is an
 // invalid step, which makes the trust region shrink. (Ceres' own bounds run
@@ -56,6 +56,9 @@ class TrajectoryResidual : public ceres::CostFunction {
   template <typename T>
   bool SimulateAndFill(double const* const* parameters, int first, int count,
                        double* residuals, double** jacobians) const;
+
+  // The residuals and every Jacobian column into the cache.
+  bool EvaluateAllColumns(double const* const* parameters) const;
 
   // SimulateAndFill with a Jet carrying directions first .. first+count-1.
   bool SimulateJetBlock(double const* const* parameters, int first, int count,

@@ -74,11 +74,13 @@ Status SolveStaticEquilibrium(const SuspensionModel<T>& model,
 // the logged ramp starts). Writes one sample at t = 0 and one every
 // steps_per_sample steps after.
 //
+// `Model` is SuspensionModel<T> (double, or Jets: the reference
+// sensitivities) or TangentLinearModel<Jet> (the same sensitivities, fast);
 // `Excitation` is RampExcitation<T> or anything else with
 // `double EndTime() const` and `RigLoad<T> LoadAt(double t) const`.
-template <typename T, typename Excitation>
-Status SimulateTrajectory(const SuspensionModel<T>& model,
-                          const Excitation& excitation,
+template <typename Model, typename Excitation,
+          typename T = typename Model::Scalar>
+Status SimulateTrajectory(const Model& model, const Excitation& excitation,
                           const SimulationOptions& options,
                           std::vector<TrajectorySample<T>>* samples) {
   if (!(options.step > 0) || options.steps_per_sample < 1) {

@@ -58,6 +58,8 @@ struct GeneralizedForce {
 template <typename T>
 class SuspensionModel {
  public:
+  using Scalar = T;
+
   // Element lengths at the design position (y = 0) become the free lengths,
   // so the design position is the equilibrium under zero rig force.
   explicit SuspensionModel(const SuspensionParameters<T>& parameters)
