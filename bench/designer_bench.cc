@@ -53,7 +53,7 @@ void BM_CriterionEvaluation(benchmark::State& state) {
   const Setup& s = TheSetup();
   for (auto _ : state) {
     Eigen::MatrixXd info;
-    if (!s.evaluator->Information(s.initial, true, &info).ok()) std::abort();
+    if (!s.evaluator->Information(s.initial, &info).ok()) std::abort();
     benchmark::DoNotOptimize(EvaluateCriterion(Criterion::kA, info).value);
   }
 }
@@ -124,7 +124,7 @@ void BM_CriterionNoise(benchmark::State& state, bool finite_differences) {
           const Status status =
               finite_differences
                   ? s.evaluator->FiniteDifferenceInformation(d, 1e-6, &info)
-                  : s.evaluator->Information(d, true, &info);
+                  : s.evaluator->Information(d, &info);
           if (!status.ok()) std::abort();
           return EvaluateCriterion(Criterion::kA, info).value;
         },

@@ -140,8 +140,7 @@ void BM_MinpackLmderForwardDifference(benchmark::State& state) {
   EstimatorOptions options;
   TrajectoryResidual residual(&s.config.model, s.indices, options.channels,
                               &s.experiments[0], s.config.experiment.step,
-                              options.lower_scale, options.upper_scale,
-                              /*split_across_threads=*/false);
+                              options.lower_scale, options.upper_scale);
   g_residual = &residual;
   int m = residual.num_residuals(), n = kNumBushings;
   std::vector<double> x, fvec(m), fjac(static_cast<size_t>(m) * n), diag(n),
@@ -176,8 +175,7 @@ void BM_CeresNumericDiffLM(benchmark::State& state) {
   EstimatorOptions options;
   TrajectoryResidual residual(&s.config.model, s.indices, options.channels,
                               &s.experiments[0], s.config.experiment.step,
-                              options.lower_scale, options.upper_scale,
-                              /*split_across_threads=*/false);
+                              options.lower_scale, options.upper_scale);
   std::vector<double> x;
   int iterations = 0;
   for (auto _ : state) {

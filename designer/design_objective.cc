@@ -43,14 +43,14 @@ Eigen::Vector2d DesignObjective::ToUnit(const Design& design) const {
   return kcrig::ToUnit(bounds_, design);
 }
 
-DesignEvaluation DesignObjective::EvaluateOne(const Eigen::Vector2d& unit,
-                                              bool split) const {
+DesignEvaluation DesignObjective::EvaluateOne(
+    const Eigen::Vector2d& unit) const {
   DesignEvaluation e;
   e.unit = unit;
   e.design = ToDesign(unit);
   const int n = evaluator_->num_parameters();
   // A diverged simulation carries no information (criteria.h penalty).
-  if (!evaluator_->Information(e.design, split, &e.information).ok()) {
+  if (!evaluator_->Information(e.design, &e.information).ok()) {
     e.information = Eigen::MatrixXd::Constant(
         n, n, std::numeric_limits<double>::quiet_NaN());
   }
@@ -81,11 +81,10 @@ std::vector<DesignEvaluation> DesignObjective::Evaluate(
     results[count].unit = u;
   }
 
-  const bool split = to_run.size() == 1;
   std::atomic<size_t> next{0};
   auto worker = [&] {
     for (size_t k = next++; k < to_run.size(); k = next++) {
-      results[to_run[k]] = EvaluateOne(results[to_run[k]].unit, split);
+      results[to_run[k]] = EvaluateOne(results[to_run[k]].unit);
     }
   };
   const int threads = std::min<int>(options_.num_threads, to_run.size());

@@ -28,8 +28,7 @@ struct DesignEvaluation {
 struct ObjectiveOptions {
   // Most criterion evaluations (trajectory + sensitivities each); > 0.
   int budget = 100;
-  // A batch of designs runs on this many threads, one design per thread; a
-  // single design splits its sensitivities over two threads instead.
+  // A batch of designs runs on this many threads, one design per thread.
   int num_threads = 2;
   // Asked after every batch with the evaluations spent of the budget and
   // the stage "24/100 evaluations, best D -77.1058 at 16.0 deg, -0.500 m,
@@ -77,7 +76,7 @@ class DesignObjective {
   bool interrupted() const { return interrupted_; }
 
  private:
-  DesignEvaluation EvaluateOne(const Eigen::Vector2d& unit, bool split) const;
+  DesignEvaluation EvaluateOne(const Eigen::Vector2d& unit) const;
   // Reports the progress after a batch; false: stop.
   bool ReportBatch() const;
 

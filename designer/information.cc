@@ -105,10 +105,10 @@ Experiment InformationEvaluator::MakeExperiment(const Design& design) const {
                            experiment_);
 }
 
-Status InformationEvaluator::Information(const Design& design, bool split,
+Status InformationEvaluator::Information(const Design& design,
                                          Eigen::MatrixXd* information) const {
   std::vector<std::vector<double>> columns;
-  const Status status = JacobianColumns(design, split, 0.0, &columns);
+  const Status status = JacobianColumns(design, 0.0, &columns);
   if (!status.ok()) return status;
   *information = prior_ + Gram(columns);
   return Status::Ok();
@@ -118,19 +118,19 @@ Status InformationEvaluator::FiniteDifferenceInformation(
     const Design& design, double relative_step,
     Eigen::MatrixXd* information) const {
   std::vector<std::vector<double>> columns;
-  const Status status = JacobianColumns(design, false, relative_step, &columns);
+  const Status status = JacobianColumns(design, relative_step, &columns);
   if (!status.ok()) return status;
   *information = prior_ + Gram(columns);
   return Status::Ok();
 }
 
 Status InformationEvaluator::JacobianColumns(
-    const Design& design, bool split, double relative_step,
+    const Design& design, double relative_step,
     std::vector<std::vector<double>>* columns) const {
   const Experiment experiment = MakeExperiment(design);
-  const TrajectoryResidual residual(
-      &nominal_, parameter_indices_, {0, 1, 2, 3, 4, 5}, &experiment,
-      experiment_.step, kLowerScale, kUpperScale, split);
+  const TrajectoryResidual residual(&nominal_, parameter_indices_,
+                                    {0, 1, 2, 3, 4, 5}, &experiment,
+                                    experiment_.step, kLowerScale, kUpperScale);
   const int n = num_parameters();
   const int m = residual.num_residuals();
   std::vector<double> values = scaled_values_;

@@ -68,11 +68,8 @@ class InformationEvaluator {
     return static_cast<int>(parameter_indices_.size());
   }
 
-  // prior + J^T J with the exact (Jet) sensitivities of the discrete
-  // trajectory. `split` runs the sensitivity directions on two threads (for
-  // single evaluations; batches run one design per thread instead).
-  Status Information(const Design& design, bool split,
-                     Eigen::MatrixXd* information) const;
+  // prior + J^T J with the exact sensitivities of the discrete trajectory.
+  Status Information(const Design& design, Eigen::MatrixXd* information) const;
 
   // prior + J^T J with J by forward differences, step `relative_step` x s_i:
   // the finite-difference criterion of the paper, for comparison.
@@ -83,9 +80,9 @@ class InformationEvaluator {
   Experiment MakeExperiment(const Design& design) const;
 
  private:
-  // The columns of J: exact (Jet) sensitivities when `relative_step` is 0,
+  // The columns of J: exact sensitivities when `relative_step` is 0,
   // else forward differences with step relative_step x s_i.
-  Status JacobianColumns(const Design& design, bool split, double relative_step,
+  Status JacobianColumns(const Design& design, double relative_step,
                          std::vector<std::vector<double>>* columns) const;
 
   SuspensionParameters<double> nominal_;

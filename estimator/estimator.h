@@ -36,8 +36,6 @@ struct EstimatorOptions {
   double parameter_tolerance = 1e-12;
   // Residual blocks (experiments) are evaluated on this many threads.
   int num_threads = 2;
-  // Each trajectory's sensitivity directions are split over two threads.
-  bool split_sensitivities = true;
   // A direction of parameter space whose singular value is below this
   // fraction of the largest is not determined by the data at all (numerical
   // rank); its parameters get no standard errors.

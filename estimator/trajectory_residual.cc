@@ -4,7 +4,6 @@
 #include <type_traits>
 #include <utility>
 
-#include "base/parallel_for.h"
 #include "ceres/jet.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/simulation.h"
@@ -42,15 +41,14 @@ TrajectoryResidual::TrajectoryResidual(
     const SuspensionParameters<double>* nominal,
     std::vector<int> parameter_indices, std::vector<int> channels,
     const Experiment* experiment, double integrator_step, double lower_scale,
-    double upper_scale, bool split_across_threads)
+    double upper_scale)
     : nominal_(nominal),
       parameter_indices_(std::move(parameter_indices)),
       channels_(std::move(channels)),
       experiment_(experiment),
       integrator_step_(integrator_step),
       lower_scale_(lower_scale),
-      upper_scale_(upper_scale),
-      split_across_threads_(split_across_threads) {
+      upper_scale_(upper_scale) {
   for (size_t i = 0; i < parameter_indices_.size(); ++i) {
     mutable_parameter_block_sizes()->push_back(1);
   }
@@ -138,25 +136,14 @@ bool TrajectoryResidual::Evaluate(double const* const* parameters,
 
 bool TrajectoryResidual::EvaluateAllColumns(
     double const* const* parameters) const {
-  // One tangent-linear trajectory carrying every direction, or with
-  // `split_across_threads` two carrying half each side by side (with two or
-  // fewer directions one is already the cheapest). The first block writes
-  // the residuals (both compute the same values).
+  // One tangent-linear trajectory carries every direction: its cost hardly
+  // grows with their number, so splitting them over threads (as the Jets
+  // were) would only repeat the shared part.
   const int n = static_cast<int>(parameter_indices_.size());
-  const int blocks = split_across_threads_ && n >= 3 ? 2 : 1;
-  const int half = (n + 1) / 2;
   std::vector<double*> columns(n);
   for (int i = 0; i < n; ++i) columns[i] = cached_jacobian_[i].data();
-  std::vector<double> scratch(cached_residuals_.size());
-  char ok[2] = {0, 0};
-  ParallelFor(blocks, blocks, [&](int block) {
-    const int first = block == 0 ? 0 : half;
-    const int count = blocks == 1 ? n : block == 0 ? half : n - half;
-    double* residuals = block == 0 ? cached_residuals_.data() : scratch.data();
-    ok[block] =
-        SimulateJetBlock(parameters, first, count, residuals, columns.data());
-  });
-  return ok[0] && (blocks == 1 || ok[1]);
+  return SimulateJetBlock(parameters, 0, n, cached_residuals_.data(),
+                          columns.data());
 }
 
 bool TrajectoryResidual::SimulateJetBlock(double const* const* parameters,

@@ -7,9 +7,6 @@
 // Parameters are scaled, s_i = p_i / p_i,nominal, one parameter block of
 // size 1 each so that any of them can be held constant (profiles).
 //
-// With `split_across_threads` the sensitivity directions are divided over
-// two threads, each integrating its own tangent-linear trajectory.
-//
 // The box lower <= s_i <= upper is enforced here: a point outside it is an
 // invalid step, which makes the trust region shrink. (Ceres' own bounds run
 // a projected line search that evaluates the Jacobian, i.e. a whole
@@ -39,7 +36,7 @@ class TrajectoryResidual : public ceres::CostFunction {
                      std::vector<int> parameter_indices,
                      std::vector<int> channels, const Experiment* experiment,
                      double integrator_step, double lower_scale,
-                     double upper_scale, bool split_across_threads);
+                     double upper_scale);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -71,7 +68,6 @@ class TrajectoryResidual : public ceres::CostFunction {
   double integrator_step_;
   double lower_scale_;
   double upper_scale_;
-  bool split_across_threads_;
 
   // The last residuals and Jacobian columns with the parameters they were
   // evaluated at. Ceres evaluates the Jacobian at every accepted point, and

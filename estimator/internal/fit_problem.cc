@@ -16,7 +16,7 @@ FitProblem::FitProblem(const SuspensionParameters<double>& nominal,
   for (const Experiment& experiment : experiments) {
     AddResidualBlock(new TrajectoryResidual(
         &nominal, indices, options.channels, &experiment, integrator_step,
-        options.lower_scale, options.upper_scale, options.split_sensitivities));
+        options.lower_scale, options.upper_scale));
   }
 }
 

@@ -176,6 +176,32 @@ class SuspensionModel {
         dq_dq.template rightCols<3>() * cardan.RateMatrix();
   }
 
+  // dQ/dp for the parameters Q is linear in: each element's stiffness and
+  // damping (the five bushings in BushingIndex order, then the
+  // spring-damper) and the principal inertias (the gyroscopic moment).
+  struct LinearParameterJacobian {
+    Mat6<T> stiffness;
+    Mat6<T> damping;
+    Eigen::Matrix<T, 6, 3> inertia;
+  };
+  void EvaluateLinearParameterJacobian(const Vec6<T>& y, const Vec6<T>& z,
+                                       LinearParameterJacobian* out) const {
+    const Mat3<T> rot = CardanAngles<T>(y.template tail<3>()).Rotation();
+    const Mat3<T> rot_t = rot.transpose();
+    for (int i = 0; i < kNumElements; ++i) {
+      const ElementState element =
+          StateOf(i, y.template head<3>(), rot, rot_t, z);
+      out->stiffness.col(i) = (element.length - free_length_[i]) * element.a;
+      out->damping.col(i) = -element.a.dot(z) * element.a;
+    }
+    const Vec3<T> omega = z.template tail<3>();
+    for (int k = 0; k < 3; ++k) {
+      Vec3<T> spin = Vec3<T>::Zero();
+      spin(k) = omega(k);
+      out->inertia.col(k) << T(0), T(0), T(0), -omega.cross(spin);
+    }
+  }
+
   // Unmodelled-effect hooks of the plant (rt_core/model/rig_plant.h); both zero
   // in the nominal model. A cubic term c3 (l - l0)^3 on every bushing's axial
   // force (progressive rubber stiffness; in Q and its Jacobian), and an extra

@@ -9,10 +9,18 @@
 // V = diag(I, G^-1(y)). Along a direction d of (state, parameters, load):
 //   W d(dz) = h dQ - dM dz + d(DQ[w(dz)]),
 // where d(DQ[w]) is taken with dz held fixed (through the pose, the
-// parameters and G^-1(y)). One evaluation of Q in Dual<J> scalars gives Q,
-// its N directional derivatives dQ, DQ[w] and the N mixed second derivatives
-// d(DQ[w]) at once; W is factored once in double and solves all N
-// directions. The state then moves as in the step, in J arithmetic.
+// parameters and G^-1(y)). W is factored once in double and solves all N
+// directions; the state then moves as in the step, in J arithmetic. The
+// right-hand side comes one of two ways:
+//  - when only parameters Q or M is linear in carry tangents (stiffness,
+//    damping, mass, inertia: the estimator's usual case) and the load and
+//    the effect hooks carry none: one evaluation of Q's Jacobians in
+//    Dual<double> along w gives D(dQ/dy)[w], D(dQ/dz)[w] and, with the
+//    parameter Jacobian, D(dQ/dp)[w]; by the symmetry of second
+//    derivatives d(DQ[w]) = D(dQ/dx)[w] dx + D(dQ/dp)[w] dp, a product per
+//    direction (cost independent of N);
+//  - otherwise (hard points, load or hook tangents) one evaluation of Q in
+//    Dual<J> scalars gives dQ and d(DQ[w]) for all N directions at once.
 //
 // J is a Jet of N directions (value .a, derivatives .v, e.g. ceres::Jet):
 // the same type the Jet reference uses, so the two are interchangeable.
@@ -39,7 +47,26 @@ class TangentLinearModel {
   explicit TangentLinearModel(const SuspensionParameters<J>& parameters)
       : values_(ValuesOf(parameters)),
         jets_(parameters),
-        second_(Lift(parameters)) {}
+        second_(Lift(parameters)),
+        directional_(Mapped<Dual<double>>(
+            parameters, [](const J& x) { return Dual<double>(x.a); })) {
+    linear_tangents_only_ = true;
+    for (int i = 0; i <= kNumBushings; ++i) {
+      const AxialElement<J>& e =
+          i < kNumBushings ? parameters.bushings[i] : parameters.spring;
+      for (int k = 0; k < 3; ++k) {
+        linear_tangents_only_ = linear_tangents_only_ &&
+                                e.carrier_point(k).v.isZero() &&
+                                e.chassis_point(k).v.isZero();
+      }
+      stiffness_tangents_.row(i) = e.stiffness.v.transpose();
+      damping_tangents_.row(i) = e.damping.v.transpose();
+    }
+    mass_tangents_ = parameters.mass.v.transpose();
+    for (int k = 0; k < 3; ++k) {
+      inertia_tangents_.row(k) = parameters.inertia(k).v.transpose();
+    }
+  }
 
   // The model in J scalars: geometry queries (BushingDeflections, ...).
   const SuspensionModel<J>& jets() const { return jets_; }
@@ -49,11 +76,15 @@ class TangentLinearModel {
     values_.SetProgressiveStiffness(cubic_stiffness.a);
     jets_.SetProgressiveStiffness(cubic_stiffness);
     second_.SetProgressiveStiffness(Second(cubic_stiffness, J(0.0)));
+    directional_.SetProgressiveStiffness(Dual<double>(cubic_stiffness.a));
+    cubic_tangents_ = !cubic_stiffness.v.isZero();
   }
   void SetExtraBushingForce(
       const typename SuspensionModel<J>::ExtraBushingForce& extra) {
     typename SuspensionModel<double>::ExtraBushingForce value;
     typename SuspensionModel<Second>::ExtraBushingForce second;
+    typename SuspensionModel<Dual<double>>::ExtraBushingForce directional;
+    extra_tangents_ = false;
     for (int i = 0; i < kNumBushings; ++i) {
       value.force[i] = extra.force[i].a;
       value.stiffness[i] = extra.stiffness[i].a;
@@ -61,10 +92,17 @@ class TangentLinearModel {
       second.force[i] = Second(extra.force[i], J(0.0));
       second.stiffness[i] = Second(extra.stiffness[i], J(0.0));
       second.reference[i] = Second(extra.reference[i], J(0.0));
+      directional.force[i] = value.force[i];
+      directional.stiffness[i] = value.stiffness[i];
+      directional.reference[i] = value.reference[i];
+      extra_tangents_ = extra_tangents_ || !extra.force[i].v.isZero() ||
+                        !extra.stiffness[i].v.isZero() ||
+                        !extra.reference[i].v.isZero();
     }
     values_.SetExtraBushingForce(value);
     jets_.SetExtraBushingForce(extra);
     second_.SetExtraBushingForce(second);
+    directional_.SetExtraBushingForce(directional);
   }
 
   // Static equilibrium Q(y, 0) = 0: Newton in double, then the tangents from
@@ -94,6 +132,39 @@ class TangentLinearModel {
  private:
   using Second = Dual<J>;
   using Tangent6 = Eigen::Matrix<double, 6, kDirections>;
+
+  // What one step's right-hand sides are built from: the predicted point
+  // (values and tangents), w(dz) and its tangents, the load.
+  struct StepPoint {
+    Vec6<double> y_predicted;
+    Vec6<double> z;
+    Vec6<J> y_predicted_jet;
+    Vec6<J> z_jet;
+    Vec6<double> w;      // w(dz) = (h^2 V dz, h dz): pose part
+    Vec3<J> w_rotation;  // h^2 G^-1(y) dz_rot with its tangents
+    Vec6<double> dz;
+    double h;
+  };
+  // h dQ - dM dz + d(DQ[w]) for every direction (see the top of the file).
+  Tangent6 RightHandSideByDirectionalJacobians(
+      const StepPoint& point, const RigLoad<double>& load,
+      const GeneralizedForce<double>& g) const;
+  Tangent6 RightHandSideByDuals(const StepPoint& point,
+                                const RigLoad<J>& load) const;
+  Tangent6 MassTangentTimes(const Vec6<double>& dz) const {
+    Tangent6 out;
+    for (int k = 0; k < 3; ++k) out.row(k) = dz(k) * mass_tangents_;
+    for (int k = 0; k < 3; ++k) {
+      out.row(k + 3) = dz(k + 3) * inertia_tangents_.row(k);
+    }
+    return out;
+  }
+  static bool HasTangents(const RigLoad<J>& load) {
+    for (int k = 0; k < 3; ++k) {
+      if (!load.force(k).v.isZero() || !load.point(k).v.isZero()) return true;
+    }
+    return false;
+  }
 
   // Every parameter of `p` mapped by `f`.
   template <typename U, typename F>
@@ -151,31 +222,43 @@ class TangentLinearModel {
   SuspensionModel<double> values_;
   SuspensionModel<J> jets_;
   SuspensionModel<Second> second_;
+  SuspensionModel<Dual<double>> directional_;
+  // Whether only stiffness, damping, mass and inertia carry tangents (then
+  // the right-hand side comes from directional Jacobians), and those
+  // tangents: row i the element's (bushings, then the spring-damper).
+  bool linear_tangents_only_ = false;
+  bool cubic_tangents_ = false;
+  bool extra_tangents_ = false;
+  Eigen::Matrix<double, kNumBushings + 1, kDirections> stiffness_tangents_;
+  Eigen::Matrix<double, kNumBushings + 1, kDirections> damping_tangents_;
+  Eigen::Matrix<double, 1, kDirections> mass_tangents_;
+  Eigen::Matrix<double, 3, kDirections> inertia_tangents_;
 };
 
 template <typename J>
 void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
                                  ModelState<J>* state) const {
   // The value step, exactly as SemiImplicitEulerStep<double> runs it.
-  ModelState<double> value;
-  for (int k = 0; k < 6; ++k) {
-    value.y(k) = state->y(k).a;
-    value.z(k) = state->z(k).a;
-  }
+  StepPoint point;
+  point.h = h;
+  for (int k = 0; k < 6; ++k) point.z(k) = state->z(k).a;
+  Vec6<double> y;
+  for (int k = 0; k < 6; ++k) y(k) = state->y(k).a;
   const Mat3<double> g_inv =
-      InverseAngularRateMatrix<double>(value.y.template tail<3>());
+      InverseAngularRateMatrix<double>(y.template tail<3>());
   Vec6<double> y_rate;
-  y_rate << value.z.template head<3>(), g_inv * value.z.template tail<3>();
-  const Vec6<double> y_predicted = value.y + h * y_rate;
+  y_rate << point.z.template head<3>(), g_inv * point.z.template tail<3>();
+  point.y_predicted = y + h * y_rate;
+  const RigLoad<double> load = ValuesOf(load_next);
   GeneralizedForce<double> g;
-  values_.Evaluate(ValuesOf(load_next), y_predicted, value.z, true, &g);
+  values_.Evaluate(load, point.y_predicted, point.z, true, &g);
   Mat6<double> iteration_matrix = values_.mass_matrix() - h * g.dq_dz;
   iteration_matrix.template leftCols<3>() -=
       (h * h) * g.dq_dy.template leftCols<3>();
   iteration_matrix.template rightCols<3>() -=
       (h * h) * (g.dq_dy.template rightCols<3>() * g_inv);
   const Eigen::PartialPivLU<Mat6<double>> lu(iteration_matrix);
-  const Vec6<double> dz = lu.solve(h * g.q);
+  point.dz = lu.solve(h * g.q);
 
   // The tangents of the predicted pose and of w(dz) (through G^-1(y)).
   const J jet_h(h);
@@ -184,42 +267,104 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
   Vec6<J> y_rate_jet;
   y_rate_jet << state->z.template head<3>(),
       g_inv_jet * state->z.template tail<3>();
-  const Vec6<J> y_predicted_jet = state->y + y_rate_jet * jet_h;
-  const Vec3<J> dz_rot = Constants(dz).template tail<3>();
-  const Vec3<J> w_rot = (g_inv_jet * dz_rot) * J(h * h);
-
-  Vec6<Second> y_second;
-  Vec6<Second> z_second;
+  point.y_predicted_jet = state->y + y_rate_jet * jet_h;
+  point.z_jet = state->z;
+  point.w_rotation =
+      (g_inv_jet * Constants(point.dz).template tail<3>()) * J(h * h);
   for (int k = 0; k < 3; ++k) {
-    y_second(k) = Second(y_predicted_jet(k), J(h * h * dz(k)));
-    y_second(k + 3) = Second(y_predicted_jet(k + 3), w_rot(k));
+    point.w(k) = h * h * point.dz(k);
+    point.w(k + 3) = point.w_rotation(k).a;
   }
-  for (int k = 0; k < 6; ++k) z_second(k) = Second(state->z(k), J(h * dz(k)));
-  RigLoad<Second> load_second;
-  for (int k = 0; k < 3; ++k) {
-    load_second.force(k) = Second(load_next.force(k), J(0.0));
-    load_second.point(k) = Second(load_next.point(k), J(0.0));
-  }
-  GeneralizedForce<Second> g_second;
-  second_.Evaluate(load_second, y_second, z_second, false, &g_second);
 
-  // W d(dz) = h dQ - dM dz + d(DQ[w]), all directions in one solve.
-  Tangent6 rhs;
-  for (int k = 0; k < 6; ++k) {
-    const Second& q = g_second.q(k);
-    rhs.row(k) = (h * q.a.v - dz(k) * second_.mass_matrix()(k, k).a.v + q.e.v)
-                     .transpose();
-  }
-  const Tangent6 d_dz = lu.solve(rhs);
+  const bool directional = linear_tangents_only_ && !cubic_tangents_ &&
+                           !extra_tangents_ && !HasTangents(load_next);
+  const Tangent6 d_dz =
+      lu.solve(directional ? RightHandSideByDirectionalJacobians(point, load, g)
+                           : RightHandSideByDuals(point, load_next));
 
   // z' = z + dz, y' = y + h V(y) z', in J arithmetic for y's tangents.
   for (int k = 0; k < 6; ++k) {
     state->z(k) =
-        J(value.z(k) + dz(k), state->z(k).v + d_dz.row(k).transpose());
+        J(point.z(k) + point.dz(k), state->z(k).v + d_dz.row(k).transpose());
   }
   state->y.template head<3>() += state->z.template head<3>() * jet_h;
   state->y.template tail<3>() +=
       (g_inv_jet * state->z.template tail<3>()) * jet_h;
+}
+
+template <typename J>
+typename TangentLinearModel<J>::Tangent6
+TangentLinearModel<J>::RightHandSideByDirectionalJacobians(
+    const StepPoint& point, const RigLoad<double>& load,
+    const GeneralizedForce<double>& g) const {
+  using D = Dual<double>;
+  Vec6<D> y_dual;
+  Vec6<D> z_dual;
+  for (int k = 0; k < 6; ++k) {
+    y_dual(k) = D(point.y_predicted(k), point.w(k));
+    z_dual(k) = D(point.z(k), point.h * point.dz(k));
+  }
+  RigLoad<D> load_dual;
+  for (int k = 0; k < 3; ++k) {
+    load_dual.force(k) = D(load.force(k));
+    load_dual.point(k) = D(load.point(k));
+  }
+  GeneralizedForce<D> g_dual;
+  directional_.Evaluate(load_dual, y_dual, z_dual, true, &g_dual);
+  typename SuspensionModel<D>::LinearParameterJacobian p_dual;
+  directional_.EvaluateLinearParameterJacobian(y_dual, z_dual, &p_dual);
+
+  auto values = [](const auto& m) {
+    return m.unaryExpr([](const D& x) { return x.a; }).eval();
+  };
+  auto derivatives = [](const auto& m) {
+    return m.unaryExpr([](const D& x) { return x.e; }).eval();
+  };
+  const Tangent6 d_pose = Tangents(point.y_predicted_jet);
+  const Tangent6 d_rate = Tangents(point.z_jet);
+  Eigen::Matrix<double, 3, kDirections> d_w_rotation;
+  for (int k = 0; k < 3; ++k) {
+    d_w_rotation.row(k) = point.w_rotation(k).v.transpose();
+  }
+  const Tangent6 dq = g.dq_dy * d_pose + g.dq_dz * d_rate +
+                      values(p_dual.stiffness) * stiffness_tangents_ +
+                      values(p_dual.damping) * damping_tangents_ +
+                      values(p_dual.inertia) * inertia_tangents_;
+  const Tangent6 d_directional =
+      derivatives(g_dual.dq_dy) * d_pose + derivatives(g_dual.dq_dz) * d_rate +
+      g.dq_dy.template rightCols<3>() * d_w_rotation +
+      derivatives(p_dual.stiffness) * stiffness_tangents_ +
+      derivatives(p_dual.damping) * damping_tangents_ +
+      derivatives(p_dual.inertia) * inertia_tangents_;
+  return point.h * dq - MassTangentTimes(point.dz) + d_directional;
+}
+
+template <typename J>
+typename TangentLinearModel<J>::Tangent6
+TangentLinearModel<J>::RightHandSideByDuals(const StepPoint& point,
+                                            const RigLoad<J>& load) const {
+  Vec6<Second> y_second;
+  Vec6<Second> z_second;
+  for (int k = 0; k < 3; ++k) {
+    y_second(k) = Second(point.y_predicted_jet(k), J(point.w(k)));
+    y_second(k + 3) = Second(point.y_predicted_jet(k + 3), point.w_rotation(k));
+  }
+  for (int k = 0; k < 6; ++k) {
+    z_second(k) = Second(point.z_jet(k), J(point.h * point.dz(k)));
+  }
+  RigLoad<Second> load_second;
+  for (int k = 0; k < 3; ++k) {
+    load_second.force(k) = Second(load.force(k), J(0.0));
+    load_second.point(k) = Second(load.point(k), J(0.0));
+  }
+  GeneralizedForce<Second> g_second;
+  second_.Evaluate(load_second, y_second, z_second, false, &g_second);
+  Tangent6 rhs;
+  for (int k = 0; k < 6; ++k) {
+    const Second& q = g_second.q(k);
+    rhs.row(k) = (point.h * q.a.v + q.e.v).transpose();
+  }
+  return rhs - MassTangentTimes(point.dz);
 }
 
 // The overloads SimulateTrajectory finds for a TangentLinearModel.
