@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <type_traits>
 #include <vector>
 
 #include "base/status.h"
@@ -18,10 +19,18 @@
 #include "rt_core/model/semi_implicit_euler.h"
 #include "rt_core/model/simulation.h"
 #include "rt_core/model/suspension_model.h"
+#include "rt_core/model/tangent_linear.h"
 
 namespace kcrig {
 
+// The model a plant steps: with Jet scalars the tangent-linear one (the
+// same sensitivities as SuspensionModel<Jet>, the reference, for less).
 template <typename T>
+using PlantModel =
+    std::conditional_t<std::is_arithmetic_v<T>, SuspensionModel<T>,
+                       TangentLinearModel<T>>;
+
+template <typename T, typename Model = PlantModel<T>>
 class BasicRigPlant {
  public:
   // `step` is the integration step h [s] (> 0). The dead-time line holds up
@@ -64,7 +73,7 @@ class BasicRigPlant {
   }
 
   BasicPlantEffects<T> effects_;
-  SuspensionModel<T> model_;
+  Model model_;
   double step_;
   T z_a_ = T(0);
   ModelState<T> state_;
@@ -97,10 +106,10 @@ SuspensionParameters<T> WithBushingDamping(
 
 }  // namespace rig_plant_internal
 
-template <typename T>
-BasicRigPlant<T>::BasicRigPlant(const SuspensionParameters<T>& parameters,
-                                const BasicPlantEffects<T>& effects,
-                                double step, double max_dead_time)
+template <typename T, typename Model>
+BasicRigPlant<T, Model>::BasicRigPlant(
+    const SuspensionParameters<T>& parameters,
+    const BasicPlantEffects<T>& effects, double step, double max_dead_time)
     : effects_(effects),
       model_(rig_plant_internal::WithBushingDamping(parameters, effects)),
       step_(step) {
@@ -118,8 +127,8 @@ BasicRigPlant<T>::BasicRigPlant(const SuspensionParameters<T>& parameters,
   delay_line_.assign(delay_steps + 2, Vec3<T>::Zero());
 }
 
-template <typename T>
-Status BasicRigPlant<T>::Settle(const Vec3<T>& force, const T& z_a) {
+template <typename T, typename Model>
+Status BasicRigPlant<T, Model>::Settle(const Vec3<T>& force, const T& z_a) {
   z_a_ = z_a;
   hysteresis_ = {};
   model_.SetExtraBushingForce(hysteresis_);
@@ -138,8 +147,8 @@ Status BasicRigPlant<T>::Settle(const Vec3<T>& force, const T& z_a) {
   return status;
 }
 
-template <typename T>
-void BasicRigPlant<T>::Step(const Vec3<T>& force) {
+template <typename T, typename Model>
+void BasicRigPlant<T, Model>::Step(const Vec3<T>& force) {
   delay_head_ = (delay_head_ + 1) % delay_line_.size();
   delay_line_[delay_head_] = force;
   if (effects_.actuator_lag.enabled) {
@@ -165,8 +174,8 @@ void BasicRigPlant<T>::Step(const Vec3<T>& force) {
 // not on time): dh/dl = sigma (1 - h/F s), s = sgn(dl), solved exactly along
 // the step, h' = sF - (sF - h) exp(-sigma |dl| / F), so |h| < F for any step.
 // The tangent for the next step assumes the motion goes on the same way.
-template <typename T>
-void BasicRigPlant<T>::UpdateHysteresis() {
+template <typename T, typename Model>
+void BasicRigPlant<T, Model>::UpdateHysteresis() {
   using std::abs;
   using std::exp;
   const std::array<T, kNumBushings> deflection =
@@ -186,8 +195,8 @@ void BasicRigPlant<T>::UpdateHysteresis() {
   model_.SetExtraBushingForce(hysteresis_);
 }
 
-template <typename T>
-Vec6<T> BasicRigPlant<T>::Sensed() const {
+template <typename T, typename Model>
+Vec6<T> BasicRigPlant<T, Model>::Sensed() const {
   Vec6<T> sensed = state_.y;
   if (effects_.rig_compliance.enabled) {
     sensed.template head<3>() += wheel_force_ / effects_.rig_compliance.k;
@@ -199,8 +208,8 @@ Vec6<T> BasicRigPlant<T>::Sensed() const {
   return sensed;
 }
 
-template <typename T>
-bool BasicRigPlant<T>::Finite(double limit) const {
+template <typename T, typename Model>
+bool BasicRigPlant<T, Model>::Finite(double limit) const {
   for (int k = 0; k < 6; ++k) {
     const double value = ValueOf(state_.y(k));
     if (!std::isfinite(value) || std::abs(value) > limit) return false;

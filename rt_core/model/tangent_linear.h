@@ -27,6 +27,7 @@
 #ifndef KCRIG_RT_CORE_MODEL_TANGENT_LINEAR_H_
 #define KCRIG_RT_CORE_MODEL_TANGENT_LINEAR_H_
 
+#include <array>
 #include <string>
 
 #include "Eigen/LU"
@@ -68,8 +69,10 @@ class TangentLinearModel {
     }
   }
 
-  // The model in J scalars: geometry queries (BushingDeflections, ...).
-  const SuspensionModel<J>& jets() const { return jets_; }
+  // Length change of each bushing's link at pose y, with tangents.
+  std::array<J, kNumBushings> BushingDeflections(const Vec6<J>& y) const {
+    return jets_.BushingDeflections(y);
+  }
 
   // The effect hooks of SuspensionModel, on all three evaluations.
   void SetProgressiveStiffness(const J& cubic_stiffness) {

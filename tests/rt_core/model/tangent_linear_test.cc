@@ -13,6 +13,7 @@
 
 #include "ceres/jet.h"
 #include "gtest/gtest.h"
+#include "rt_core/model/rig_plant.h"
 #include "rt_core/model/simulation.h"
 #include "tests/support/test_config.h"
 
@@ -191,6 +192,81 @@ TEST(TangentLinearTest, OneStepWithHardPointsAndLoadMatchesTheJets) {
   ExpectStepsAgree(
       {"c_O2", "d_O2", "V2.x", "U2.y", "Jzz", "mass", "c_V1", "P.z"},
       /*load_tangent=*/true, 8);
+}
+
+// The effect parameters of `effect` and c_O1 carry the directions.
+int SeedEffect(const std::string& effect, BasicPlantEffects<Jet8>* e,
+               SuspensionParameters<Jet8>* p) {
+  int d = 0;
+  auto seed = [&d](Jet8* x) { x->v[d++] = x->a != 0 ? x->a : 1e-3; };
+  seed(&p->bushings[kO1].stiffness);
+  if (effect == "bushing_damping") {
+    e->bushing_damping.enabled = true;
+    seed(&e->bushing_damping.d);
+  } else if (effect == "hysteresis") {
+    e->hysteresis.enabled = true;
+    seed(&e->hysteresis.force);
+    seed(&e->hysteresis.sigma);
+  } else if (effect == "progressive_stiffness") {
+    e->progressive_stiffness.enabled = true;
+    seed(&e->progressive_stiffness.c3);
+  } else if (effect == "actuator_lag") {
+    e->actuator_lag.enabled = true;
+    seed(&e->actuator_lag.tau);
+    seed(&e->actuator_lag.dead_time);
+  } else if (effect == "rig_compliance") {
+    e->rig_compliance.enabled = true;
+    seed(&e->rig_compliance.k);
+  } else if (effect == "sensor_offset") {
+    e->sensor_offset.enabled = true;
+    for (int k = 0; k < 6; ++k) seed(&e->sensor_offset.offset(k));
+    seed(&e->sensor_offset.scale);
+  }
+  return d;
+}
+
+// The diagnosis' plant: every effect's sensitivities (its own parameters
+// and a stiffness) by the tangent-linear model equal the Jet reference's
+// over a ramp up and back down (hysteresis reverses).
+TEST(TangentLinearTest, EveryPlantEffectMatchesTheJets) {
+  const KcrigConfig config = SourceConfig();
+  const double h = 1e-3;
+  for (std::string_view name : kEffectNames) {
+    const std::string effect(name);
+    SuspensionParameters<Jet8> p = config.model.Cast<Jet8>();
+    BasicPlantEffects<Jet8> e = PlantEffects().Cast<Jet8>();
+    const int directions = SeedEffect(effect, &e, &p);
+    BasicRigPlant<Jet8> tangent_linear(p, e, h, 0.02);
+    BasicRigPlant<Jet8, SuspensionModel<Jet8>> reference(p, e, h, 0.02);
+    auto force = [](double t) {
+      const double level = t < 0.3 ? -1 + t / 0.15 : 1 - (t - 0.3) / 0.15;
+      return Vec3<Jet8>(Jet8(1500 * level), Jet8(2500 * level), Jet8(0.0));
+    };
+    ASSERT_TRUE(tangent_linear.Settle(force(0), Jet8(-0.2)).ok());
+    ASSERT_TRUE(reference.Settle(force(0), Jet8(-0.2)).ok());
+    std::vector<double> scale(6 * directions, 0.0), difference(scale);
+    for (int n = 1; n <= 600; ++n) {
+      tangent_linear.Step(force(n * h));
+      reference.Step(force(n * h));
+      const Vec6<Jet8> a = reference.Sensed();
+      const Vec6<Jet8> b = tangent_linear.Sensed();
+      for (int k = 0; k < 6; ++k) {
+        ASSERT_NEAR(a(k).a, b(k).a, 1e-12 * (1 + std::abs(a(k).a))) << effect;
+        for (int d = 0; d < directions; ++d) {
+          scale[6 * d + k] = std::max(scale[6 * d + k], std::abs(a(k).v[d]));
+          difference[6 * d + k] =
+              std::max(difference[6 * d + k], std::abs(a(k).v[d] - b(k).v[d]));
+        }
+      }
+    }
+    double worst = 0;
+    for (size_t i = 0; i < scale.size(); ++i) {
+      if (scale[i] > 0) worst = std::max(worst, difference[i] / scale[i]);
+    }
+    std::printf("%-22s worst relative difference %.3g\n", effect.c_str(),
+                worst);
+    EXPECT_LE(worst, 1e-10) << effect;
+  }
 }
 
 }  // namespace
