@@ -74,7 +74,7 @@ class TangentLinearModel {
     return jets_.BushingDeflections(y);
   }
 
-  // The effect hooks of SuspensionModel, on all three evaluations.
+  // The effect hooks of SuspensionModel, on every evaluation it keeps.
   void SetProgressiveStiffness(const J& cubic_stiffness) {
     values_.SetProgressiveStiffness(cubic_stiffness.a);
     jets_.SetProgressiveStiffness(cubic_stiffness);
