@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <utility>
 
 #include "Eigen/QR"
 #include "ceres/ceres.h"
@@ -435,7 +436,7 @@ Status FitEffectModel(const EffectModel& model,
   result.adequacy = AssessAdequacy(experiments, weighted, kAllChannels, n,
                                    options.uncertainty.adequacy);
   result.residual_rms = ResidualRms(experiments, weighted);
-  AnalyzeUncertainty(jacobian, options.uncertainty, &result);
+  AnalyzeUncertainty(std::move(jacobian), options.uncertainty, &result);
   result.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();

@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 #include <sstream>
+#include <utility>
 
 #include "Eigen/QR"
 #include "Eigen/SVD"
@@ -111,13 +112,16 @@ Status ResolveParameters(const SuspensionParameters<double>& nominal,
   return Status::Ok();
 }
 
-void AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
+void AnalyzeUncertainty(Eigen::MatrixXd jacobian,
                         const EstimatorOptions& options,
                         EstimationResult* result) {
   const int n = static_cast<int>(jacobian.cols());
   // Identifiability: SVD of J through its R factor (J = QR, sigma(J) =
   // sigma(R)), and pivoted QR for which parameters fall beyond the rank.
-  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(jacobian);
+  // J is factored in place (a long log's J is not copied); column pivoting
+  // sees only inner products of columns, J^T J = R^T R, so R's pivoted QR
+  // ranks the parameters as J's would.
+  const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(jacobian);
   const Eigen::MatrixXd r_factor =
       qr.matrixQR().topRows(n).triangularView<Eigen::Upper>();
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(r_factor, Eigen::ComputeFullV);
@@ -155,7 +159,7 @@ void AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
       weak_involvement = weak_involvement.cwiseMax(direction.cwiseAbs());
     }
   }
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> pivoted(jacobian);
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> pivoted(r_factor);
   pivoted.setThreshold(options.rank_tolerance);
   for (int i = pivoted.rank(); i < n; ++i) {
     result->dependent_parameters.push_back(
@@ -243,6 +247,7 @@ Status Estimate(const SuspensionParameters<double>& nominal,
     result->parameters.push_back(p);
   }
 
+  KCRIG_RETURN_IF_ERROR(CheckFitMemory(experiments, options, n));
   FitProblem problem(nominal, experiments, options, integrator_step, indices);
   LeastSquaresSummary summary;
   KCRIG_RETURN_IF_ERROR(problem.Minimize(FitOptions(options, "estimation"), {},
@@ -294,7 +299,7 @@ Status Estimate(const SuspensionParameters<double>& nominal,
     p.value = scaled[i] * p.nominal;
     p.at_bound = problem.AtBound(i, scaled[i]);
   }
-  AnalyzeUncertainty(jacobian, options, result);
+  AnalyzeUncertainty(std::move(jacobian), options, result);
   result->seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();

@@ -5,6 +5,7 @@
 #ifndef KCRIG_ESTIMATOR_ESTIMATOR_H_
 #define KCRIG_ESTIMATOR_ESTIMATOR_H_
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,11 @@ struct EstimatorOptions {
   double ill_conditioned_above = 1e6;
   // The tests of the fit's adequacy (and of a prediction's).
   AdequacyOptions adequacy;
+  // A fit that would need more heap than this is refused up front, with one
+  // line saying how much it needs (FitMemoryBytes), instead of being killed
+  // half-way. 0: the memory available when the fit starts
+  // (AvailableMemoryBytes).
+  std::uint64_t memory_budget_bytes = 0;
   // Asked after every Levenberg-Marquardt iteration of Estimate and after
   // every point of a profile likelihood; kAbort stops them with
   // Interrupted(). Optional.
@@ -124,8 +130,9 @@ Status PredictExperiments(const SuspensionParameters<double>& nominal,
 // condition, unidentifiable combinations, dependent parameters, covariance,
 // correlation and each parameter's standard error, interval and
 // log10 diag((J^T J)^-1). Needs result->parameters (names, nominal, value)
-// and result->sigma_hat.
-void AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
+// and result->sigma_hat. Takes J by value and factors it in place: move a
+// long log's J in.
+void AnalyzeUncertainty(Eigen::MatrixXd jacobian,
                         const EstimatorOptions& options,
                         EstimationResult* result);
 

@@ -1,5 +1,6 @@
 #include "estimator/least_squares.h"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -46,6 +47,7 @@ void LeastSquaresProblem::AddResidualBlock(ceres::CostFunction* residual) {
   std::vector<double*> blocks;
   for (double& x : x_) blocks.push_back(&x);
   problem_->AddResidualBlock(residual, nullptr, blocks);
+  residual_blocks_.push_back(residual);
 }
 
 Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
@@ -78,7 +80,10 @@ Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
   solver.function_tolerance = options.function_tolerance;
   solver.gradient_tolerance = options.gradient_tolerance;
   solver.parameter_tolerance = options.parameter_tolerance;
-  solver.num_threads = options.num_threads;
+  // Ceres keeps a Jacobian scratch per thread the size of the largest
+  // residual block (a whole log): threads beyond the blocks only cost memory.
+  solver.num_threads =
+      std::max(1, std::min(options.num_threads, problem_->NumResidualBlocks()));
   solver.logging_type = ceres::SILENT;
   CallbackAdapter adapter(options);
   if (options.callback) solver.callbacks.push_back(&adapter);
@@ -102,26 +107,36 @@ Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
 bool LeastSquaresProblem::Evaluate(const std::vector<double>& x, double* cost,
                                    Eigen::VectorXd* residuals,
                                    Eigen::MatrixXd* jacobian) {
+  // The residual blocks are called directly: a block's Jacobian column for
+  // a parameter of size 1 is contiguous, so it is written in place into the
+  // column-major dense matrix (Ceres' Evaluate would hold it twice more, as
+  // its own sparse matrix and as a CRSMatrix).
   x_ = x;
-  ceres::Problem::EvaluateOptions options;
-  for (double& block : x_) options.parameter_blocks.push_back(&block);
-  std::vector<double> r;
-  ceres::CRSMatrix crs;
-  if (!problem_->Evaluate(options, cost, residuals ? &r : nullptr, nullptr,
-                          jacobian ? &crs : nullptr)) {
+  std::vector<const double*> blocks;
+  for (const double& block : x_) blocks.push_back(&block);
+  int rows = 0;
+  for (const ceres::CostFunction* block : residual_blocks_) {
+    rows += block->num_residuals();
+  }
+  Eigen::VectorXd r(rows);
+  if (jacobian != nullptr) jacobian->resize(rows, num_parameters());
+  std::vector<double*> columns(x_.size(), nullptr);
+  int offset = 0;
+  for (const ceres::CostFunction* block : residual_blocks_) {
+    for (size_t i = 0; jacobian != nullptr && i < x_.size(); ++i) {
+      columns[i] = jacobian->col(static_cast<Eigen::Index>(i)).data() + offset;
+    }
+    if (!block->Evaluate(blocks.data(), r.data() + offset,
+                         jacobian != nullptr ? columns.data() : nullptr)) {
+      return false;
+    }
+    offset += block->num_residuals();
+  }
+  if (!r.allFinite() || (jacobian != nullptr && !jacobian->allFinite())) {
     return false;
   }
-  if (residuals != nullptr) {
-    *residuals = Eigen::Map<Eigen::VectorXd>(r.data(), r.size());
-  }
-  if (jacobian != nullptr) {
-    jacobian->setZero(crs.num_rows, crs.num_cols);
-    for (int row = 0; row < crs.num_rows; ++row) {
-      for (int k = crs.rows[row]; k < crs.rows[row + 1]; ++k) {
-        (*jacobian)(row, crs.cols[k]) = crs.values[k];
-      }
-    }
-  }
+  if (cost != nullptr) *cost = 0.5 * r.squaredNorm();
+  if (residuals != nullptr) *residuals = std::move(r);
   return true;
 }
 

@@ -83,6 +83,8 @@ class LeastSquaresProblem {
   std::vector<double> lower_, upper_;
   std::vector<double> x_;  // the parameter blocks Ceres works on
   std::unique_ptr<ceres::Problem> problem_;
+  // The blocks added, in order (owned by problem_).
+  std::vector<const ceres::CostFunction*> residual_blocks_;
 };
 
 }  // namespace kcrig

@@ -100,6 +100,8 @@ Status ProfileLikelihood(const SuspensionParameters<double>& nominal,
   for (int i = 0; i < n; ++i) {
     estimate[i] = fit.parameters[i].value / fit.parameters[i].nominal;
   }
+  status = CheckFitMemory(experiments, options, n);
+  if (!status.ok()) return status;
   FitProblem problem(nominal, experiments, options, integrator_step, indices);
   ProgressReporter progress(options.callback);
   LeastSquaresOptions refit = FitOptions(options, "profile likelihood");

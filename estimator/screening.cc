@@ -195,6 +195,7 @@ Status Screen(const SuspensionParameters<double>& nominal,
       std::min(fit_options.lower_scale, options.range_low);
   fit_options.upper_scale =
       std::max(fit_options.upper_scale, options.range_high);
+  KCRIG_RETURN_IF_ERROR(CheckFitMemory(experiments, fit_options, k));
   FitProblem problem(nominal, experiments, fit_options, integrator_step,
                      indices);
   *result = ScreeningResult();

@@ -72,29 +72,36 @@ bool TrajectoryResidual::SimulateAndFill(double const* const* parameters,
   SimulationOptions options;
   options.step = integrator_step_;
   options.steps_per_sample = experiment_->steps_per_sample;
-  std::vector<TrajectorySample<T>> samples;
-  if (!SimulateTrajectory(model, load, options, &samples).ok()) return false;
+  // The residuals are filled as the samples come: a long log's trajectory
+  // with sensitivities is never held whole.
+  size_t j = 0;
   int row = 0;
-  for (size_t j = 0; j < samples.size(); ++j) {
+  auto fill = [&](const TrajectorySample<T>& sample) {
+    if (j >= experiment_->measured.size()) {  // refused below
+      ++j;
+      return;
+    }
     const bool seen = Observed(*experiment_, j);
     for (int k : channels_) {
       // An unobserved sample: zero residual, zero sensitivity.
       const double inverse_sigma = seen ? 1.0 / experiment_->sigma(k) : 0.0;
-      const T& x = samples[j].y(k);
+      const T& x = sample.y(k);
       residuals[row] =
           seen ? (ValueOf(x) - experiment_->measured[j](k)) * inverse_sigma
                : 0.0;
       if constexpr (!std::is_same_v<T, double>) {
-        for (int k = 0; k < count; ++k) {
-          if (jacobians[first + k] != nullptr) {
-            jacobians[first + k][row] = x.v[k] * inverse_sigma;
+        for (int d = 0; d < count; ++d) {
+          if (jacobians[first + d] != nullptr) {
+            jacobians[first + d][row] = x.v[d] * inverse_sigma;
           }
         }
       }
       ++row;
     }
-  }
-  return true;
+    ++j;
+  };
+  return VisitTrajectory(model, load, options, fill).ok() &&
+         j == experiment_->measured.size();
 }
 
 bool TrajectoryResidual::Evaluate(double const* const* parameters,

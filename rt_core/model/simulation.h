@@ -69,6 +69,14 @@ Status SolveStaticEquilibrium(const SuspensionModel<T>& model,
                        std::to_string(max_iterations) + " iterations");
 }
 
+// The number of whole sample periods in the excitation (samples - 1).
+template <typename Excitation>
+long NumSampleIntervals(const Excitation& excitation,
+                        const SimulationOptions& options) {
+  const double sample_period = options.step * options.steps_per_sample;
+  return std::lround(std::floor(excitation.EndTime() / sample_period + 1e-9));
+}
+
 // Integrates over [0, excitation.EndTime()] starting from the static
 // equilibrium under the load at t = 0 (the rig has settled at -Fmax before
 // the logged ramp starts). Writes one sample at t = 0 and one every
@@ -78,11 +86,12 @@ Status SolveStaticEquilibrium(const SuspensionModel<T>& model,
 // sensitivities) or TangentLinearModel<Jet> (the same sensitivities, fast);
 // `Excitation` is RampExcitation<T> or anything else with
 // `double EndTime() const` and `RigLoad<T> LoadAt(double t) const`.
-template <typename Model, typename Excitation,
+// `visit(const TrajectorySample<T>&)` gets each sample as it is computed, so
+// a long log's trajectory with sensitivities is never held whole.
+template <typename Model, typename Excitation, typename Visit,
           typename T = typename Model::Scalar>
-Status SimulateTrajectory(const Model& model, const Excitation& excitation,
-                          const SimulationOptions& options,
-                          std::vector<TrajectorySample<T>>* samples) {
+Status VisitTrajectory(const Model& model, const Excitation& excitation,
+                       const SimulationOptions& options, Visit&& visit) {
   if (!(options.step > 0) || options.steps_per_sample < 1) {
     return Status::Error(
         "simulation: step must be > 0 s and steps_per_sample >= 1");
@@ -90,9 +99,7 @@ Status SimulateTrajectory(const Model& model, const Excitation& excitation,
   if (!(excitation.EndTime() > 0)) {
     return Status::Error("simulation: excitation duration must be > 0 s");
   }
-  const double sample_period = options.step * options.steps_per_sample;
-  const long num_intervals =
-      std::lround(std::floor(excitation.EndTime() / sample_period + 1e-9));
+  const long num_intervals = NumSampleIntervals(excitation, options);
 
   ModelState<T> state;
   const Status equilibrium =
@@ -100,9 +107,7 @@ Status SimulateTrajectory(const Model& model, const Excitation& excitation,
                              options.max_equilibrium_iterations, &state.y);
   if (!equilibrium.ok()) return equilibrium;
 
-  samples->clear();
-  samples->reserve(num_intervals + 1);
-  samples->push_back({0.0, excitation.LoadAt(0.0).force, state.y});
+  visit(TrajectorySample<T>{0.0, excitation.LoadAt(0.0).force, state.y});
   long step_index = 0;
   for (long j = 1; j <= num_intervals; ++j) {
     for (int s = 0; s < options.steps_per_sample; ++s) {
@@ -118,9 +123,26 @@ Status SimulateTrajectory(const Model& model, const Excitation& excitation,
                              " s (state beyond the model's range)");
       }
     }
-    samples->push_back({t, excitation.LoadAt(t).force, state.y});
+    visit(TrajectorySample<T>{t, excitation.LoadAt(t).force, state.y});
   }
   return Status::Ok();
+}
+
+// VisitTrajectory into `samples` (cleared first).
+template <typename Model, typename Excitation,
+          typename T = typename Model::Scalar>
+Status SimulateTrajectory(const Model& model, const Excitation& excitation,
+                          const SimulationOptions& options,
+                          std::vector<TrajectorySample<T>>* samples) {
+  samples->clear();
+  if (options.step > 0 && options.steps_per_sample >= 1 &&
+      excitation.EndTime() > 0) {
+    samples->reserve(NumSampleIntervals(excitation, options) + 1);
+  }
+  return VisitTrajectory(model, excitation, options,
+                         [samples](const TrajectorySample<T>& sample) {
+                           samples->push_back(sample);
+                         });
 }
 
 }  // namespace kcrig

@@ -3,9 +3,11 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
+#include "tests/support/child_process.h"
 #include "tests/support/cli_runner.h"
 #include "tests/support/temp_dir_test.h"
 
@@ -209,6 +211,39 @@ TEST_F(EstimateCliTest, OutputsNeverReplaceAnInputOrASpecialFile) {
                                     " --log " + Path("run.csv"));
   EXPECT_EQ(looped.exit_code, 1) << looped.output;
   EXPECT_EQ(CountLines(looped.output), 1) << looped.output;
+}
+
+// A long log's fit holds no more per sample than the up-front memory check
+// assumes (estimator/internal/fit_problem.h: 1616 B per sample for six
+// channels and five parameters): the check that refuses a log too long for
+// the machine must not let through one that then exhausts it. The growth
+// between a 10 s and a 40 s log at 1 kHz is measured, so fixed costs cancel.
+TEST_F(EstimateCliTest, PeakMemoryPerSampleIsWhatTheCheckAssumes) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "under AddressSanitizer the resident set measures the "
+                  "sanitizer's shadow and quarantine, not the fit";
+#endif
+  auto peak_kib = [&](int seconds) {
+    const std::string log = Path("run" + std::to_string(seconds) + ".csv");
+    const CliResult simulated =
+        RunKcrig("simulate --noise --duration " + std::to_string(seconds) +
+                 " --out " + log);
+    EXPECT_EQ(simulated.exit_code, 0) << simulated.output;
+    ChildProcess estimate({KCRIG_BINARY, "estimate", "--log", log, "--out",
+                           Path("est" + std::to_string(seconds) + ".json")},
+                          Path("estimate.out"));
+    EXPECT_EQ(estimate.Wait(120), 0) << estimate.Output();
+    return static_cast<double>(estimate.peak_rss_kib());
+  };
+  const double short_log = peak_kib(10);
+  const double long_log = peak_kib(40);
+  const double bytes_per_sample = (long_log - short_log) * 1024.0 / 30000.0;
+  std::printf(
+      "peak resident set: %.0f KiB for 10 s, %.0f KiB for 40 s: %.0f "
+      "B per sample\n",
+      short_log, long_log, bytes_per_sample);
+  EXPECT_GT(bytes_per_sample, 200.0);  // the measure sees the fit at all
+  EXPECT_LT(bytes_per_sample, 1616.0);
 }
 
 }  // namespace

@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <string>
+#include <vector>
 
 #include "gtest/gtest.h"
 #include "tests/support/synthetic.h"
@@ -206,6 +209,39 @@ TEST(EstimatorTest, AnAbortingCallbackInterruptsTheFit) {
   EXPECT_EQ(seen[1].stage, "estimation: iteration 1");
   EXPECT_EQ(seen[1].done, 1);
   EXPECT_EQ(seen[1].total, options.max_iterations);
+}
+
+// A fit that needs more memory than the budget is refused before anything
+// is allocated, in one line naming the log and both sizes; with the budget
+// it needs, the same fit runs.
+TEST(EstimatorTest, AFitTooLargeForTheBudgetIsRefused) {
+  const KcrigConfig config = SourceConfig();
+  const SuspensionParameters<double> truth = DistinctBushingTruth(config.model);
+  std::vector<Experiment> experiments = {
+      SyntheticExperiment(config, truth, PaperInitialSpec(config))};
+  experiments[0].source = "long_run.csv";
+  const std::vector<double> initial = ScaledStiffnesses(truth, 1.05);
+  EstimatorOptions options;
+  const std::uint64_t need = experiments[0].measured.size() *
+                             (sizeof(Vec3<double>) + sizeof(Vec6<double>) +
+                              sizeof(double) + 6 * 8 * (4 * 5 + 12));
+  options.memory_budget_bytes = need - 1;
+  EstimationResult result;
+  const Status refused = Estimate(config.model, experiments, options, initial,
+                                  config.experiment.step, &result);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.message().rfind(
+                "long_run.csv: fitting 5 parameters to " +
+                    std::to_string(experiments[0].measured.size()) +
+                    " samples needs about ",
+                0),
+            0u)
+      << refused.message();
+  EXPECT_EQ(refused.message().find('\n'), std::string::npos);
+  options.memory_budget_bytes = need;
+  const Status fitted = Estimate(config.model, experiments, options, initial,
+                                 config.experiment.step, &result);
+  EXPECT_TRUE(fitted.ok()) << fitted.message();
 }
 
 }  // namespace

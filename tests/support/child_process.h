@@ -5,6 +5,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -48,6 +49,8 @@ class ChildProcess {
   ChildProcess& operator=(const ChildProcess&) = delete;
 
   pid_t pid() const { return pid_; }
+  // The process' peak resident set [KiB], once Wait has reaped it.
+  long peak_rss_kib() const { return peak_rss_kib_; }
   void Signal(int signal) const { kill(pid_, signal); }
 
   std::string Output() const {
@@ -83,7 +86,9 @@ class ChildProcess {
         std::chrono::milliseconds(static_cast<int>(timeout_s * 1e3));
     int status = 0;
     while (std::chrono::steady_clock::now() < end) {
-      if (waitpid(pid_, &status, WNOHANG) == pid_) {
+      struct rusage usage {};
+      if (wait4(pid_, &status, WNOHANG, &usage) == pid_) {
+        peak_rss_kib_ = usage.ru_maxrss;
         reaped_ = true;
         if (WIFEXITED(status)) return WEXITSTATUS(status);
         return -WTERMSIG(status);
@@ -97,6 +102,7 @@ class ChildProcess {
   std::string output_path_;
   pid_t pid_ = -1;
   bool reaped_ = false;
+  long peak_rss_kib_ = 0;
 };
 
 }  // namespace kcrig
