@@ -1,8 +1,9 @@
 // Speed of the model and its integrator (foundation issue):
 //  - one semi-implicit Euler step with double (target: median <= 2 us);
 //  - the paper's 4 s ramp at 1 kHz (4000 steps) with double (<= 10 ms) and
-//    with exact sensitivities for the 5 bushing stiffnesses, ceres::Jet
-//    (<= 60 ms) and the tangent-linear step (#18: <= 2.5x double);
+//    with exact sensitivities for the 5 bushing stiffnesses, by ceres::Jet
+//    (the reference) and by the tangent-linear step that kcrig runs (#18:
+//    target <= 2.5x double);
 //  - the same trajectory with SUNDIALS CVODE (BDF) at the tolerance whose
 //    error matches the semi-implicit Euler's at h = 1 ms, in the same run.
 // Run: build/bin/model_bench --benchmark_format=json

@@ -4,7 +4,8 @@
 // effects' parameters fitted jointly to logged experiments. The model is the
 // emulator's own plant (BasicRigPlant) driven by the logged load-cell
 // force, so a candidate is exactly the physics the software rig runs; the
-// sensitivities are exact (ceres::Jet through the whole trajectory).
+// sensitivities are exact (the plant's tangent-linear step, equal to
+// ceres::Jet through the whole trajectory).
 //
 // Parameters are fitted in scaled form theta: a bushing stiffness is
 // nominal * theta, an effect parameter base + scale * theta (scale a typical

@@ -13,12 +13,11 @@ namespace kcrig {
 namespace {
 
 // The model's parameters at the scaled values; with Jet scalars, derivative
-// slot k carries parameter first + k for k < count (other slots stay zero).
+// slot i carries parameter i (slots beyond the parameters stay zero).
 template <typename T>
 SuspensionParameters<T> ScaledParameters(
     const SuspensionParameters<double>& nominal,
-    const std::vector<int>& indices, double const* const* scaled, int first,
-    int count) {
+    const std::vector<int>& indices, double const* const* scaled) {
   SuspensionParameters<T> p = nominal.Cast<T>();
   SuspensionParameters<double> nominal_copy = nominal;
   const std::vector<NamedParameter<double>> nominal_list =
@@ -26,10 +25,7 @@ SuspensionParameters<T> ScaledParameters(
   const std::vector<NamedParameter<T>> list = ListParameters(&p);
   for (size_t i = 0; i < indices.size(); ++i) {
     T s(scaled[i][0]);
-    if constexpr (!std::is_same_v<T, double>) {
-      const int slot = static_cast<int>(i) - first;
-      if (slot >= 0 && slot < count) s.v[slot] = 1.0;
-    }
+    if constexpr (!std::is_same_v<T, double>) s.v[i] = 1.0;
     *list[indices[i]].value = *nominal_list[indices[i]].value * s;
   }
   return p;
@@ -58,14 +54,13 @@ TrajectoryResidual::TrajectoryResidual(
 
 template <typename T>
 bool TrajectoryResidual::SimulateAndFill(double const* const* parameters,
-                                         int first, int count,
                                          double* residuals,
                                          double** jacobians) const {
   // Sensitivities by the tangent-linear step (exactly the Jet reference's).
   using Model = std::conditional_t<std::is_same_v<T, double>,
                                    SuspensionModel<T>, TangentLinearModel<T>>;
-  const Model model(ScaledParameters<T>(*nominal_, parameter_indices_,
-                                        parameters, first, count));
+  const Model model(
+      ScaledParameters<T>(*nominal_, parameter_indices_, parameters));
   const SampledLoad<T> load{
       &experiment_->forces, experiment_->sample_period, T(experiment_->z_a),
       experiment_->sample_period * (experiment_->forces.size() - 1)};
@@ -90,10 +85,8 @@ bool TrajectoryResidual::SimulateAndFill(double const* const* parameters,
           seen ? (ValueOf(x) - experiment_->measured[j](k)) * inverse_sigma
                : 0.0;
       if constexpr (!std::is_same_v<T, double>) {
-        for (int d = 0; d < count; ++d) {
-          if (jacobians[first + d] != nullptr) {
-            jacobians[first + d][row] = x.v[d] * inverse_sigma;
-          }
+        for (size_t d = 0; d < parameter_indices_.size(); ++d) {
+          jacobians[d][row] = x.v[d] * inverse_sigma;
         }
       }
       ++row;
@@ -111,7 +104,7 @@ bool TrajectoryResidual::Evaluate(double const* const* parameters,
     if (!(s >= lower_scale_ && s <= upper_scale_)) return false;
   }
   if (jacobians == nullptr) {
-    return SimulateAndFill<double>(parameters, 0, 0, residuals, nullptr);
+    return SimulateAndFill<double>(parameters, residuals, nullptr);
   }
   const size_t n = parameter_indices_.size();
   const size_t m = static_cast<size_t>(num_residuals());
@@ -143,35 +136,26 @@ bool TrajectoryResidual::Evaluate(double const* const* parameters,
 
 bool TrajectoryResidual::EvaluateAllColumns(
     double const* const* parameters) const {
-  // One tangent-linear trajectory carries every direction: its cost hardly
-  // grows with their number, so splitting them over threads (as the Jets
-  // were) would only repeat the shared part.
+  // One tangent-linear trajectory carries every direction (its cost hardly
+  // grows with their number). Jets of even size vectorize in pairs, so the
+  // size is rounded up to an even one.
   const int n = static_cast<int>(parameter_indices_.size());
   std::vector<double*> columns(n);
   for (int i = 0; i < n; ++i) columns[i] = cached_jacobian_[i].data();
-  return SimulateJetBlock(parameters, 0, n, cached_residuals_.data(),
-                          columns.data());
-}
-
-bool TrajectoryResidual::SimulateJetBlock(double const* const* parameters,
-                                          int first, int count,
-                                          double* residuals,
-                                          double** jacobians) const {
-  // Jets of even size vectorize in pairs; odd sizes cost nearly as much as
-  // the next even one, so blocks are padded to even sizes.
-  switch ((count + 1) / 2) {
+  double* residuals = cached_residuals_.data();
+  switch ((n + 1) / 2) {
     case 1:
-      return SimulateAndFill<ceres::Jet<double, 2>>(parameters, first, count,
-                                                    residuals, jacobians);
+      return SimulateAndFill<ceres::Jet<double, 2>>(parameters, residuals,
+                                                    columns.data());
     case 2:
-      return SimulateAndFill<ceres::Jet<double, 4>>(parameters, first, count,
-                                                    residuals, jacobians);
+      return SimulateAndFill<ceres::Jet<double, 4>>(parameters, residuals,
+                                                    columns.data());
     case 3:
-      return SimulateAndFill<ceres::Jet<double, 6>>(parameters, first, count,
-                                                    residuals, jacobians);
+      return SimulateAndFill<ceres::Jet<double, 6>>(parameters, residuals,
+                                                    columns.data());
     default:
       return SimulateAndFill<ceres::Jet<double, kMaxEstimatedParameters>>(
-          parameters, first, count, residuals, jacobians);
+          parameters, residuals, columns.data());
   }
 }
 

@@ -47,19 +47,14 @@ class TrajectoryResidual : public ceres::CostFunction {
 
  private:
   // Simulates the experiment at `parameters` with scalar T (double, or a Jet
-  // whose slot k < count is the derivative by parameter first + k) and
-  // writes the residuals and, for Jets, those of the columns first ..
-  // first + count - 1 that are not null.
+  // whose slot i is the derivative by parameter i) and writes the residuals
+  // and, for Jets, every Jacobian column (none may be null).
   template <typename T>
-  bool SimulateAndFill(double const* const* parameters, int first, int count,
-                       double* residuals, double** jacobians) const;
+  bool SimulateAndFill(double const* const* parameters, double* residuals,
+                       double** jacobians) const;
 
   // The residuals and every Jacobian column into the cache.
   bool EvaluateAllColumns(double const* const* parameters) const;
-
-  // SimulateAndFill with a Jet carrying directions first .. first+count-1.
-  bool SimulateJetBlock(double const* const* parameters, int first, int count,
-                        double* residuals, double** jacobians) const;
 
   const SuspensionParameters<double>* nominal_;
   std::vector<int> parameter_indices_;

@@ -3,7 +3,9 @@
 // paper's semi-implicit Euler. The emulator runs it in real time at a fine
 // step; `kcrig simulate` runs it offline; the diagnosis fits its parameters
 // (templated on the scalar: with ceres::Jet it carries exact sensitivities
-// of the discrete solution). One implementation of each effect.
+// of the discrete solution, stepped by the tangent-linear model unless the
+// Jet model itself is asked for, as the tests' reference). One
+// implementation of each effect.
 // Construction allocates (the dead-time line); Settle and Step do not.
 #ifndef KCRIG_RT_CORE_MODEL_RIG_PLANT_H_
 #define KCRIG_RT_CORE_MODEL_RIG_PLANT_H_

@@ -12,9 +12,9 @@
 // parameters and G^-1(y)). W is factored once in double and solves all N
 // directions; the state then moves as in the step, in J arithmetic. The
 // right-hand side comes one of two ways:
-//  - when only parameters Q or M is linear in carry tangents (stiffness,
-//    damping, mass, inertia: the estimator's usual case) and the load and
-//    the effect hooks carry none: one evaluation of Q's Jacobians in
+//  - when only parameters in which Q or M is linear carry tangents
+//    (stiffness, damping, mass, inertia: the estimator's usual case) and the
+//    load and the effect hooks carry none: one evaluation of Q's Jacobians in
 //    Dual<double> along w gives D(dQ/dy)[w], D(dQ/dz)[w] and, with the
 //    parameter Jacobian, D(dQ/dp)[w]; by the symmetry of second
 //    derivatives d(DQ[w]) = D(dQ/dx)[w] dx + D(dQ/dp)[w] dp, a product per
@@ -57,8 +57,8 @@ class TangentLinearModel {
           i < kNumBushings ? parameters.bushings[i] : parameters.spring;
       for (int k = 0; k < 3; ++k) {
         linear_tangents_only_ = linear_tangents_only_ &&
-                                e.carrier_point(k).v.isZero() &&
-                                e.chassis_point(k).v.isZero();
+                                !Carries(e.carrier_point(k)) &&
+                                !Carries(e.chassis_point(k));
       }
       stiffness_tangents_.row(i) = e.stiffness.v.transpose();
       damping_tangents_.row(i) = e.damping.v.transpose();
@@ -80,7 +80,7 @@ class TangentLinearModel {
     jets_.SetProgressiveStiffness(cubic_stiffness);
     second_.SetProgressiveStiffness(Second(cubic_stiffness, J(0.0)));
     directional_.SetProgressiveStiffness(Dual<double>(cubic_stiffness.a));
-    cubic_tangents_ = !cubic_stiffness.v.isZero();
+    cubic_tangents_ = Carries(cubic_stiffness);
   }
   void SetExtraBushingForce(
       const typename SuspensionModel<J>::ExtraBushingForce& extra) {
@@ -98,9 +98,9 @@ class TangentLinearModel {
       directional.force[i] = value.force[i];
       directional.stiffness[i] = value.stiffness[i];
       directional.reference[i] = value.reference[i];
-      extra_tangents_ = extra_tangents_ || !extra.force[i].v.isZero() ||
-                        !extra.stiffness[i].v.isZero() ||
-                        !extra.reference[i].v.isZero();
+      extra_tangents_ = extra_tangents_ || Carries(extra.force[i]) ||
+                        Carries(extra.stiffness[i]) ||
+                        Carries(extra.reference[i]);
     }
     values_.SetExtraBushingForce(value);
     jets_.SetExtraBushingForce(extra);
@@ -162,9 +162,14 @@ class TangentLinearModel {
     }
     return out;
   }
+  // Whether x carries any tangent at all: exactly zero, not Eigen's isZero
+  // (|v| <= 1e-12), since the linear path drops what it deems absent, and
+  // a 1e-13 m hard-point tangent times 1e6 N/m is not negligible. NaN
+  // carries (the general path then propagates it).
+  static bool Carries(const J& x) { return (x.v.array() != 0.0).any(); }
   static bool HasTangents(const RigLoad<J>& load) {
     for (int k = 0; k < 3; ++k) {
-      if (!load.force(k).v.isZero() || !load.point(k).v.isZero()) return true;
+      if (Carries(load.force(k)) || Carries(load.point(k))) return true;
     }
     return false;
   }
