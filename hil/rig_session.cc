@@ -334,7 +334,8 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   RunLogger logger(LoggerOptionsFor(rig_config, options, profile));
   ControlLoop loop(config.model, LoopOptionsFor(rig_config, options), rig,
                    &ring, options.stop_signal);
-  loop.set_log_failure(&logger.write_failed());
+  loop.add_log_failure(&logger.write_failed());
+  if (rig != nullptr) loop.add_log_failure(rig->record_write_failed());
   KCRIG_RETURN_IF_ERROR(logger.Open());
   logger.Start(&ring);
   const Status activated = RunOnRig(rig_config.realtime, rig, &loop, result);
@@ -350,7 +351,9 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   result->completed = lr.cause == TripCause::kNone;
   result->trip_message = TripMessage(
       lr, period,
-      lr.cause == TripCause::kLogWrite ? logger.WriteFailure()
+      lr.cause == TripCause::kLogWrite
+          ? (logger.write_failed() ? logger.WriteFailure()
+                                   : rig->RecordWriteFailure())
       : transport.contains("fault") && transport["fault"].is_string()
           ? transport["fault"].get<std::string>()
           : "the transport failed");

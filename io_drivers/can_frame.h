@@ -4,6 +4,7 @@
 #ifndef KCRIG_IO_DRIVERS_CAN_FRAME_H_
 #define KCRIG_IO_DRIVERS_CAN_FRAME_H_
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 
@@ -43,6 +44,9 @@ class CanFrameSink {
   virtual void Discard() = 0;
   virtual std::int64_t written() const = 0;
   virtual std::uint64_t dropped() const = 0;
+  // Set once a write failed (RigInterface::record_write_failed), and why.
+  virtual const std::atomic<bool>* write_failed() const { return nullptr; }
+  virtual std::string WriteFailure() const { return ""; }
 };
 
 }  // namespace kcrig

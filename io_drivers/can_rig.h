@@ -74,6 +74,13 @@ class CanRig : public RigInterface {
   IoResult Write(const RigCommand& command) override;
   std::string Describe() const override;
   std::string CountersJson() const override;
+  // The bus log's (CanRigOptions::bus_log).
+  const std::atomic<bool>* record_write_failed() const override {
+    return options_.bus_log ? options_.bus_log->write_failed() : nullptr;
+  }
+  std::string RecordWriteFailure() const override {
+    return options_.bus_log ? options_.bus_log->WriteFailure() : "";
+  }
 
   static constexpr int kMaxFramesPerRead = 64;
 

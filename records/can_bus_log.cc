@@ -31,9 +31,18 @@ void CanBusLog::Drain() {
     lines_.append(line, FormatCandumpLine(frame, interface_, line));
     ++count;
   }
-  if (count > 0 && file_.Write(lines_)) {
+  if (count == 0) return;
+  if (file_.Write(lines_)) {
     written_.fetch_add(count, std::memory_order_relaxed);
+  } else {
+    write_failed_.store(true);
   }
+}
+
+std::string CanBusLog::WriteFailure() const {
+  if (!write_failed_.load()) return "";
+  return file_.partial_path() + ": " + file_.error() + "; its " +
+         std::to_string(written_.load()) + " whole frames are kept";
 }
 
 Status CanBusLog::Close() {

@@ -49,6 +49,14 @@ class CanBusLog : public CanFrameSink {
 
   std::uint64_t dropped() const override { return ring_.dropped(); }
   std::int64_t written() const override { return written_.load(); }
+  // Set once a write failed (a full disk): the frames of that wake-up are
+  // lost, the file ends on a whole line.
+  const std::atomic<bool>* write_failed() const override {
+    return &write_failed_;
+  }
+  // After Close: the partial file, the error and the frames kept ("" if
+  // no write failed).
+  std::string WriteFailure() const override;
 
  private:
   static constexpr std::size_t kCapacity = 1 << 16;
@@ -60,6 +68,7 @@ class CanBusLog : public CanFrameSink {
   std::string lines_;  // one wake-up's lines, the writer thread's
   PeriodicWorker writer_;
   std::atomic<std::int64_t> written_{0};
+  std::atomic<bool> write_failed_{false};
 };
 
 }  // namespace kcrig

@@ -172,9 +172,11 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
       safety_.Trip(TripCause::kForeignMaster, cycle);
     }
   }
-  if (log_failed_ != nullptr && safety_.state() == SafetyState::kNormal &&
-      log_failed_->load(std::memory_order_relaxed)) {
-    safety_.Trip(TripCause::kLogWrite, cycle);
+  for (int i = 0; i < log_failures_; ++i) {
+    if (safety_.state() == SafetyState::kNormal &&
+        log_failed_[i]->load(std::memory_order_relaxed)) {
+      safety_.Trip(TripCause::kLogWrite, cycle);
+    }
   }
   if (stop_signal_ != nullptr) {
     const int signal = stop_signal_->load(std::memory_order_relaxed);

@@ -7,6 +7,7 @@
 #ifndef KCRIG_RT_CORE_RUNTIME_CONTROL_LOOP_H_
 #define KCRIG_RT_CORE_RUNTIME_CONTROL_LOOP_H_
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 
@@ -88,10 +89,14 @@ class ControlLoop {
               const LoopOptions& options, RigInterface* rig,
               SpscRing<CycleRecord>* ring, const std::atomic<int>* stop_signal);
 
-  // The loop trips (log_write_error) once *failed is true: the log of the
-  // run can no longer be written. Optional; before Run.
-  void set_log_failure(const std::atomic<bool>* failed) {
-    log_failed_ = failed;
+  // The loop trips (log_write_error) once *failed is true: a record of the
+  // run (its log, a CAN run's bus log) can no longer be written. At most
+  // kMaxLogFailures; optional; before Run.
+  static constexpr int kMaxLogFailures = 2;
+  void add_log_failure(const std::atomic<bool>* failed) {
+    if (failed != nullptr && log_failures_ < kMaxLogFailures) {
+      log_failed_[log_failures_++] = failed;
+    }
   }
 
   // Runs the experiment to its end or to a trip with its ramp-down, sleeping
@@ -118,7 +123,8 @@ class ControlLoop {
   RigInterface* rig_;
   SpscRing<CycleRecord>* ring_;
   const std::atomic<int>* stop_signal_;
-  const std::atomic<bool>* log_failed_ = nullptr;
+  std::array<const std::atomic<bool>*, kMaxLogFailures> log_failed_{};
+  int log_failures_ = 0;
   RunProfile profile_;
   SafetyMonitor safety_;
   ModelState<double> state_;

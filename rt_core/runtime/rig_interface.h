@@ -8,6 +8,7 @@
 #ifndef KCRIG_RT_CORE_RUNTIME_RIG_INTERFACE_H_
 #define KCRIG_RT_CORE_RUNTIME_RIG_INTERFACE_H_
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 
@@ -52,6 +53,16 @@ class RigInterface {
   // The transport's own counters and faults as a JSON object, for run.json
   // ("transport" in the hil block), read after the loop.
   virtual std::string CountersJson() const = 0;
+
+  // A record the transport keeps of the run itself (a CAN run's bus log):
+  // its write failing (a full disk) is a fault, as the run log's is. The
+  // flag is set once a write failed, from any thread (the loop trips
+  // log_write_error on it); null when the transport keeps no record.
+  virtual const std::atomic<bool>* record_write_failed() const {
+    return nullptr;
+  }
+  // After the loop: which file failed, why, and what it keeps ("" if none).
+  virtual std::string RecordWriteFailure() const { return ""; }
 };
 
 }  // namespace kcrig

@@ -1,11 +1,19 @@
 #include "records/run_log.h"
 
+#include <signal.h>
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <thread>
 
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
+#include "records/can_bus_log.h"
 
 namespace kcrig {
 namespace {
@@ -85,6 +93,53 @@ TEST(RunLogTest, FailureLeavesNoFileBehind) {
   for (const auto& entry : fs::directory_iterator(dir)) {
     EXPECT_EQ(entry.path().filename(), "run.json") << entry.path();
   }
+  fs::remove_all(dir);
+}
+
+// A CAN run's bus log the disk refuses (a file-size limit here, as a full
+// disk would): the failure is raised for the loop to trip on, said with
+// what is kept, and the file ends on a whole line.
+TEST(CanBusLogTest, AWriteTheDiskRefusesIsRaisedAndTheFileEndsOnAWholeLine) {
+  const fs::path dir = fs::temp_directory_path() / "kcrig_can_bus_log_test";
+  fs::remove_all(dir);
+  const std::string path = (dir / "can.log").string();
+  CanBusLog log;
+  ASSERT_TRUE(log.Open(path, "vcan0").ok());
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  struct sigaction previous {};
+  ASSERT_EQ(sigaction(SIGXFSZ, &ignore, &previous), 0);  // EFBIG instead
+  rlimit old_limit{};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old_limit), 0);
+  rlimit limit = old_limit;
+  limit.rlim_cur = 4096;
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &limit), 0);
+  TimedCanFrame frame;
+  frame.frame.id = 0x123;
+  frame.frame.dlc = 8;
+  for (int k = 0; k < 2000 && !log.write_failed()->load(); ++k) {
+    frame.time_us = 1000 * k;
+    log.Push(frame);
+    if (k % 50 == 49) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+    }
+  }
+  const Status closed = log.Close();
+  setrlimit(RLIMIT_FSIZE, &old_limit);
+  sigaction(SIGXFSZ, &previous, nullptr);
+  EXPECT_TRUE(log.write_failed()->load());
+  EXPECT_FALSE(closed.ok());
+  EXPECT_NE(log.WriteFailure().find(path + ".partial: File too large; its " +
+                                    std::to_string(log.written()) +
+                                    " whole frames are kept"),
+            std::string::npos)
+      << log.WriteFailure();
+  std::ifstream in(path + ".partial");
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  ASSERT_FALSE(text.empty());
+  EXPECT_LE(text.size(), 4096u);
+  EXPECT_EQ(text.back(), '\n');
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), log.written());
   fs::remove_all(dir);
 }
 

@@ -214,6 +214,24 @@ TEST_F(ControlLoopTest, AStopSignalRampsDownLikeATrip) {
   EXPECT_EQ(rig_.commands.back(), Vec3<double>::Zero());
 }
 
+// Either record of the run failing to reach the disk (the run log, or the
+// transport's own: a CAN run's bus log) trips the loop and ramps down.
+TEST_F(ControlLoopTest, ARecordThatCannotBeWrittenTripsTheRun) {
+  for (int failing : {0, 1}) {
+    std::atomic<bool> run_log{false}, bus_log{false};
+    ControlLoop loop(config_.model, options_, &rig_, &ring_, &stop_);
+    loop.add_log_failure(&run_log);
+    loop.add_log_failure(&bus_log);
+    Step(&loop, 100000, [&](std::int64_t k) {
+      if (k == 1500) (failing == 0 ? run_log : bus_log) = true;
+    });
+    EXPECT_EQ(loop.result().cause, TripCause::kLogWrite) << failing;
+    EXPECT_EQ(loop.result().trip_cycle, 1500) << failing;
+    EXPECT_EQ(rig_.commands.back(), Vec3<double>::Zero());
+    EXPECT_FALSE(rig_.enabled.back());
+  }
+}
+
 TEST_F(ControlLoopTest, CommandsRespectForceAndRateLimits) {
   options_.excitation.fmax = 4000;
   options_.safety.force_max = 3000;
