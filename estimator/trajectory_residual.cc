@@ -136,27 +136,15 @@ bool TrajectoryResidual::Evaluate(double const* const* parameters,
 
 bool TrajectoryResidual::EvaluateAllColumns(
     double const* const* parameters) const {
-  // One tangent-linear trajectory carries every direction (its cost hardly
-  // grows with their number). Jets of even size vectorize in pairs, so the
-  // size is rounded up to an even one.
+  // One tangent-linear trajectory carries every direction; its cost hardly
+  // grows with their number, so one Jet size serves every count (each size
+  // is a whole tangent-linear model to compile: minutes under the
+  // sanitizers).
   const int n = static_cast<int>(parameter_indices_.size());
   std::vector<double*> columns(n);
   for (int i = 0; i < n; ++i) columns[i] = cached_jacobian_[i].data();
-  double* residuals = cached_residuals_.data();
-  switch ((n + 1) / 2) {
-    case 1:
-      return SimulateAndFill<ceres::Jet<double, 2>>(parameters, residuals,
-                                                    columns.data());
-    case 2:
-      return SimulateAndFill<ceres::Jet<double, 4>>(parameters, residuals,
-                                                    columns.data());
-    case 3:
-      return SimulateAndFill<ceres::Jet<double, 6>>(parameters, residuals,
-                                                    columns.data());
-    default:
-      return SimulateAndFill<ceres::Jet<double, kMaxEstimatedParameters>>(
-          parameters, residuals, columns.data());
-  }
+  return SimulateAndFill<ceres::Jet<double, kMaxEstimatedParameters>>(
+      parameters, cached_residuals_.data(), columns.data());
 }
 
 }  // namespace kcrig
