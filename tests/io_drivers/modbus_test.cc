@@ -181,9 +181,12 @@ class ModbusRigTest : public ::testing::Test {
     EXPECT_TRUE(LoadRigConfig(KCRIG_TEST_CONFIG_DIR, &rig_config_).ok());
     EXPECT_TRUE(LoadModbusMap(rig_config_.modbus.map_file, &map_).ok());
     // Function, not timing (rt_bench measures that): a patient timeout so
-    // that the sanitizers' slowdown does not turn replies into misses.
-    rig_config_.modbus.response_timeout = 0.005;
+    // that neither the sanitizers' slowdown nor a loaded machine (two
+    // tests at once on two cores) turns replies into misses. The tests
+    // about timing set their own.
+    rig_config_.modbus.response_timeout = kPatientTimeout;
   }
+  static constexpr double kPatientTimeout = 0.5;
   std::unique_ptr<ModbusRig> Master(int port) {
     ModbusEndpoint endpoint;
     EXPECT_TRUE(ParseModbusUri("modbus-tcp://127.0.0.1:" + std::to_string(port),
@@ -267,7 +270,7 @@ TEST_F(ModbusRigTest, AnExceptionIsAMissedSampleAndTheLinkStays) {
     const auto start = std::chrono::steady_clock::now();
     EXPECT_EQ(master->Read(&m), IoResult::kError);
     EXPECT_LT(std::chrono::steady_clock::now() - start,
-              std::chrono::milliseconds(50));
+              std::chrono::milliseconds(250));  // an answer, not a timeout
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   EXPECT_EQ(master->reconnects(), 1);  // never dropped for an exception
@@ -288,13 +291,14 @@ TEST_F(ModbusRigTest, ALostLinkFailsFastAndIsReopenedOutsideTheCycle) {
   RigMeasurement m;
   EXPECT_EQ(master->Read(&m), IoResult::kFresh);
   rig.reset();  // the server goes away
-  // Every read returns within its timeout, never blocks the cycle.
+  // Every read fails at once (the closed connection is seen, not waited
+  // out): it never blocks the cycle for the timeout.
   int errors = 0;
   for (int k = 0; k < 50; ++k) {
     const auto start = std::chrono::steady_clock::now();
     errors += master->Read(&m) == IoResult::kError;
     const auto took = std::chrono::steady_clock::now() - start;
-    EXPECT_LT(took, std::chrono::milliseconds(50));
+    EXPECT_LT(took, std::chrono::milliseconds(250));
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   EXPECT_EQ(errors, 50);
@@ -421,7 +425,9 @@ TEST_F(ModbusRigTest, TheOwnersConnectionClosingFaultsTheRigAndEndsTheClaim) {
     ASSERT_TRUE(owner->Activate().ok());
     EXPECT_EQ(observer.Input(map_.owner), owner->session());
   }  // the connection closes with the rig enabled
-  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  for (int k = 0; k < 200 && observer.Input(map_.owner) != 0; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
   EXPECT_EQ(observer.Input(map_.owner), 0);
   EXPECT_EQ(observer.Input(map_.fault_code), kFaultOwnerLost);
   EXPECT_NE(observer.Input(map_.status) & kRigFault, 0);
@@ -435,16 +441,19 @@ TEST_F(ModbusRigTest, TheOwnersConnectionClosingFaultsTheRigAndEndsTheClaim) {
 // A read longer than modbus.response_timeout that still returns a sample is
 // one this thread collected late (libmodbus bounds the whole reply by the
 // timeout): counted as a late reply, with its time. The thread is held off
-// its wait by a signal handler that runs 12 ms, as a preemption or a VM's
-// stolen time would hold it, while the rig answers within the timeout.
-void SpinTwelveMilliseconds(int) {
+// its wait by a signal handler that runs 120 ms, as a preemption or a VM's
+// stolen time would hold it, while the rig answers within the 50 ms
+// timeout (ten times what the rig needs even under the sanitizers on a
+// loaded machine; 5 ms missed replies there).
+void SpinLongerThanTheTimeout(int) {
   const auto end =
-      std::chrono::steady_clock::now() + std::chrono::milliseconds(12);
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(120);
   while (std::chrono::steady_clock::now() < end) {
   }
 }
 
 TEST_F(ModbusRigTest, AReplyCollectedLateIsCountedAsLate) {
+  rig_config_.modbus.response_timeout = 0.05;
   InProcessRig rig(map_);
   auto master = Master(rig.port());
   ASSERT_TRUE(master->Configure().ok());
@@ -462,13 +471,13 @@ TEST_F(ModbusRigTest, AReplyCollectedLateIsCountedAsLate) {
     const auto start = std::chrono::steady_clock::now();
     ASSERT_NE(master->Read(&m), IoResult::kError);
     slow_reads += std::chrono::steady_clock::now() - start >=
-                  std::chrono::milliseconds(5);
+                  std::chrono::milliseconds(50);
   }
   const int unheld_late = late_replies();
   EXPECT_LE(unheld_late, slow_reads);
 
   struct sigaction spin {};
-  spin.sa_handler = SpinTwelveMilliseconds;
+  spin.sa_handler = SpinLongerThanTheTimeout;
   spin.sa_flags = SA_RESTART;
   struct sigaction previous {};
   ASSERT_EQ(sigaction(SIGUSR1, &spin, &previous), 0);
@@ -477,13 +486,13 @@ TEST_F(ModbusRigTest, AReplyCollectedLateIsCountedAsLate) {
   std::thread holder([&] {
     while (!done.load()) {
       pthread_kill(reader, SIGUSR1);
-      std::this_thread::sleep_for(std::chrono::milliseconds(30));
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
     }
   });
-  // Back-to-back reads for 0.3 s: most of the holds fall inside one.
+  // Back-to-back reads for 1.2 s: most of the six holds fall inside one.
   int reads = 0, answered = 0;
   const auto end =
-      std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(1200);
   while (std::chrono::steady_clock::now() < end) {
     ++reads;
     answered += master->Read(&m) != IoResult::kError;
@@ -496,7 +505,7 @@ TEST_F(ModbusRigTest, AReplyCollectedLateIsCountedAsLate) {
   EXPECT_GE(late_replies() - unheld_late, 3) << counters;
   const size_t max_at = counters.find("\"late_reply_max_ms\": ");
   ASSERT_NE(max_at, std::string::npos) << counters;
-  EXPECT_GE(std::stod(counters.substr(max_at + 21)), 10.0) << counters;
+  EXPECT_GE(std::stod(counters.substr(max_at + 21)), 100.0) << counters;
 }
 
 // Raw TCP clients that misbehave: half a frame, a byte at a time, garbage,
@@ -538,12 +547,12 @@ TEST_F(ModbusRigTest, MisbehavingClientsDoNotStallTheRig) {
     slowest = std::max(slowest, std::chrono::duration<double>(
                                     std::chrono::steady_clock::now() - start)
                                     .count());
-    answered += read == IoResult::kFresh;
+    answered += read != IoResult::kError;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  // A loaded machine may delay a few replies past the 5 ms timeout.
-  EXPECT_GE(answered, 290);
-  EXPECT_LT(slowest, 0.05);
+  // A rig that waited out a half frame (0.5 s) would hold a read that long.
+  EXPECT_EQ(answered, 300);
+  EXPECT_LT(slowest, 0.2);
   // The garbage and the connections beyond the cap were closed (a reset
   // when the rig closed with bytes unread).
   auto closed_by_rig = [](int fd, double seconds) {
