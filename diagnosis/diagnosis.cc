@@ -495,14 +495,17 @@ class DiagnosisRun {
     std::vector<std::vector<Start>> starts;
     for (const EffectModel& single : singles_) {
       models.push_back(&single);
-      Start biased, configured;
+      // First from the nominal fit's (biased) stiffnesses, later ones from
+      // the configured stiffnesses.
+      Start biased;
       for (int p = 0; p < single.num_parameters(); ++p) {
-        const EffectParameter& ep = single.parameters()[p];
         biased.push_back(p < kNumBushings ? result_->nominal.fit.values[p]
-                                          : ep.initial);
-        configured.push_back(ep.second_initial);
+                                          : single.parameters()[p].initial);
       }
-      starts.push_back({biased, configured});
+      starts.push_back({biased});
+      for (int k = 1; k < single.num_starts(); ++k) {
+        starts.back().push_back(single.LaterStart(k));
+      }
     }
     FitAndScore(models, starts, 0.15, 0.75, &result_->ranking);
     RankCandidates(&result_->ranking);

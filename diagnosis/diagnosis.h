@@ -61,8 +61,8 @@ struct DiagnosisOptions {
   // more than this many combined standard errors.
   double drift_z = 4;
   // When no candidate's first fit brings the training residual down to
-  // the noise, the second start (effect_model.h: second_initial) is tried
-  // for the best `retry_pool` of them.
+  // the noise, its later starts (effect_model.h: later_starts) are tried,
+  // one round each, for the best `retry_pool` of them.
   int retry_pool = 2;
   // Candidates are fitted on this many threads.
   int num_threads = 2;

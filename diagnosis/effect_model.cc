@@ -27,34 +27,38 @@ std::vector<EffectParameter> ParametersOf(
     for (const AxialElement<double>& b : nominal.bushings) {
       model_damping += b.damping / static_cast<double>(kNumBushings);
     }
-    return {{effect, "d", "N s/m", 0, 3e5, 0, 1e7, model_damping, 1e6}};
+    return {{effect, "d", "N s/m", 0, 3e5, 0, 1e7, model_damping, {1e6}}};
   }
   if (effect == "hysteresis") {
-    return {{effect, "force", "N", 0, 400, 1, 5000, 50, 300},
-            {effect, "sigma", "N/m", 0, 4e7, 1e6, 1e9, 4e7, 4e7}};
+    // The third start, a large force on a soft loop, reaches large
+    // effects that the others leave in a Coulomb-like minimum (sigma at
+    // its upper bound, a third of the force).
+    return {{effect, "force", "N", 0, 400, 1, 5000, 50, {300, 1000}},
+            {effect, "sigma", "N/m", 0, 4e7, 1e6, 1e9, 4e7, {4e7, 1e7}}};
   }
   if (effect == "progressive_stiffness") {
-    return {{effect, "c3", "N/m^3", 0, 4e11, -2e13, 2e13, 0, 0}};
+    return {{effect, "c3", "N/m^3", 0, 4e11, -2e13, 2e13, 0, {0}}};
   }
   if (effect == "actuator_lag") {
-    return {{effect, "tau", "s", 0, 0.05, 2e-4, 0.5, 0.005, 0.03},
-            {effect, "dead_time", "s", 0, 0.01, 0, 0.1, 0.002, 0.005}};
+    return {{effect, "tau", "s", 0, 0.05, 2e-4, 0.5, 0.005, {0.03}},
+            {effect, "dead_time", "s", 0, 0.01, 0, 0.1, 0.002, {0.005}}};
   }
   if (effect == "rig_compliance") {
     // Fitted as the compliance 1/k, linear in the sensed position. Its
     // range crosses zero (no mount give) so that a rig without the effect
     // is an interior point, not a bound the fit would crawl to; a negative
     // compliance is unphysical and says "no effect" within the noise.
-    return {{effect, "compliance", "m/N", 0, 2e-8, -1e-6, 1e-6, 1e-10, 1e-10}};
+    return {
+        {effect, "compliance", "m/N", 0, 2e-8, -1e-6, 1e-6, 1e-10, {1e-10}}};
   }
   if (effect == "sensor_offset") {
-    return {{effect, "x", "m", 0, 1e-4, -0.01, 0.01, 0, 0},
-            {effect, "y", "m", 0, 1e-4, -0.01, 0.01, 0, 0},
-            {effect, "z", "m", 0, 1e-4, -0.01, 0.01, 0, 0},
-            {effect, "toe", "rad", 0, 2e-4, -0.05, 0.05, 0, 0},
-            {effect, "camber", "rad", 0, 2e-4, -0.05, 0.05, 0, 0},
-            {effect, "caster", "rad", 0, 2e-4, -0.05, 0.05, 0, 0},
-            {effect, "scale", "-", 1, 0.01, 0.5, 1.5, 1, 1}};
+    return {{effect, "x", "m", 0, 1e-4, -0.01, 0.01, 0, {0}},
+            {effect, "y", "m", 0, 1e-4, -0.01, 0.01, 0, {0}},
+            {effect, "z", "m", 0, 1e-4, -0.01, 0.01, 0, {0}},
+            {effect, "toe", "rad", 0, 2e-4, -0.05, 0.05, 0, {0}},
+            {effect, "camber", "rad", 0, 2e-4, -0.05, 0.05, 0, {0}},
+            {effect, "caster", "rad", 0, 2e-4, -0.05, 0.05, 0, {0}},
+            {effect, "scale", "-", 1, 0.01, 0.5, 1.5, 1, {1}}};
   }
   return {};
 }
@@ -235,9 +239,15 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
   m.effects_ = effects;
   for (int i = 0; i < kNumBushings; ++i) {
     const double c = nominal.bushings[i].stiffness;
-    m.parameters_.push_back({"", "c_" + std::string(kBushingChassisNames[i]),
-                             "N/m", 0, c, lower_scale * c, upper_scale * c, c,
-                             c});
+    m.parameters_.push_back({"",
+                             "c_" + std::string(kBushingChassisNames[i]),
+                             "N/m",
+                             0,
+                             c,
+                             lower_scale * c,
+                             upper_scale * c,
+                             c,
+                             {c}});
   }
   for (size_t e = 0; e < effects.size(); ++e) {
     if (std::find(effects.begin(), effects.begin() + e, effects[e]) !=
@@ -255,6 +265,23 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
   }
   *model = std::move(m);
   return Status::Ok();
+}
+
+int EffectModel::num_starts() const {
+  size_t longest = 0;
+  for (const EffectParameter& p : parameters_) {
+    longest = std::max(longest, p.later_starts.size());
+  }
+  return 1 + static_cast<int>(longest);
+}
+
+std::vector<double> EffectModel::LaterStart(int k) const {
+  std::vector<double> start;
+  for (const EffectParameter& p : parameters_) {
+    const size_t at = std::min<size_t>(k - 1, p.later_starts.size() - 1);
+    start.push_back(p.later_starts[at]);
+  }
+  return start;
 }
 
 Status EffectModel::CreateNamed(const SuspensionParameters<double>& nominal,
@@ -361,12 +388,13 @@ Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
   return Status::Ok();
 }
 
-Status FitEffectModel(const EffectModel& model,
-                      const std::vector<Experiment>& experiments,
-                      const std::vector<double>& initial,
-                      const EffectFitOptions& options, double integrator_step,
-                      EffectFit* fit) {
-  const auto start = std::chrono::steady_clock::now();
+namespace {
+
+Status FitAtStep(const EffectModel& model,
+                 const std::vector<Experiment>& experiments,
+                 const std::vector<double>& initial,
+                 const EffectFitOptions& options, double integrator_step,
+                 EffectFit* fit) {
   const int n = model.num_parameters();
   if (!initial.empty() && static_cast<int>(initial.size()) != n) {
     return Status::Error("one initial value per parameter of " + model.Name() +
@@ -404,6 +432,7 @@ Status FitEffectModel(const EffectModel& model,
 
   *fit = EffectFit();
   fit->model = model.Name();
+  fit->integrator_step = integrator_step;
   EstimationResult& result = fit->result;
   for (int i = 0; i < n; ++i) {
     const EffectParameter& p = model.parameters()[i];
@@ -430,7 +459,52 @@ Status FitEffectModel(const EffectModel& model,
                                    options.uncertainty.adequacy);
   result.residual_rms = ResidualRms(experiments, weighted);
   AnalyzeUncertainty(std::move(jacobian), options.uncertainty, &result);
-  result.seconds =
+  return Status::Ok();
+}
+
+// The largest channel RMS over the observed samples of `error` [sigma].
+double LargestChannelRms(const std::vector<Experiment>& experiments,
+                         const std::vector<std::vector<Vec6<double>>>& error) {
+  Vec6<double> sum = Vec6<double>::Zero();
+  double count = 0;
+  for (size_t l = 0; l < experiments.size(); ++l) {
+    for (size_t j = 0; j < error[l].size(); ++j) {
+      if (!Observed(experiments[l], j)) continue;
+      sum += error[l][j].cwiseAbs2();
+      ++count;
+    }
+  }
+  return count > 0 ? std::sqrt(sum.maxCoeff() / count) : 0.0;
+}
+
+}  // namespace
+
+Status FitEffectModel(const EffectModel& model,
+                      const std::vector<Experiment>& experiments,
+                      const std::vector<double>& initial,
+                      const EffectFitOptions& options, double integrator_step,
+                      EffectFit* fit) {
+  const auto start = std::chrono::steady_clock::now();
+  KCRIG_RETURN_IF_ERROR(
+      FitAtStep(model, experiments, initial, options, integrator_step, fit));
+  std::vector<Experiment> finer;
+  for (int halving = 0; options.max_step_halvings > 0; ++halving) {
+    const std::vector<Experiment>& now = halving == 0 ? experiments : finer;
+    std::vector<std::vector<Vec6<double>>> error;
+    KCRIG_RETURN_IF_ERROR(DiscretisationError(model, fit->values, now,
+                                              fit->integrator_step, &error));
+    fit->discretisation = LargestChannelRms(now, error);
+    if (fit->discretisation <= options.max_discretisation ||
+        halving == options.max_step_halvings) {
+      break;
+    }
+    if (halving == 0) finer = experiments;
+    for (Experiment& e : finer) e.steps_per_sample *= 2;
+    const std::vector<double> from = fit->values;
+    KCRIG_RETURN_IF_ERROR(FitAtStep(model, finer, from, options,
+                                    0.5 * fit->integrator_step, fit));
+  }
+  fit->result.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
   return Status::Ok();

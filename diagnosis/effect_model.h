@@ -34,9 +34,11 @@ struct EffectParameter {
   double scale = 1;             // > 0
   double lower = 0, upper = 0;  // physical bounds of the fit
   double initial = 0;           // physical start of the fit
-  // A second start, for effects whose fit from a small effect can end in a
-  // local minimum when the true effect is large.
-  double second_initial = 0;
+  // Further starts, in order, for effects whose fit from a small effect can
+  // end in a local minimum when the true effect is large (a bushing's is
+  // its configured stiffness). A model has as many starts as its longest
+  // list allows; a shorter list repeats its last entry.
+  std::vector<double> later_starts;
 };
 
 // Most parameters of one candidate: five bushings plus two effects (the
@@ -68,6 +70,11 @@ class EffectModel {
   int num_parameters() const { return static_cast<int>(parameters_.size()); }
   // The longest dead time the bounds allow [s] (sizes the delay line).
   double max_dead_time() const { return max_dead_time_; }
+  // 1 + the longest list of later starts of its parameters.
+  int num_starts() const;
+  // Start `k` >= 1 (physical values, one per parameter): each parameter's
+  // later_starts[k - 1], or its last.
+  std::vector<double> LaterStart(int k) const;
 
   double ToPhysical(int i, double theta) const {
     return parameters_[i].base + parameters_[i].scale * theta;
@@ -111,10 +118,23 @@ struct EffectFitOptions {
   // model: iteration k"); kAbort stops the fit with Interrupted().
   // Optional.
   IterationCallback callback;
+  // A fit whose own discretisation error (Richardson's estimate, largest
+  // channel RMS) exceeds max_discretisation [sigma] is fitted again at half
+  // the step, from its values, up to max_step_halvings times: the fit and
+  // its adequacy are then the model's, not its integrator's (a 1 ms model
+  // of a rig whose response an effect makes faster errs by several tenths
+  // of sigma, which the adequacy tests see). 0: the given step only (a
+  // diagnosis compares its candidates at one step).
+  int max_step_halvings = 0;
+  double max_discretisation = 0.1;
 };
 
 struct EffectFit {
-  std::string model;  // EffectModel::Name()
+  std::string model;           // EffectModel::Name()
+  double integrator_step = 0;  // [s] the step the fit was made at
+  // The largest channel RMS of its discretisation error there [sigma];
+  // computed only when max_step_halvings > 0.
+  double discretisation = 0;
   // Per parameter (the bushings, then each effect's): value, standard
   // error, 95 % interval, in physical units; covariance, sigma_hat, cost,
   // iterations, convergence (EstimationResult's meaning; `nominal` holds

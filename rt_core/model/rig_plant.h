@@ -85,7 +85,12 @@ class BasicRigPlant {
   // delay, differentiable in dead_time).
   std::vector<Vec3<T>> delay_line_;
   size_t delay_head_ = 0;
-  T lag_gain_ = T(1);  // 1 - exp(-h / tau)
+  // The lag over one step for a delayed force linear over it (exact: the
+  // logged forces are interpolated linearly), so that a coarse step lags
+  // as a fine one does instead of leading by half a step.
+  Vec3<T> previous_delayed_ = Vec3<T>::Zero();
+  T lag_decay_ = T(0);  // exp(-h / tau)
+  T lag_ramp_ = T(1);   // (1 - exp(-h / tau)) tau / h
   // hysteresis: Dahl force per bushing at the deflection it last saw, and
   // its tangent stiffness there.
   typename SuspensionModel<T>::ExtraBushingForce hysteresis_;
@@ -115,6 +120,7 @@ BasicRigPlant<T, Model>::BasicRigPlant(
     : effects_(effects),
       model_(rig_plant_internal::WithBushingDamping(parameters, effects)),
       step_(step) {
+  using std::exp;
   using std::expm1;
   if (effects_.progressive_stiffness.enabled) {
     model_.SetProgressiveStiffness(effects_.progressive_stiffness.c3);
@@ -124,7 +130,9 @@ BasicRigPlant<T, Model>::BasicRigPlant(
     const double longest =
         std::max(max_dead_time, ValueOf(effects_.actuator_lag.dead_time));
     delay_steps = static_cast<size_t>(std::ceil(longest / step_ - 1e-9));
-    lag_gain_ = -expm1(-step_ / effects_.actuator_lag.tau);
+    const T steps_per_tau = step_ / effects_.actuator_lag.tau;
+    lag_decay_ = exp(-steps_per_tau);
+    lag_ramp_ = -expm1(-steps_per_tau) / steps_per_tau;
   }
   delay_line_.assign(delay_steps + 2, Vec3<T>::Zero());
 }
@@ -135,6 +143,7 @@ Status BasicRigPlant<T, Model>::Settle(const Vec3<T>& force, const T& z_a) {
   hysteresis_ = {};
   model_.SetExtraBushingForce(hysteresis_);
   std::fill(delay_line_.begin(), delay_line_.end(), force);
+  previous_delayed_ = force;
   wheel_force_ = force;
   state_ = ModelState<T>();
   RigLoad<T> load;
@@ -161,7 +170,9 @@ void BasicRigPlant<T, Model>::Step(const Vec3<T>& force) {
     const T fraction = delay - static_cast<double>(whole);
     const Vec3<T> delayed =
         Past(whole) + (Past(whole + 1) - Past(whole)) * fraction;
-    wheel_force_ += (delayed - wheel_force_) * lag_gain_;
+    wheel_force_ = delayed - (delayed - previous_delayed_) * lag_ramp_ +
+                   (wheel_force_ - previous_delayed_) * lag_decay_;
+    previous_delayed_ = delayed;
   } else {
     wheel_force_ = force;
   }

@@ -22,9 +22,13 @@
 //
 // KCRIG_CAMPAIGN_CASES (per effect) and KCRIG_CAMPAIGN_SEED are compile
 // definitions: the CI tier and the full tier are two builds of this file.
+// The environment variable KCRIG_CAMPAIGN_EFFECTS (comma-separated names)
+// runs only those effects' cases, to work on one; a run that way prints
+// "effects: only ..." and is not the acceptance.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -235,6 +239,21 @@ class KCRIG_CAMPAIGN_SUITE : public TempDirTest {
   }
 };
 
+// kEffects, or those named in KCRIG_CAMPAIGN_EFFECTS.
+std::vector<std::string> EffectsToRun() {
+  const char* only = std::getenv("KCRIG_CAMPAIGN_EFFECTS");
+  if (only == nullptr) return kEffects;
+  std::printf("effects: only %s\n", only);
+  std::vector<std::string> chosen;
+  for (const std::string& effect : kEffects) {
+    if (("," + std::string(only) + ",").find("," + effect + ",") !=
+        std::string::npos) {
+      chosen.push_back(effect);
+    }
+  }
+  return chosen;
+}
+
 TEST_F(KCRIG_CAMPAIGN_SUITE, LibraryEffectsAreAdoptedAndTheIntervalsCover) {
   const KcrigConfig config = SourceConfig();
   const int cases = KCRIG_CAMPAIGN_CASES;
@@ -245,7 +264,7 @@ TEST_F(KCRIG_CAMPAIGN_SUITE, LibraryEffectsAreAdoptedAndTheIntervalsCover) {
   int adopted_intervals = 0, adopted_covered = 0;
   std::printf("%-22s %4s %6s  %-22s %-8s %-14s %s\n", "effect", "case", "size",
               "final model", "covered", "today covered", "plant effect");
-  for (const std::string& effect : kEffects) {
+  for (const std::string& effect : EffectsToRun()) {
     int adopted = 0, large = 0, stopped = 0;
     for (int k = 0; k < cases; ++k) {
       const CampaignCase c = Draw(effect, k, KCRIG_CAMPAIGN_SEED);
