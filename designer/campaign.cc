@@ -414,7 +414,10 @@ class CampaignRun {
     KCRIG_RETURN_IF_ERROR(FitModel(model, start, &fit));
     if (!fit.result.adequacy.adequate) {
       it->action = one_log ? "undecided" : "stopped";
-      it->rejected_adoption = fit.result.adequacy.reason;
+      char step[64];
+      std::snprintf(step, sizeof(step), " (fitted at a %.3g ms step)",
+                    fit.integrator_step * 1e3);
+      it->rejected_adoption = fit.result.adequacy.reason + step;
       return Status::Ok();
     }
     if (it->model == "nominal") it->nominal_estimate = it->estimate;

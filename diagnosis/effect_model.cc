@@ -488,16 +488,13 @@ Status FitEffectModel(const EffectModel& model,
   KCRIG_RETURN_IF_ERROR(
       FitAtStep(model, experiments, initial, options, integrator_step, fit));
   std::vector<Experiment> finer;
-  for (int halving = 0; options.max_step_halvings > 0; ++halving) {
+  for (int halving = 0; halving < options.max_step_halvings; ++halving) {
     const std::vector<Experiment>& now = halving == 0 ? experiments : finer;
     std::vector<std::vector<Vec6<double>>> error;
     KCRIG_RETURN_IF_ERROR(DiscretisationError(model, fit->values, now,
                                               fit->integrator_step, &error));
     fit->discretisation = LargestChannelRms(now, error);
-    if (fit->discretisation <= options.max_discretisation ||
-        halving == options.max_step_halvings) {
-      break;
-    }
+    if (fit->discretisation <= options.max_discretisation) break;
     if (halving == 0) finer = experiments;
     for (Experiment& e : finer) e.steps_per_sample *= 2;
     const std::vector<double> from = fit->values;

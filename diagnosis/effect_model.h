@@ -120,13 +120,15 @@ struct EffectFitOptions {
   IterationCallback callback;
   // A fit whose own discretisation error (Richardson's estimate, largest
   // channel RMS) exceeds max_discretisation [sigma] is fitted again at half
-  // the step, from its values, up to max_step_halvings times: the fit and
-  // its adequacy are then the model's, not its integrator's (a 1 ms model
-  // of a rig whose response an effect makes faster errs by several tenths
-  // of sigma, which the adequacy tests see). 0: the given step only (a
-  // diagnosis compares its candidates at one step).
+  // the step, from its values, up to max_step_halvings times: whether the
+  // model explains the logs, and where its intervals lie, are then the
+  // model's answers, not its integrator's (a 1 ms model with an actuator
+  // lag errs by a few tenths of sigma on a fast designed ramp, which
+  // Ljung-Box sees, and its stiffnesses move by more than their standard
+  // errors). 0: the given step only (a diagnosis compares its candidates
+  // at one step).
   int max_step_halvings = 0;
-  double max_discretisation = 0.1;
+  double max_discretisation = 0.03;
 };
 
 struct EffectFit {

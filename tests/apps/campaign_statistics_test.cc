@@ -284,9 +284,12 @@ TEST_F(KCRIG_CAMPAIGN_SUITE, LibraryEffectsAreAdoptedAndTheIntervalsCover) {
       std::fflush(stdout);
       if (size < 3) continue;  // below the acceptance's size: shown only
       ++large;
-      adopted += acting.model == effect;
+      // Adopted and kept: a campaign that adopted the effect and stopped
+      // later (exit 5) did not end with it.
+      const bool kept = acting.model == effect && !acting.stopped;
+      adopted += kept;
       stopped += acting.stopped;
-      if (acting.model == effect) {
+      if (kept) {
         adopted_intervals += kNumBushings;
         adopted_covered += n;
       }
