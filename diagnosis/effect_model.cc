@@ -462,21 +462,6 @@ Status FitAtStep(const EffectModel& model,
   return Status::Ok();
 }
 
-// The largest channel RMS over the observed samples of `error` [sigma].
-double LargestChannelRms(const std::vector<Experiment>& experiments,
-                         const std::vector<std::vector<Vec6<double>>>& error) {
-  Vec6<double> sum = Vec6<double>::Zero();
-  double count = 0;
-  for (size_t l = 0; l < experiments.size(); ++l) {
-    for (size_t j = 0; j < error[l].size(); ++j) {
-      if (!Observed(experiments[l], j)) continue;
-      sum += error[l][j].cwiseAbs2();
-      ++count;
-    }
-  }
-  return count > 0 ? std::sqrt(sum.maxCoeff() / count) : 0.0;
-}
-
 }  // namespace
 
 Status FitEffectModel(const EffectModel& model,
@@ -488,13 +473,18 @@ Status FitEffectModel(const EffectModel& model,
   KCRIG_RETURN_IF_ERROR(
       FitAtStep(model, experiments, initial, options, integrator_step, fit));
   std::vector<Experiment> finer;
-  for (int halving = 0; halving < options.max_step_halvings; ++halving) {
+  // The error is estimated at every step tried, the last one included.
+  for (int halving = 0; options.max_step_halvings > 0; ++halving) {
     const std::vector<Experiment>& now = halving == 0 ? experiments : finer;
     std::vector<std::vector<Vec6<double>>> error;
     KCRIG_RETURN_IF_ERROR(DiscretisationError(model, fit->values, now,
                                               fit->integrator_step, &error));
-    fit->discretisation = LargestChannelRms(now, error);
-    if (fit->discretisation <= options.max_discretisation) break;
+    AddDiscretisationError(now, error, &fit->result.adequacy);
+    fit->discretisation = fit->result.adequacy.discretisation;
+    if (fit->discretisation <= options.max_discretisation ||
+        halving == options.max_step_halvings) {
+      break;
+    }
     if (halving == 0) finer = experiments;
     for (Experiment& e : finer) e.steps_per_sample *= 2;
     const std::vector<double> from = fit->values;

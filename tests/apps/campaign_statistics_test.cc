@@ -387,10 +387,12 @@ TEST_F(KCRIG_CAMPAIGN_SUITE, OneEffectThroughModbusAgainstTheEmulator) {
     Outcome outcome[2];
     bool ran = true;
     for (int diagnose = 1; diagnose >= 0 && ran; --diagnose) {
+      // One output file per emulator: the second would otherwise be read
+      // for its port before it replaced the first's (a closed port).
       ChildProcess emulator(
           {KCRIG_BINARY, "emulate", "--config", config, "--modbus-tcp",
            "127.0.0.1:0", "--seed", std::to_string(c.seed), "--effect", c.spec},
-          Path(name + "_emulate.out"));
+          Path(name + (diagnose ? "" : "_nominal") + "_emulate.out"));
       const std::string port = emulator.WaitForOutput(
           "serving modbus-tcp://127\\.0\\.0\\.1:([0-9]+)");
       ASSERT_FALSE(port.empty()) << emulator.Output();
