@@ -416,7 +416,7 @@ TEST_F(KCRIG_CAMPAIGN_SUITE, OneEffectThroughModbusAgainstTheEmulator) {
         n_nominal, c.spec.c_str());
     std::fflush(stdout);
     ++counted;
-    adopted += outcome[0].model == "rig_compliance";
+    adopted += outcome[0].model == "rig_compliance" && !outcome[0].stopped;
     stopped += outcome[0].stopped;
     for (int i = 0; i < kNumBushings; ++i) {
       covered[i] += hit[i];
