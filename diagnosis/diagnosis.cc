@@ -487,9 +487,9 @@ class DiagnosisRun {
     }
   }
 
-  // Stage 4: each single effect from two starts: the nominal fit's
-  // stiffnesses (which the effect has biased) with a small effect, and the
-  // configured stiffnesses with a large one.
+  // Stage 4: each single effect from its starts: the nominal fit's
+  // stiffnesses (which the effect has biased) with a small effect, then the
+  // configured stiffnesses with larger ones (two more for hysteresis).
   void FitSingles() {
     std::vector<const EffectModel*> models;
     std::vector<std::vector<Start>> starts;

@@ -278,8 +278,10 @@ int EffectModel::num_starts() const {
 std::vector<double> EffectModel::LaterStart(int k) const {
   std::vector<double> start;
   for (const EffectParameter& p : parameters_) {
-    const size_t at = std::min<size_t>(k - 1, p.later_starts.size() - 1);
-    start.push_back(p.later_starts[at]);
+    const std::vector<double>& later = p.later_starts;
+    start.push_back(later.empty()
+                        ? p.initial
+                        : later[std::min<size_t>(k - 1, later.size() - 1)]);
   }
   return start;
 }
@@ -480,8 +482,7 @@ Status FitEffectModel(const EffectModel& model,
     KCRIG_RETURN_IF_ERROR(DiscretisationError(model, fit->values, now,
                                               fit->integrator_step, &error));
     AddDiscretisationError(now, error, &fit->result.adequacy);
-    fit->discretisation = fit->result.adequacy.discretisation;
-    if (fit->discretisation <= options.max_discretisation ||
+    if (fit->result.adequacy.discretisation <= options.max_discretisation ||
         halving == options.max_step_halvings) {
       break;
     }

@@ -73,7 +73,7 @@ class EffectModel {
   // 1 + the longest list of later starts of its parameters.
   int num_starts() const;
   // Start `k` >= 1 (physical values, one per parameter): each parameter's
-  // later_starts[k - 1], or its last.
+  // later_starts[k - 1], or its last, or its `initial` when it has none.
   std::vector<double> LaterStart(int k) const;
 
   double ToPhysical(int i, double theta) const {
@@ -132,11 +132,10 @@ struct EffectFitOptions {
 };
 
 struct EffectFit {
-  std::string model;           // EffectModel::Name()
-  double integrator_step = 0;  // [s] the step the fit was made at
-  // The largest channel RMS of its discretisation error there [sigma];
-  // computed only when max_step_halvings > 0.
-  double discretisation = 0;
+  std::string model;  // EffectModel::Name()
+  // [s] the step the fit was made at; with max_step_halvings > 0 its
+  // discretisation error there is result.adequacy.discretisation.
+  double integrator_step = 0;
   // Per parameter (the bushings, then each effect's): value, standard
   // error, 95 % interval, in physical units; covariance, sigma_hat, cost,
   // iterations, convergence (EstimationResult's meaning; `nominal` holds
