@@ -49,6 +49,7 @@ nlohmann::ordered_json ParametersJson(const EstimationResult& estimate,
          {"ci95", p.identifiable
                       ? nlohmann::ordered_json{p.ci95_low, p.ci95_high}
                       : nlohmann::ordered_json()},
+         {"discretisation_bias", p.discretisation_bias},
          {"log10_diag_inv_jtj",
           finite ? nlohmann::ordered_json(p.log10_inverse_information)
                  : nlohmann::ordered_json()}});
@@ -72,6 +73,8 @@ Status ReadParameter(const nlohmann::json& node, const std::string& where,
   const double nan = std::numeric_limits<double>::quiet_NaN();
   p->ci95_low = p->identifiable ? ci95[0].get<double>() : nan;
   p->ci95_high = p->identifiable ? ci95[1].get<double>() : nan;
+  const nlohmann::json bias = node.value("discretisation_bias", 0.0);
+  p->discretisation_bias = bias.is_number() ? bias.get<double>() : 0.0;
   const nlohmann::json log10 =
       node.value("log10_diag_inv_jtj", nlohmann::json());
   p->log10_inverse_information = log10.is_number() ? log10.get<double>() : nan;
@@ -201,6 +204,9 @@ Status ValidateCampaignOptions(const KcrigConfig& config,
 }
 
 namespace {
+
+// An adopted model is fitted down to a quarter of the configured step.
+constexpr int kMaxStepHalvings = 2;
 
 // The marginal information of the first `n` parameters (the bushings) with
 // the others (an adopted effect's) as nuisance: the Schur complement
@@ -343,23 +349,34 @@ class CampaignRun {
 
   Status FitAdopted(CampaignIteration* it) {
     EffectFit fit;
-    KCRIG_RETURN_IF_ERROR(FitModel(adopted_, adopted_fit_.values, &fit));
+    KCRIG_RETURN_IF_ERROR(FitModel(adopted_, adopted_fit_.values,
+                                   adopted_fit_.integrator_step, &fit));
     adopted_fit_ = std::move(fit);
     it->estimate = adopted_fit_.result;
     it->model_step = adopted_fit_.integrator_step;
     return Status::Ok();
   }
 
+  // Fits `model` from `start`, beginning at `from_step` (0: the configured
+  // step). An adopted model keeps the finest step it has needed: its
+  // estimates from one iteration to the next are then nested.
   Status FitModel(const EffectModel& model, const std::vector<double>& start,
-                  EffectFit* fit) {
+                  double from_step, EffectFit* fit) {
+    const double step = config_.experiment.step;
+    int halvings = 0;
+    while (from_step > 0 && halvings < kMaxStepHalvings &&
+           step / (1 << halvings) > 1.5 * from_step) {
+      ++halvings;
+    }
     EffectFitOptions options;
     options.uncertainty = estimator_;
     options.callback = progress_.Nested();
     // Whether the model with the effect explains the logs is the model's
-    // question, not its integrator's: at most 0.25 ms for a 1 ms model.
-    options.max_step_halvings = 2;
-    return FitEffectModel(model, experiments_, start, options,
-                          config_.experiment.step, fit);
+    // question, not its integrator's.
+    options.max_step_halvings = kMaxStepHalvings - halvings;
+    return FitEffectModel(model,
+                          RefinedExperiments(experiments_, 1 << halvings),
+                          start, options, step / (1 << halvings), fit);
   }
 
   // A check failed: diagnose the logs (the newest as hold-out when there
@@ -411,7 +428,7 @@ class CampaignRun {
       if (s.model == d.verdict && s.ok) start = s.fit.values;
     }
     EffectFit fit;
-    KCRIG_RETURN_IF_ERROR(FitModel(model, start, &fit));
+    KCRIG_RETURN_IF_ERROR(FitModel(model, start, 0, &fit));
     if (!fit.result.adequacy.adequate) {
       it->action = one_log ? "undecided" : "stopped";
       char step[64];

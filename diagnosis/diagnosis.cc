@@ -396,9 +396,10 @@ class DiagnosisRun {
 
   // Fits each model from its starts, one round of starts after the other:
   // while no model has brought the training residual down to the noise, a
-  // further start is tried for the `retry_pool` models that fit the
-  // training logs best so far (the fits of all models side by side). Then
-  // scores the best fit of each. `from`, `to`: the progress fractions.
+  // further start is tried for at most `retry_pool` of the models that have
+  // one, those that fit the training logs best so far first (the fits of
+  // all models side by side). Then scores the best fit of each. `from`,
+  // `to`: the progress fractions.
   void FitAndScore(const std::vector<const EffectModel*>& models,
                    const std::vector<std::vector<Start>>& starts, double from,
                    double to, std::vector<CandidateScore>* scores) {

@@ -61,8 +61,11 @@ struct DiagnosisOptions {
   // more than this many combined standard errors.
   double drift_z = 4;
   // When no candidate's first fit brings the training residual down to
-  // the noise, its later starts (effect_model.h: later_starts) are tried,
-  // one round each, for the best `retry_pool` of them.
+  // the noise, their later starts (effect_model.h: later_starts) are
+  // tried, one round each, for at most `retry_pool` of the candidates that
+  // have a start for the round, the best fitting first (so a candidate with
+  // more starts than the others, hysteresis, gets them even when it fits
+  // worse: its landscape, not its model, is then the likelier cause).
   int retry_pool = 2;
   // Candidates are fitted on this many threads.
   int num_threads = 2;

@@ -392,6 +392,28 @@ Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
 
 namespace {
 
+// `error` (per log and sample) in the layout of the problem's residual
+// vector of `size`: six per sample.
+Status StackedError(const EffectModel& model,
+                    const std::vector<std::vector<Vec6<double>>>& error,
+                    Eigen::Index size, Eigen::VectorXd* stacked) {
+  Eigen::Index samples = 0;
+  for (const std::vector<Vec6<double>>& log : error) samples += log.size();
+  if (6 * samples != size) {
+    return Status::Error("the " + model.Name() +
+                         " model's residual layout is not per sample");
+  }
+  stacked->resize(size);
+  Eigen::Index at = 0;
+  for (const std::vector<Vec6<double>>& log : error) {
+    for (const Vec6<double>& e : log) {
+      stacked->segment<6>(at) = e;
+      at += 6;
+    }
+  }
+  return Status::Ok();
+}
+
 Status FitAtStep(const EffectModel& model,
                  const std::vector<Experiment>& experiments,
                  const std::vector<double>& initial,
@@ -460,7 +482,20 @@ Status FitAtStep(const EffectModel& model,
   result.adequacy = AssessAdequacy(experiments, weighted, kAllChannels, n,
                                    options.uncertainty.adequacy);
   result.residual_rms = ResidualRms(experiments, weighted);
+  if (options.max_step_halvings == 0) {
+    AnalyzeUncertainty(std::move(jacobian), options.uncertainty, &result);
+    return Status::Ok();
+  }
+  std::vector<std::vector<Vec6<double>>> error;
+  KCRIG_RETURN_IF_ERROR(DiscretisationError(model, fit->values, experiments,
+                                            integrator_step, &error));
+  AddDiscretisationError(experiments, error, &result.adequacy);
+  Eigen::VectorXd discretisation;
+  KCRIG_RETURN_IF_ERROR(
+      StackedError(model, error, residuals.size(), &discretisation));
+  const Eigen::VectorXd gradient = jacobian.transpose() * discretisation;
   AnalyzeUncertainty(std::move(jacobian), options.uncertainty, &result);
+  AddDiscretisationBias(gradient, &result);
   return Status::Ok();
 }
 
@@ -474,23 +509,14 @@ Status FitEffectModel(const EffectModel& model,
   const auto start = std::chrono::steady_clock::now();
   KCRIG_RETURN_IF_ERROR(
       FitAtStep(model, experiments, initial, options, integrator_step, fit));
-  std::vector<Experiment> finer;
-  // The error is estimated at every step tried, the last one included.
-  for (int halving = 0; options.max_step_halvings > 0; ++halving) {
-    const std::vector<Experiment>& now = halving == 0 ? experiments : finer;
-    std::vector<std::vector<Vec6<double>>> error;
-    KCRIG_RETURN_IF_ERROR(DiscretisationError(model, fit->values, now,
-                                              fit->integrator_step, &error));
-    AddDiscretisationError(now, error, &fit->result.adequacy);
-    if (fit->result.adequacy.discretisation <= options.max_discretisation ||
-        halving == options.max_step_halvings) {
-      break;
-    }
-    if (halving == 0) finer = experiments;
-    for (Experiment& e : finer) e.steps_per_sample *= 2;
+  for (int halving = 1;
+       halving <= options.max_step_halvings &&
+       fit->result.adequacy.discretisation > options.max_discretisation;
+       ++halving) {
     const std::vector<double> from = fit->values;
-    KCRIG_RETURN_IF_ERROR(FitAtStep(model, finer, from, options,
-                                    0.5 * fit->integrator_step, fit));
+    KCRIG_RETURN_IF_ERROR(
+        FitAtStep(model, RefinedExperiments(experiments, 1 << halving), from,
+                  options, integrator_step / (1 << halving), fit));
   }
   fit->result.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
@@ -520,14 +546,13 @@ Status DiscretisationError(const EffectModel& model,
                            double step,
                            std::vector<std::vector<Vec6<double>>>* error) {
   error->assign(experiments.size(), {});
+  const std::vector<Experiment> finer = RefinedExperiments(experiments, 2);
   for (size_t l = 0; l < experiments.size(); ++l) {
-    Experiment finer = experiments[l];
-    finer.steps_per_sample *= 2;
     std::vector<Vec6<double>> at_step, at_half;
     KCRIG_RETURN_IF_ERROR(
         WeightedResiduals(model, values, experiments[l], step, &at_step));
     KCRIG_RETURN_IF_ERROR(
-        WeightedResiduals(model, values, finer, 0.5 * step, &at_half));
+        WeightedResiduals(model, values, finer[l], 0.5 * step, &at_half));
     (*error)[l].resize(at_step.size());
     for (size_t j = 0; j < at_step.size(); ++j) {
       (*error)[l][j] = 2.0 * (at_step[j] - at_half[j]);
@@ -537,9 +562,8 @@ Status DiscretisationError(const EffectModel& model,
 }
 
 Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
-                          const std::vector<Experiment>& experiments,
-                          double integrator_step,
-                          const AdequacyOptions& options,
+                          const std::vector<Experiment>& given,
+                          double given_step, const AdequacyOptions& options,
                           Adequacy* prediction) {
   const int n = model.num_parameters();
   if (static_cast<int>(fit.values.size()) != n ||
@@ -547,6 +571,13 @@ Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
     return Status::Error("the fit does not belong to the " + model.Name() +
                          " model");
   }
+  // At the fit's step: the model whose intervals are predicted.
+  const int factor = fit.integrator_step > 0
+                         ? std::max(1, static_cast<int>(std::lround(
+                                           given_step / fit.integrator_step)))
+                         : 1;
+  const std::vector<Experiment> experiments = RefinedExperiments(given, factor);
+  const double integrator_step = given_step / factor;
   std::vector<double> lower, upper, theta(n);
   ThetaBox(model, &lower, &upper);
   for (int i = 0; i < n; ++i) {
@@ -563,21 +594,9 @@ Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
   std::vector<std::vector<Vec6<double>>> error;
   KCRIG_RETURN_IF_ERROR(DiscretisationError(model, fit.values, experiments,
                                             integrator_step, &error));
-  // The same layout as the problem's residual vector: six per sample.
-  Eigen::Index samples = 0;
-  for (const std::vector<Vec6<double>>& log : error) samples += log.size();
-  if (6 * samples != residuals.size()) {
-    return Status::Error("the " + model.Name() +
-                         " model's residual layout is not per sample");
-  }
-  Eigen::VectorXd discretisation(residuals.size());
-  Eigen::Index at = 0;
-  for (const std::vector<Vec6<double>>& log : error) {
-    for (const Vec6<double>& e : log) {
-      discretisation.segment<6>(at) = e;
-      at += 6;
-    }
-  }
+  Eigen::VectorXd discretisation;
+  KCRIG_RETURN_IF_ERROR(
+      StackedError(model, error, residuals.size(), &discretisation));
   auto assess = [&](const Eigen::VectorXd& r) {
     return AssessPredictionResiduals(experiments, kAllChannels, r, jacobian,
                                      fit.result.information, options);

@@ -134,7 +134,9 @@ struct EffectFitOptions {
 struct EffectFit {
   std::string model;  // EffectModel::Name()
   // [s] the step the fit was made at; with max_step_halvings > 0 its
-  // discretisation error there is result.adequacy.discretisation.
+  // discretisation error there is result.adequacy.discretisation, and the
+  // bias it leaves in each parameter widens the intervals
+  // (AddDiscretisationBias).
   double integrator_step = 0;
   // Per parameter (the bushings, then each effect's): value, standard
   // error, 95 % interval, in physical units; covariance, sigma_hat, cost,
@@ -168,10 +170,12 @@ Status DiscretisationError(const EffectModel& model,
                            double step,
                            std::vector<std::vector<Vec6<double>>>* error);
 
-// Predicts `experiments`, which `fit` (of `model`) has not seen: the
-// prediction's adequacy against the sensor noise over all six channels,
-// the fit's own uncertainty accounted for (AssessPredictionResiduals), at
-// the model's step or its continuous-time limit (BetterOfStepAndLimit).
+// Predicts `experiments` (given at `integrator_step`), which `fit` (of
+// `model`) has not seen: the prediction's adequacy against the sensor noise
+// over all six channels, the fit's own uncertainty accounted for
+// (AssessPredictionResiduals), at the fit's step (EffectFit::
+// integrator_step, a power-of-two fraction of the given one) or its
+// continuous-time limit (BetterOfStepAndLimit).
 Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
                           const std::vector<Experiment>& experiments,
                           double integrator_step,

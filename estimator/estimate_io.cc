@@ -117,6 +117,7 @@ std::string EstimationResultToJson(
          {"value", p.value},
          {"standard_error", Number(p.standard_error)},
          {"ci95", {Number(p.ci95_low), Number(p.ci95_high)}},
+         {"discretisation_bias", p.discretisation_bias},
          {"log10_diag_inv_jtj", Number(p.log10_inverse_information)},
          {"identifiable", p.identifiable},
          {"at_bound", p.at_bound}});

@@ -46,8 +46,10 @@ Status DiscretisationError(const SuspensionParameters<double>& nominal,
                            const std::vector<double>& scaled,
                            const Eigen::VectorXd& residuals,
                            Eigen::VectorXd* error) {
-  for (Experiment& e : experiments) e.steps_per_sample *= 2;
-  FitProblem half(nominal, experiments, options, 0.5 * integrator_step,
+  // The problem holds the experiments by reference: they outlive it here.
+  const std::vector<Experiment> finer_experiments =
+      RefinedExperiments(std::move(experiments), 2);
+  FitProblem half(nominal, finer_experiments, options, 0.5 * integrator_step,
                   indices);
   Eigen::VectorXd finer;
   if (!half.Evaluate(scaled, nullptr, &finer, nullptr)) {
@@ -206,6 +208,23 @@ void AnalyzeUncertainty(Eigen::MatrixXd jacobian,
   }
 }
 
+void AddDiscretisationBias(const Eigen::VectorXd& gradient,
+                           EstimationResult* result) {
+  // The information's pseudo-inverse: a direction the data do not
+  // determine has no interval to widen.
+  const Eigen::VectorXd bias =
+      -result->information.completeOrthogonalDecomposition().solve(gradient);
+  for (int i = 0; i < bias.size(); ++i) {
+    ParameterEstimate& p = result->parameters[i];
+    p.discretisation_bias = bias(i) * p.nominal;
+    if (!std::isfinite(p.standard_error)) continue;
+    const double half =
+        kZ95 * p.standard_error + std::abs(p.discretisation_bias);
+    p.ci95_low = p.value - half;
+    p.ci95_high = p.value + half;
+  }
+}
+
 Status Estimate(const SuspensionParameters<double>& nominal,
                 const std::vector<Experiment>& experiments,
                 const EstimatorOptions& options,
@@ -299,7 +318,9 @@ Status Estimate(const SuspensionParameters<double>& nominal,
     p.value = scaled[i] * p.nominal;
     p.at_bound = problem.AtBound(i, scaled[i]);
   }
+  const Eigen::VectorXd gradient = jacobian.transpose() * discretisation;
   AnalyzeUncertainty(std::move(jacobian), options, result);
+  AddDiscretisationBias(gradient, result);
   result->seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();

@@ -74,6 +74,9 @@ struct ParameterEstimate {
   bool identifiable = true;
   // The estimate sits on its bound (LeastSquaresProblem::AtBound).
   bool at_bound = false;
+  // [unit] the first-order bias the model's discretisation error leaves in
+  // the value (AddDiscretisationBias); 0 where not estimated.
+  double discretisation_bias = 0;
 };
 
 struct EstimationResult {
@@ -135,6 +138,18 @@ Status PredictExperiments(const SuspensionParameters<double>& nominal,
 void AnalyzeUncertainty(Eigen::MatrixXd jacobian,
                         const EstimatorOptions& options,
                         EstimationResult* result);
+
+// The parameters' first-order bias from the model's discretisation error
+// e (weighted residuals, Richardson's estimate): a fit at step h minimises
+// |r_0 + e| instead of the continuous-time |r_0|, so theta_h - theta_0 =
+// -(J^T J)^+ J^T e. Records it per parameter and widens each interval by
+// its size: the standard errors shrink with every sample while a bias of a
+// fraction of the noise per sample does not, and an interval must cover
+// the continuous-time value, which is the rig's. `gradient`: J^T e with
+// AnalyzeUncertainty's J, after which it is called (it needs the
+// information and the intervals).
+void AddDiscretisationBias(const Eigen::VectorXd& gradient,
+                           EstimationResult* result);
 
 // Indices into ListParameters() of `names`, checking that they exist, are
 // distinct, number at most kMaxEstimatedParameters and have non-zero

@@ -133,6 +133,12 @@ Status LoadExperiments(const std::vector<std::string>& paths,
   return Status::Ok();
 }
 
+std::vector<Experiment> RefinedExperiments(std::vector<Experiment> experiments,
+                                           int factor) {
+  for (Experiment& e : experiments) e.steps_per_sample *= factor;
+  return experiments;
+}
+
 Status CheckSameForceChannels(const std::vector<Experiment>& training,
                               const std::vector<Experiment>& holdout) {
   if (training.empty()) return Status::Ok();

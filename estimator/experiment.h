@@ -66,6 +66,11 @@ Status LoadExperiment(const std::string& path, const KcrigConfig& config,
 Experiment PlannedExperiment(const RampExcitation<double>& ramp,
                              const ExperimentConfig& config);
 
+// `experiments` integrated `factor` times finer: the same samples with
+// `factor` times the integrator steps per sample (a step of step / factor).
+std::vector<Experiment> RefinedExperiments(std::vector<Experiment> experiments,
+                                           int factor);
+
 // Logs fitted, predicted or scored under one model must drive it with the
 // same force channels (all the load cell's, or all the commanded
 // excitation): an error naming two logs of `training` and `holdout` that

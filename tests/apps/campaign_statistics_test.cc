@@ -24,7 +24,8 @@
 // definitions: the CI tier and the full tier are two builds of this file.
 // The environment variable KCRIG_CAMPAIGN_EFFECTS (comma-separated names)
 // runs only those effects' cases, to work on one; a run that way prints
-// "effects: only ..." and is not the acceptance.
+// "effects: only ..." and, when its checks hold, ends skipped: it is not
+// the acceptance.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -338,6 +339,10 @@ TEST_F(KCRIG_CAMPAIGN_SUITE, LibraryEffectsAreAdoptedAndTheIntervalsCover) {
   EXPECT_LE(misses, mean + 3 * std::sqrt(mean * 0.95) + 1)
       << misses << " of " << intervals << " intervals miss the truth";
 #endif
+  if (std::getenv("KCRIG_CAMPAIGN_EFFECTS") != nullptr) {
+    GTEST_SKIP() << "KCRIG_CAMPAIGN_EFFECTS ran only some effects: checked "
+                    "as far as they go, not passed as the acceptance";
+  }
 }
 
 TEST_F(KCRIG_CAMPAIGN_SUITE,

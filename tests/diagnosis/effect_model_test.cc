@@ -3,7 +3,9 @@
 // that cover the truth, and the nominal candidate is the nominal model.
 #include "diagnosis/effect_model.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "gtest/gtest.h"
 #include "rt_core/model/channels.h"
@@ -45,6 +47,129 @@ TEST_F(EffectModelTest, NominalCandidateFitsCleanDataToTheNoise) {
     const ParameterEstimate& p = fit.result.parameters[i];
     const double truth = plant_.model.bushings[i].stiffness;
     EXPECT_LT(std::abs(p.value - truth), 4 * p.standard_error) << p.name;
+  }
+}
+
+TEST_F(EffectModelTest, LaterStartsFollowTheFirstAndRepeatTheirLast) {
+  EffectModel model;
+  ASSERT_TRUE(EffectModel::Create(config_.model, {"hysteresis", "actuator_lag"},
+                                  0.1, 10, &model)
+                  .ok());
+  ASSERT_EQ(model.num_starts(), 3);  // hysteresis' three
+  const std::vector<double> second = model.LaterStart(1);
+  const std::vector<double> third = model.LaterStart(2);
+  ASSERT_EQ(static_cast<int>(third.size()), model.num_parameters());
+  for (int p = 0; p < model.num_parameters(); ++p) {
+    const EffectParameter& parameter = model.parameters()[p];
+    const std::string name = parameter.effect + "." + parameter.name;
+    if (parameter.effect.empty()) {  // later: the configured stiffness
+      EXPECT_EQ(second[p], parameter.initial) << name;
+      EXPECT_EQ(third[p], parameter.initial) << name;
+    } else if (name == "hysteresis.force") {
+      EXPECT_EQ(second[p], 300);
+      EXPECT_EQ(third[p], 1000);
+    } else if (name == "hysteresis.sigma") {
+      EXPECT_EQ(second[p], 4e7);
+      EXPECT_EQ(third[p], 1e7);
+    } else if (name == "actuator_lag.tau") {  // one later start, repeated
+      EXPECT_EQ(second[p], 0.03);
+      EXPECT_EQ(third[p], 0.03);
+    }
+  }
+  EffectModel nominal;
+  ASSERT_TRUE(EffectModel::Create(config_.model, {}, 0.1, 10, &nominal).ok());
+  EXPECT_EQ(nominal.num_starts(), 2);  // the stiffnesses' one
+}
+
+// A model whose discretisation error exceeds the bound is fitted again at
+// half the step, up to the given number of halvings; the error recorded is
+// the one at the step reached, and a prediction is made at that step.
+TEST_F(EffectModelTest, TheStepIsHalvedWhileTheDiscretisationErrorIsTooLarge) {
+  EffectModel model;
+  ASSERT_TRUE(
+      EffectModel::Create(config_.model, {"actuator_lag"}, 0.1, 10, &model)
+          .ok());
+  const std::vector<Experiment> logs =
+      TwoExperiments("actuator_lag:tau=0.03,dead_time=0.01");
+  const double step = config_.experiment.step;
+  EffectFitOptions options;
+  options.max_step_halvings = 2;
+  options.max_discretisation = 1e9;  // never too large: no halving
+  EffectFit coarse, fine;
+  ASSERT_TRUE(FitEffectModel(model, logs, {}, options, step, &coarse).ok());
+  EXPECT_EQ(coarse.integrator_step, step);
+  const double at_step = coarse.result.adequacy.discretisation;
+  ASSERT_GT(at_step, 0);
+  options.max_discretisation = 0;  // always too large: both halvings
+  ASSERT_TRUE(
+      FitEffectModel(model, logs, coarse.values, options, step, &fine).ok());
+  EXPECT_DOUBLE_EQ(fine.integrator_step, step / 4);
+  // The error falls with the step (measured: to 45 % at a quarter of it,
+  // not yet the 25 % of a first-order scheme's asymptotic regime).
+  EXPECT_LT(fine.result.adequacy.discretisation, 0.6 * at_step);
+  EXPECT_GT(fine.result.adequacy.discretisation, 0);
+
+  const std::vector<Experiment> holdout = {PlantExperiment(
+      config_, plant_.model, "actuator_lag:tau=0.03,dead_time=0.01",
+      {60 * kDegree, -0.3, 4000, 1.0, 0.3, 1.0}, 5)};
+  Adequacy given, refined;
+  ASSERT_TRUE(PredictEffectModel(model, fine, holdout, step, {}, &given).ok());
+  ASSERT_TRUE(PredictEffectModel(model, fine, RefinedExperiments(holdout, 4),
+                                 step / 4, {}, &refined)
+                  .ok());
+  EXPECT_EQ(given.score, refined.score);
+  EXPECT_EQ(given.discretisation, refined.discretisation);
+}
+
+// A fit at step h minimises the residual plus the model's discretisation
+// error e and moves by about -(J^T J)^+ J^T e: on noise-free logs of the
+// plant (integrated finer than the model) and fast ramps, that estimate
+// accounts for most of each stiffness' distance to the truth, and the
+// interval widened by it covers the truth.
+TEST_F(EffectModelTest, TheDiscretisationBiasExplainsTheOffsetFromTheTruth) {
+  EffectModel model;
+  ASSERT_TRUE(EffectModel::Create(config_.model, {}, 0.1, 10, &model).ok());
+  SimulatedRunOptions run;
+  run.noise = false;
+  run.step = plant_.step;  // a rig is continuous
+  std::vector<Experiment> logs;
+  for (const RampExcitation<double>& ramp :
+       {RampExcitation<double>{85 * kDegree, -0.45, 4000, 0.4, 0.1, 0.4},
+        RampExcitation<double>{20 * kDegree, -0.1, 4000, 0.4, 0.1, 0.4}}) {
+    RunLog log;
+    ASSERT_TRUE(
+        SimulateRun(plant_.model, ramp, config_.experiment, run, &log).ok());
+    logs.emplace_back();
+    ASSERT_TRUE(
+        MakeExperiment("plant", log, config_.experiment.step, &logs.back())
+            .ok());
+  }
+  EffectFitOptions options;
+  options.max_step_halvings = 1;
+  options.max_discretisation = 1e9;  // estimated, never refined
+  EffectFit fit;
+  ASSERT_TRUE(
+      FitEffectModel(model, logs, {}, options, config_.experiment.step, &fit)
+          .ok());
+  double largest = 0;
+  for (int i = 0; i < kNumBushings; ++i) {
+    const double truth = plant_.model.bushings[i].stiffness;
+    largest =
+        std::max(largest, std::abs(fit.result.parameters[i].value - truth));
+  }
+  for (int i = 0; i < kNumBushings; ++i) {
+    const ParameterEstimate& p = fit.result.parameters[i];
+    const double truth = plant_.model.bushings[i].stiffness;
+    const double offset = p.value - truth;
+    std::printf("  %s  offset %+.4f %%  bias %+.4f %%  1.96 se %.4f %%\n",
+                p.name.c_str(), 100 * offset / truth,
+                100 * p.discretisation_bias / truth,
+                196 * p.standard_error / truth);
+    // First order: measured within 19 % of the largest offset (0.18 %).
+    EXPECT_LT(std::abs(offset - p.discretisation_bias), 0.4 * largest)
+        << p.name;
+    EXPECT_LE(p.ci95_low, truth) << p.name;
+    EXPECT_GE(p.ci95_high, truth) << p.name;
   }
 }
 
