@@ -52,7 +52,11 @@ struct Setup {
     log.metadata.sigma_position = e.sigma_position;
     log.metadata.sigma_angle = e.sigma_angle;
     for (const auto& s : samples) {
-      log.samples.push_back({s.t, s.force, s.y, Vec3<double>::Zero()});
+      LogSample sample;
+      sample.t = s.t;
+      sample.force = s.force;
+      sample.y = s.y;
+      log.samples.push_back(sample);
     }
     if (!MakeExperiment("bench", log, e.step, &experiments[0]).ok())
       std::abort();

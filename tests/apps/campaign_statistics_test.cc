@@ -202,6 +202,17 @@ std::string CampaignCommand(const std::string& config, const CampaignCase& c,
   return command;
 }
 
+// The largest distance of an estimate from its truth, in its interval's
+// half-widths (above 1: missed): a miss by a hair or by a mile.
+double WorstMiss(const Outcome& o, const CampaignCase& c) {
+  double worst = 0;
+  for (int i = 0; i < kNumBushings; ++i) {
+    const double half = 0.5 * (o.high[i] - o.low[i]);
+    worst = std::max(worst, std::abs(o.value[i] - c.stiffness[i]) / half);
+  }
+  return worst;
+}
+
 int Covered(const Outcome& o, const CampaignCase& c, bool* per_parameter) {
   int covered = 0;
   for (int i = 0; i < kNumBushings; ++i) {
@@ -263,8 +274,9 @@ TEST_F(KCRIG_CAMPAIGN_SUITE, LibraryEffectsAreAdoptedAndTheIntervalsCover) {
   // Of the campaigns that adopted the right effect: how far the intervals
   // they present can be trusted (a stopped campaign presents none).
   int adopted_intervals = 0, adopted_covered = 0;
-  std::printf("%-22s %4s %6s  %-22s %-8s %-14s %s\n", "effect", "case", "size",
-              "final model", "covered", "today covered", "plant effect");
+  std::printf("%-22s %4s %6s  %-22s %-8s %-6s %-14s %s\n", "effect", "case",
+              "size", "final model", "covered", "worst", "today covered",
+              "plant effect");
   for (const std::string& effect : EffectsToRun()) {
     int adopted = 0, large = 0, stopped = 0;
     for (int k = 0; k < cases; ++k) {
@@ -279,9 +291,9 @@ TEST_F(KCRIG_CAMPAIGN_SUITE, LibraryEffectsAreAdoptedAndTheIntervalsCover) {
       const int n_nominal = Covered(nominal, c, nominal_hit);
       const std::string final_model =
           acting.stopped ? "stopped (exit 5)" : acting.model;
-      std::printf("%-22s %4d %6.1f  %-22s %d/5      %d/5            %s\n",
-                  effect.c_str(), k, size, final_model.c_str(), n, n_nominal,
-                  c.spec.c_str());
+      std::printf("%-22s %4d %6.1f  %-22s %d/5      %6.2f %d/5            %s\n",
+                  effect.c_str(), k, size, final_model.c_str(), n,
+                  WorstMiss(acting, c), n_nominal, c.spec.c_str());
       std::fflush(stdout);
       if (size < 3) continue;  // below the acceptance's size: shown only
       ++large;
