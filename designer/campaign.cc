@@ -372,7 +372,9 @@ class CampaignRun {
     options.uncertainty = estimator_;
     options.callback = progress_.Nested();
     // Whether the model with the effect explains the logs is the model's
-    // question, not its integrator's.
+    // question, not its integrator's: its error is estimated at every step,
+    // the finest allowed included.
+    options.estimate_discretisation = true;
     options.max_step_halvings = kMaxStepHalvings - halvings;
     return FitEffectModel(model,
                           RefinedExperiments(experiments_, 1 << halvings),

@@ -482,7 +482,7 @@ Status FitAtStep(const EffectModel& model,
   result.adequacy = AssessAdequacy(experiments, weighted, kAllChannels, n,
                                    options.uncertainty.adequacy);
   result.residual_rms = ResidualRms(experiments, weighted);
-  if (options.max_step_halvings == 0) {
+  if (!options.estimate_discretisation) {
     AnalyzeUncertainty(std::move(jacobian), options.uncertainty, &result);
     return Status::Ok();
   }
@@ -510,6 +510,7 @@ Status FitEffectModel(const EffectModel& model,
   KCRIG_RETURN_IF_ERROR(
       FitAtStep(model, experiments, initial, options, integrator_step, fit));
   for (int halving = 1;
+       options.estimate_discretisation &&
        halving <= options.max_step_halvings &&
        fit->result.adequacy.discretisation > options.max_discretisation;
        ++halving) {

@@ -118,22 +118,26 @@ struct EffectFitOptions {
   // model: iteration k"); kAbort stops the fit with Interrupted().
   // Optional.
   IterationCallback callback;
-  // A fit whose own discretisation error (Richardson's estimate, largest
-  // channel RMS) exceeds max_discretisation [sigma] is fitted again at half
-  // the step, from its values, up to max_step_halvings times: whether the
-  // model explains the logs, and where its intervals lie, are then the
+  // Whether each fit estimates its own discretisation error (Richardson's
+  // estimate, largest channel RMS [sigma], in the adequacy) and the bias it
+  // leaves in the parameters, which widens their intervals
+  // (AddDiscretisationBias). false: neither (a diagnosis compares its
+  // candidates at one step and estimates the error itself).
+  bool estimate_discretisation = false;
+  // A fit whose error exceeds max_discretisation [sigma] is fitted again at
+  // half the step, from its values, up to max_step_halvings times: whether
+  // the model explains the logs, and where its intervals lie, are then the
   // model's answers, not its integrator's (a 1 ms model with an actuator
   // lag errs by a few tenths of sigma on a fast designed ramp, which
   // Ljung-Box sees, and its stiffnesses move by more than their standard
-  // errors). 0: the given step only (a diagnosis compares its candidates
-  // at one step).
+  // errors). The error and bias are those at the step reached.
   int max_step_halvings = 0;
   double max_discretisation = 0.03;
 };
 
 struct EffectFit {
   std::string model;  // EffectModel::Name()
-  // [s] the step the fit was made at; with max_step_halvings > 0 its
+  // [s] the step the fit was made at; with estimate_discretisation its
   // discretisation error there is result.adequacy.discretisation, and the
   // bias it leaves in each parameter widens the intervals
   // (AddDiscretisationBias).

@@ -93,6 +93,7 @@ TEST_F(EffectModelTest, TheStepIsHalvedWhileTheDiscretisationErrorIsTooLarge) {
       TwoExperiments("actuator_lag:tau=0.03,dead_time=0.01");
   const double step = config_.experiment.step;
   EffectFitOptions options;
+  options.estimate_discretisation = true;
   options.max_step_halvings = 2;
   options.max_discretisation = 1e9;  // never too large: no halving
   EffectFit coarse, fine;
@@ -145,8 +146,10 @@ TEST_F(EffectModelTest, TheDiscretisationBiasExplainsTheOffsetFromTheTruth) {
             .ok());
   }
   EffectFitOptions options;
-  options.max_step_halvings = 1;
-  options.max_discretisation = 1e9;  // estimated, never refined
+  // Estimated at a step no finer one may follow (an adopted model at its
+  // finest step): the bias is still there.
+  options.estimate_discretisation = true;
+  options.max_step_halvings = 0;
   EffectFit fit;
   ASSERT_TRUE(
       FitEffectModel(model, logs, {}, options, config_.experiment.step, &fit)
