@@ -73,7 +73,8 @@ Status ReadParameter(const nlohmann::json& node, const std::string& where,
   const double nan = std::numeric_limits<double>::quiet_NaN();
   p->ci95_low = p->identifiable ? ci95[0].get<double>() : nan;
   p->ci95_high = p->identifiable ? ci95[1].get<double>() : nan;
-  const nlohmann::json bias = node.value("discretisation_bias", 0.0);
+  const nlohmann::json bias =
+      node.value("discretisation_bias", nlohmann::json());
   p->discretisation_bias = bias.is_number() ? bias.get<double>() : 0.0;
   const nlohmann::json log10 =
       node.value("log10_diag_inv_jtj", nlohmann::json());
