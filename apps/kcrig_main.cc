@@ -13,6 +13,7 @@
 #include "apps/diagnose_command.h"
 #include "apps/emulate_command.h"
 #include "apps/estimate_command.h"
+#include "apps/kc_command.h"
 #include "apps/report_command.h"
 #include "apps/run_command.h"
 #include "apps/screen_command.h"
@@ -32,6 +33,7 @@ int main(int argc, char** argv) {
   kcrig::AddEstimateCommand(&app, &run);
   kcrig::AddScreenCommand(&app, &run);
   kcrig::AddDiagnoseCommand(&app, &run);
+  kcrig::AddKcCommand(&app, &run);
   kcrig::AddDesignCommand(&app, &run);
   kcrig::AddCampaignCommand(&app, &run);
   kcrig::AddEmulateCommand(&app, &run);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 
 #include "base/json_reader.h"
 #include "nlohmann/json.hpp"
@@ -305,26 +306,36 @@ Status ReadEstimateFile(const std::string& path, EstimateFile* estimate) {
     estimate->values.push_back(p["value"].get<double>());
   }
   const int n = static_cast<int>(estimate->names.size());
-  if (doc.contains("information_matrix")) {
-    const nlohmann::json& m = doc["information_matrix"];
+  // An n x n matrix of numbers, when the file has `field`; with
+  // `allow_null`, null (written for a non-finite entry) reads as NaN.
+  auto read_matrix = [&](const std::string& field, bool allow_null,
+                         Eigen::MatrixXd* out) {
+    if (!doc.contains(field)) return Status::Ok();
+    const nlohmann::json& m = doc[field];
     if (!m.is_array() || static_cast<int>(m.size()) != n) {
-      return error("information_matrix",
-                   "expected " + std::to_string(n) + " rows");
+      return error(field, "expected " + std::to_string(n) + " rows");
     }
-    estimate->information.resize(n, n);
+    out->resize(n, n);
     for (int r = 0; r < n; ++r) {
       if (!m[r].is_array() || static_cast<int>(m[r].size()) != n) {
-        return error("information_matrix",
+        return error(field,
                      "expected " + std::to_string(n) + " columns in every row");
       }
       for (int c = 0; c < n; ++c) {
-        if (!m[r][c].is_number()) {
-          return error("information_matrix", "non-numeric entry");
+        if (allow_null && m[r][c].is_null()) {
+          (*out)(r, c) = std::numeric_limits<double>::quiet_NaN();
+        } else if (m[r][c].is_number()) {
+          (*out)(r, c) = m[r][c].get<double>();
+        } else {
+          return error(field, "non-numeric entry");
         }
-        estimate->information(r, c) = m[r][c].get<double>();
       }
     }
-  }
+    return Status::Ok();
+  };
+  KCRIG_RETURN_IF_ERROR(
+      read_matrix("information_matrix", false, &estimate->information));
+  KCRIG_RETURN_IF_ERROR(read_matrix("covariance", true, &estimate->covariance));
   return Status::Ok();
 }
 

@@ -59,6 +59,7 @@ struct EstimateFile {
   std::vector<std::string> names;
   std::vector<double> values;   // physical units
   Eigen::MatrixXd information;  // empty when the file has none
+  Eigen::MatrixXd covariance;   // physical units; empty when none
 };
 
 // Reads and checks an est.json written by kcrig estimate; errors name the

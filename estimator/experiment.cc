@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "records/read_log.h"
 #include "rt_core/model/excitation.h"
@@ -82,7 +83,8 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
 }
 
 Status LoadExperiment(const std::string& path, const KcrigConfig& config,
-                      const std::string& dbc_file, Experiment* experiment) {
+                      const std::string& dbc_file, Experiment* experiment,
+                      RunLog* log_out) {
   CanLogDecoderOptions can;
   can.dbc_file = dbc_file;
   can.sigma_position = config.experiment.sigma_position;
@@ -99,6 +101,7 @@ Status LoadExperiment(const std::string& path, const KcrigConfig& config,
         ": a log from a different geometry config cannot be analysed with "
         "this model (use its --config)");
   }
+  if (log_out != nullptr) *log_out = std::move(log);
   return Status::Ok();
 }
 

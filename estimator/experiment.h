@@ -57,8 +57,10 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
 // and the config's sensor sigmas; "" refuses one), then MakeExperiment with
 // the config's integrator step. A log recorded with another geometry than
 // the config's model is refused: no model here can explain it.
+// `log`, when not null, receives the log read (its phases and sidecar).
 Status LoadExperiment(const std::string& path, const KcrigConfig& config,
-                      const std::string& dbc_file, Experiment* experiment);
+                      const std::string& dbc_file, Experiment* experiment,
+                      RunLog* log = nullptr);
 
 // An experiment not yet run: the excitation's forces sampled at the
 // config's log rate over the whole excitation, the config's integrator step

@@ -26,13 +26,15 @@ MAY_INCLUDE = {
                  "records"],
     "estimator": ["base", "rt_core/model", "records"],
     "diagnosis": ["base", "rt_core/model", "records", "estimator"],
+    "kc_sheet": ["base", "rt_core/model", "records", "estimator",
+                 "diagnosis"],
     "designer": ["base", "rt_core/model", "records", "estimator",
                  "diagnosis"],
     "report": ["base", "rt_core/model", "records", "estimator", "diagnosis",
                "designer"],
     "apps": ["base", "rt_core/model", "rt_core/runtime", "io_drivers",
              "records", "hil", "emulator", "estimator", "diagnosis",
-             "designer", "report"],
+             "kc_sheet", "designer", "report"],
 }
 # records decodes logs with the DBC codec, never with a transport.
 ONLY = {("records", "io_drivers"): {"can_frame.h", "dbc.h",

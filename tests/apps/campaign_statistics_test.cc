@@ -395,33 +395,50 @@ TEST_F(KCRIG_CAMPAIGN_SUITE,
 // plant (its bushings in plant.yaml, its effect, its noise seed).
 TEST_F(KCRIG_CAMPAIGN_SUITE, OneEffectThroughModbusAgainstTheEmulator) {
   const int cases = KCRIG_CAMPAIGN_CASES;
-  int adopted = 0, stopped = 0, counted = 0;
+  int adopted = 0, stopped = 0, counted = 0, retried = 0;
   int covered[kNumBushings] = {}, nominal_covered[kNumBushings] = {};
   for (int k = 0; k < cases; ++k) {
     const CampaignCase c = Draw("rig_compliance", 100 + k, KCRIG_CAMPAIGN_SEED);
-    const std::string name = "modbus" + std::to_string(k);
-    const std::string config = CaseConfig(Path(name + "_config"), c);
+    const std::string config =
+        CaseConfig(Path("modbus" + std::to_string(k) + "_config"), c);
     Outcome outcome[2];
     bool ran = true;
-    for (int diagnose = 1; diagnose >= 0 && ran; --diagnose) {
-      // One output file per emulator: the second would otherwise be read
-      // for its port before it replaced the first's (a closed port).
-      ChildProcess emulator(
-          {KCRIG_BINARY, "emulate", "--config", config, "--modbus-tcp",
-           "127.0.0.1:0", "--seed", std::to_string(c.seed), "--effect", c.spec},
-          Path(name + (diagnose ? "" : "_nominal") + "_emulate.out"));
-      const std::string port = emulator.WaitForOutput(
-          "serving modbus-tcp://127\\.0\\.0\\.1:([0-9]+)");
-      ASSERT_FALSE(port.empty()) << emulator.Output();
-      const std::string out = Path(name + (diagnose ? "" : "_nominal"));
-      const CliResult run =
-          RunKcrig("campaign --config " + config +
-                   " --rig modbus-tcp://127.0.0.1:" + port +
-                   " --iterations 2 --quiet --no-report --out " + out +
-                   (diagnose ? "" : " --no-diagnose"));
-      ran = run.exit_code == 0 || run.exit_code == 5;
-      EXPECT_TRUE(ran) << run.output;
-      if (ran) outcome[diagnose ? 0 : 1] = ReadOutcome(out);
+    // A run that the controller's watchdog stopped (the shared machine
+    // starved the emulator of measurements: the safety working, not an
+    // outcome of the estimation) is run once more with a fresh emulator.
+    bool tripped = false;
+    for (int attempt = 0; attempt < 2 && (attempt == 0 || tripped); ++attempt) {
+      if (attempt > 0) {
+        ++retried;
+        std::printf("modbus %2d: a run tripped; the case runs once more\n", k);
+      }
+      tripped = false;
+      ran = true;
+      const std::string name =
+          "modbus" + std::to_string(k) + (attempt > 0 ? "_retry" : "");
+      for (int diagnose = 1; diagnose >= 0 && ran; --diagnose) {
+        // One output file per emulator: the second would otherwise be read
+        // for its port before it replaced the first's (a closed port).
+        ChildProcess emulator(
+            {KCRIG_BINARY, "emulate", "--config", config, "--modbus-tcp",
+             "127.0.0.1:0", "--seed", std::to_string(c.seed), "--effect",
+             c.spec},
+            Path(name + (diagnose ? "" : "_nominal") + "_emulate.out"));
+        const std::string port = emulator.WaitForOutput(
+            "serving modbus-tcp://127\\.0\\.0\\.1:([0-9]+)");
+        ASSERT_FALSE(port.empty()) << emulator.Output();
+        const std::string out = Path(name + (diagnose ? "" : "_nominal"));
+        const CliResult run =
+            RunKcrig("campaign --config " + config +
+                     " --rig modbus-tcp://127.0.0.1:" + port +
+                     " --iterations 2 --quiet --no-report --out " + out +
+                     (diagnose ? "" : " --no-diagnose"));
+        ran = run.exit_code == 0 || run.exit_code == 5;
+        tripped = !ran && attempt == 0 &&
+                  run.output.find(" tripped: watchdog") != std::string::npos;
+        EXPECT_TRUE(ran || tripped) << run.output;
+        if (ran) outcome[diagnose ? 0 : 1] = ReadOutcome(out);
+      }
     }
     if (!ran) continue;
     bool hit[kNumBushings], nominal_hit[kNumBushings];
@@ -441,8 +458,9 @@ TEST_F(KCRIG_CAMPAIGN_SUITE, OneEffectThroughModbusAgainstTheEmulator) {
     }
   }
   std::printf(
-      "through Modbus: rig compliance adopted in %d of %d cases, %d stopped\n",
-      adopted, counted, stopped);
+      "through Modbus: rig compliance adopted in %d of %d cases, %d stopped "
+      "(%d cases run again after a watchdog trip)\n",
+      adopted, counted, stopped, retried);
   ASSERT_GT(counted, 0);
   EXPECT_GE(adopted, 0.9 * counted);
   for (int i = 0; i < kNumBushings; ++i) {
