@@ -29,28 +29,17 @@ struct KcArgs {
   std::string csv;
 };
 
-// The model at the estimate of `path`: its values over the config's, and
-// its covariance for the model's standard errors (NaN entries: none).
+// The model at the estimate of `path` (the config's without one): its
+// values over the config's, an adopted effect's too, and its covariance
+// for the model's standard errors.
 Status ModelAtEstimate(const std::string& path, const KcrigConfig& config,
                        KcModel* model) {
-  model->parameters = config.model;
-  model->integrator_step = config.experiment.step;
-  if (path.empty()) return Status::Ok();
   EstimateFile estimate;
-  KCRIG_RETURN_IF_ERROR(ReadEstimateFile(path, &estimate));
-  for (size_t i = 0; i < estimate.names.size(); ++i) {
-    double* value = FindParameter(&model->parameters, estimate.names[i]);
-    if (value == nullptr) {
-      return Status::Error(path + ": parameters[" + std::to_string(i) +
-                           "].name: \"" + estimate.names[i] +
-                           "\" is not a parameter of the model");
-    }
-    *value = estimate.values[i];
-  }
-  if (estimate.covariance.size() > 0 && estimate.covariance.allFinite()) {
-    model->uncertain = estimate.names;
-    model->covariance = estimate.covariance;
-  }
+  if (!path.empty()) KCRIG_RETURN_IF_ERROR(ReadEstimateFile(path, &estimate));
+  const Status status =
+      KcModelOfEstimate(config.model, estimate.names, estimate.values,
+                        estimate.covariance, config.experiment.step, model);
+  if (!status.ok()) return Status::Error(path + ": " + status.message());
   return Status::Ok();
 }
 

@@ -26,7 +26,7 @@ struct RunSamples {
 // excitation's own times (a simulated log starts with the ramp).
 std::optional<Branch> BranchOf(const RunLog& log, size_t j) {
   const LogSample& s = log.samples[j];
-  if (log.has_loop_columns) {
+  if (!log.samples.front().phase.empty()) {
     if (s.phase == RunPhaseName(RunPhase::kRamp)) return kRising;
     if (s.phase == RunPhaseName(RunPhase::kReturn)) return kFalling;
     return std::nullopt;
@@ -321,16 +321,14 @@ bool BuildComponentRegression(const std::vector<const RunSamples*>& samples,
       ++group;
     }
   }
-  // The force block's conditioning once the intercepts are taken out.
+  // The spread of the force directions once the intercepts are taken out
+  // (N^2 in both: no scaling, which would make a direction the runs barely
+  // move in look as good as the others).
   const Eigen::MatrixXd normal = regression->x.transpose() * regression->x;
   const Eigen::MatrixXd a = normal.topLeftCorner(groups, groups);
   const Eigen::MatrixXd b = normal.topRightCorner(groups, 2);
-  Eigen::Matrix2d schur =
+  const Eigen::Matrix2d schur =
       normal.bottomRightCorner(2, 2) - b.transpose() * a.ldlt().solve(b);
-  const Eigen::Vector2d scale = schur.diagonal().cwiseSqrt();
-  if (!(scale.minCoeff() > 0)) return false;
-  schur = scale.cwiseInverse().asDiagonal() * schur *
-          scale.cwiseInverse().asDiagonal();
   const Eigen::Vector2d eigen =
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(schur).eigenvalues();
   return eigen(0) > 0 && eigen(1) / eigen(0) < max_condition;
@@ -515,8 +513,12 @@ void AddNamedFigures(KcSheet* sheet) {
       f.rig_standard_error =
           NamedDisplay(d.channel, d.load, c.rig_se(d.channel, d.load));
       f.has_model = sheet->has_model;
-      f.model = NamedDisplay(d.channel, d.load,
-                             c.static_compliance(d.channel, d.load));
+      f.model = NamedDisplay(d.channel, d.load, c.model(d.channel, d.load));
+      f.model_standard_error =
+          NamedDisplay(d.channel, d.load, c.model_se(d.channel, d.load));
+      f.z = c.z(d.channel, d.load);
+      f.model_static = NamedDisplay(d.channel, d.load,
+                                    c.static_compliance(d.channel, d.load));
       sheet->named.push_back(f);
     }
   }
@@ -527,14 +529,71 @@ void AddNamedFigures(KcSheet* sheet) {
     for (const NamedDefinition& d : kNamed) {
       NamedFigure f{d.name, place == 0 ? "wheel centre" : "contact patch",
                     NamedUnit(d.channel, d.load)};
-      f.has_model = true;
-      f.model = NamedDisplay(d.channel, d.load, m(d.channel, d.load));
+      f.model_static = NamedDisplay(d.channel, d.load, m(d.channel, d.load));
       sheet->named.push_back(f);
     }
   }
 }
 
+// The effect of a parameter called "effect.parameter", or "".
+std::string EffectOf(const std::string& name) {
+  const size_t dot = name.find('.');
+  if (dot == std::string::npos) return "";
+  const std::string effect = name.substr(0, dot);
+  for (std::string_view known : kEffectNames) {
+    if (effect == known) return effect;
+  }
+  return "";
+}
+
 }  // namespace
+
+Status KcModelOfEstimate(const SuspensionParameters<double>& nominal,
+                         const std::vector<std::string>& names,
+                         const std::vector<double>& values,
+                         const Eigen::MatrixXd& covariance,
+                         double integrator_step, KcModel* model) {
+  *model = KcModel();
+  model->parameters = nominal;
+  model->integrator_step = integrator_step;
+  for (const std::string& name : names) {
+    const std::string effect = EffectOf(name);
+    if (!effect.empty() &&
+        std::find(model->effects.begin(), model->effects.end(), effect) ==
+            model->effects.end()) {
+      model->effects.push_back(effect);
+    }
+  }
+  EffectModel effects;
+  KCRIG_RETURN_IF_ERROR(
+      EffectModel::Create(nominal, model->effects, 0.01, 100.0, &effects));
+  model->name = effects.Name();
+  for (int i = kNumBushings; i < effects.num_parameters(); ++i) {
+    model->effect_values.push_back(effects.parameters()[i].initial);
+  }
+  for (size_t k = 0; k < names.size(); ++k) {
+    if (double* value = FindParameter(&model->parameters, names[k])) {
+      *value = values[k];
+      continue;
+    }
+    bool found = false;
+    for (int i = kNumBushings; i < effects.num_parameters() && !found; ++i) {
+      const EffectParameter& p = effects.parameters()[i];
+      found = p.effect + "." + p.name == names[k];
+      if (found) model->effect_values[i - kNumBushings] = values[k];
+    }
+    if (!found) {
+      return Status::Error("\"" + names[k] + "\" is not a parameter of the " +
+                           model->name + " model");
+    }
+  }
+  if (covariance.rows() == static_cast<long>(names.size()) &&
+      covariance.cols() == covariance.rows() && covariance.allFinite()) {
+    model->uncertain = names;
+    model->covariance = covariance;
+  }
+  return Status::Ok();
+}
 
 Status ComputeKcSheet(const std::vector<KcRun>& runs, const KcModel* model,
                       const KcSheetOptions& options, KcSheet* sheet) {

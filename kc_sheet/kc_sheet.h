@@ -52,9 +52,10 @@ struct KcSheetOptions {
   // A model/rig difference beyond this many combined standard errors flags
   // the figure (and its channel) as differing.
   double flag_z = 3.0;
-  // Directions of a component fit: the force block of its normal matrix
-  // must be better conditioned than this (runs at least ~5 deg apart).
-  double max_component_condition = 1e4;
+  // Directions of a component fit: the spread of the forces (the force
+  // block of the normal matrix, intercepts taken out) must be better
+  // conditioned than this: 1e3 is runs at least ~4 deg apart.
+  double max_component_condition = 1e3;
   // Runs whose acting heights differ by less than this [m] share a
   // component fit.
   double same_height = 1e-3;
@@ -78,6 +79,17 @@ struct KcModel {
   Eigen::MatrixXd covariance;
   double integrator_step = 0;
 };
+
+// The model of an estimate: `names` (ListParameters' names, and
+// "effect.parameter" for the effect of an adopted model, as est.json and
+// campaign.json name them) at `values` over `nominal`, with their
+// `covariance` (physical units; empty or not finite: none). Errors name the
+// unknown parameter.
+Status KcModelOfEstimate(const SuspensionParameters<double>& nominal,
+                         const std::vector<std::string>& names,
+                         const std::vector<double>& values,
+                         const Eigen::MatrixXd& covariance,
+                         double integrator_step, KcModel* model);
 
 // One straight line r = intercept + slope f.
 struct LineFit {
@@ -149,8 +161,12 @@ struct ComponentSheet {
       Eigen::Matrix<double, 6, 2>::Zero();
 };
 
-// A standard K&C figure: a component gradient of the rig (from a component
-// sheet) and of the model's static compliance, in display units.
+// A standard K&C figure in display units: at an acting height, the rig's
+// and the model's component gradients (a component sheet's: the model with
+// its effects, on the same runs) and the suspension's static compliance;
+// at the wheel centre and the contact patch, the static compliance alone.
+// The static figure is the suspension's: without the rig's own compliance
+// or dynamics, which the measured one includes.
 struct NamedFigure {
   std::string name;   // "lateral force steer", ...
   std::string place;  // "wheel centre", "contact patch", "z_a -0.450 m"
@@ -158,7 +174,9 @@ struct NamedFigure {
   bool has_rig = false;
   double rig = 0, rig_standard_error = 0;
   bool has_model = false;
-  double model = 0;  // static compliance of the model
+  double model = 0, model_standard_error = 0;
+  double z = 0;  // model - rig in combined standard errors
+  double model_static = 0;
 };
 
 struct KcSheet {

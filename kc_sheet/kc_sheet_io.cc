@@ -161,13 +161,18 @@ std::string KcSheetToJson(const KcSheet& sheet) {
   doc["components"] = components;
   Json named = Json::array();
   for (const NamedFigure& f : sheet.named) {
-    named.push_back({{"name", f.name},
-                     {"place", f.place},
-                     {"unit", f.unit},
-                     {"rig", f.has_rig ? Number(f.rig) : Json()},
-                     {"rig_standard_error",
-                      f.has_rig ? Number(f.rig_standard_error) : Json()},
-                     {"model_static", f.has_model ? Number(f.model) : Json()}});
+    named.push_back(
+        {{"name", f.name},
+         {"place", f.place},
+         {"unit", f.unit},
+         {"rig", f.has_rig ? Number(f.rig) : Json()},
+         {"rig_standard_error",
+          f.has_rig ? Number(f.rig_standard_error) : Json()},
+         {"model", f.has_model ? Number(f.model) : Json()},
+         {"model_standard_error",
+          f.has_model ? Number(f.model_standard_error) : Json()},
+         {"difference_z", f.has_rig && f.has_model ? Number(f.z) : Json()},
+         {"model_static", Number(f.model_static)}});
   }
   doc["named_figures"] = named;
   if (sheet.has_model) {
@@ -308,8 +313,18 @@ std::string KcSheetToCsv(const KcSheet& sheet) {
       r.rig = f.rig;
       r.rig_se = f.rig_standard_error;
     }
-    if (f.has_model) r.model = f.model;
+    if (f.has_model) {
+      r.model = f.model;
+      r.model_se = f.model_standard_error;
+      if (f.has_rig) r.z = f.z;
+    }
     AppendRow(r, &csv);
+    CsvRow static_row;
+    static_row.channel = f.place;
+    static_row.figure = f.name + " (suspension static)";
+    static_row.unit = f.unit;
+    static_row.model = f.model_static;
+    AppendRow(static_row, &csv);
   }
   return csv;
 }
@@ -362,21 +377,35 @@ std::string KcSheetSummary(const KcSheet& sheet) {
       text += "\n";
     }
   }
-  if (!sheet.named.empty()) text += "standard figures (rig | model static):\n";
+  if (!sheet.named.empty()) {
+    text +=
+        "standard figures (suspension static: the model's analytic "
+        "compliance, without the rig's):\n";
+    std::snprintf(line, sizeof line, "  %-26s %-14s %-19s  %-9s %6s     %s\n",
+                  "figure", "at", "rig", "model", "[se]", "suspension static");
+    text += line;
+  }
   for (const NamedFigure& f : sheet.named) {
-    std::snprintf(line, sizeof line, "  %-26s %-14s", f.name.c_str(),
+    std::snprintf(line, sizeof line, "  %-26s %-14s ", f.name.c_str(),
                   f.place.c_str());
     text += line;
     if (f.has_rig) {
-      std::snprintf(line, sizeof line, " rig %+9.5f ±%8.5f", f.rig,
+      std::snprintf(line, sizeof line, "%+9.5f ±%8.5f", f.rig,
                     f.rig_standard_error);
       text += line;
+    } else {
+      text += std::string(19, ' ');
     }
-    if (f.has_model) {
-      std::snprintf(line, sizeof line, " model %+9.5f", f.model);
+    if (f.has_model && f.has_rig) {
+      std::snprintf(line, sizeof line, "  %+9.5f %+6.1f%s", f.model, f.z,
+                    std::abs(f.z) > 3 ? " <<" : "   ");
       text += line;
+    } else {
+      text += std::string(22, ' ');
     }
-    text += " " + f.unit + "\n";
+    std::snprintf(line, sizeof line, "  %+9.5f %s\n", f.model_static,
+                  f.unit.c_str());
+    text += line;
   }
   std::string differing;
   for (int c = 0; c < 6; ++c) {

@@ -150,6 +150,15 @@ bool ParseFinite(std::string_view text, double* value) {
   return result.ec == std::errc() && result.ptr == end && std::isfinite(*value);
 }
 
+// The static name of the run phase called `text` (RunPhaseName), or "".
+std::string_view PhaseName(std::string_view text) {
+  for (int k = 0; k <= static_cast<int>(RunPhase::kDone); ++k) {
+    const char* name = RunPhaseName(static_cast<RunPhase>(k));
+    if (text == name) return name;
+  }
+  return {};
+}
+
 Status ReadSidecar(const std::string& path, size_t rows, double first_t,
                    double last_t, RunMetadata* m) {
   nlohmann::json doc;
@@ -298,6 +307,7 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
   }
   log->has_commanded_force = commanded_found == 3;
   const int fresh_column = find("fresh");
+  const int phase_column = find("phase");
   log->samples.clear();
 
   long line_number = 1;
@@ -341,6 +351,13 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
                              std::string(fresh) + "'");
       }
       sample.fresh = fresh == "1";
+    }
+    if (phase_column >= 0) {
+      sample.phase = PhaseName(fields[phase_column]);
+      if (sample.phase.empty()) {
+        return Status::Error(where + ": column 'phase': unknown phase '" +
+                             std::string(fields[phase_column]) + "'");
+      }
     }
     if (!log->samples.empty() && !(sample.t > log->samples.back().t)) {
       return Status::Error(where + ": time " + std::string(fields[column[0]]) +

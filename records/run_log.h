@@ -31,7 +31,8 @@ struct LogSample {
   // the run phase and safety state, the rig's sample counter and status,
   // and the live model prediction relative to the rest pose.
   bool fresh = true;
-  std::string_view phase;  // static strings: RunPhaseName()
+  // Static strings: RunPhaseName(); empty in logs without a phase column.
+  std::string_view phase;
   int safety = 0;          // SafetyState
   std::uint32_t rig_sample = 0;
   std::uint16_t rig_status = 0;

@@ -114,6 +114,30 @@ TEST_F(KcSheetCliTest, FlagsTheChannelsAnEffectChanges) {
   }
 }
 
+// A rig log (its phases: tare, lead-in, settle, ramp, ramp-down) from the
+// embedded rig with rig compliance: the configured model differs on the
+// channels the compliance moves; the campaign's adopted model (its est.json
+// with the effect's parameter) agrees.
+TEST_F(KcSheetCliTest, TheAdoptedEffectModelAgreesWhereTheNominalDiffers) {
+  const CliResult campaign = RunKcrig(
+      "campaign --rig sim --iterations 0 --no-report --quiet --plant-effect "
+      "rig_compliance:k=3e6 --out " +
+      Path("campaign"));
+  ASSERT_EQ(campaign.exit_code, 0) << campaign.output;
+  const std::string log = " --log " + Path("campaign/iteration_0/run.csv");
+  const nlohmann::json nominal = Sheet(log);
+  EXPECT_EQ(nominal["model"], "nominal");
+  EXPECT_FALSE(nominal["runs"][0]["falling_branch"].get<bool>());
+  EXPECT_NE(nominal["differing_channels"], nlohmann::json::array());
+  const nlohmann::json adopted =
+      Sheet(log, " --estimate " + Path("campaign/iteration_0/est.json"));
+  EXPECT_EQ(adopted["model"], "rig_compliance");
+  EXPECT_EQ(adopted["differing_channels"], nlohmann::json::array())
+      << sheet_output_;
+  // The rising branch is the ramp alone: 4 s at 1 kHz.
+  EXPECT_EQ(adopted["runs"][0]["channels"][0]["rising"]["samples"], 4001);
+}
+
 TEST_F(KcSheetCliTest, SaeAxesFlipYZAndTheRotationsAboutThem) {
   Simulate("a.csv", 80, 3);
   Simulate("b.csv", 10, 4);

@@ -77,6 +77,41 @@ TEST(RunLogTest, CommandedForceColumnsFollowTheMeasuredOnes) {
   fs::remove_all(dir);
 }
 
+TEST(RunLogTest, PhasesReadBackAndAnUnknownPhaseIsNamed) {
+  const fs::path dir = fs::temp_directory_path() / "kcrig_run_log_phase_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  RunLog log = SmallLog();
+  log.has_commanded_force = true;
+  log.has_loop_columns = true;
+  log.metadata.excitation.duration = 1;
+  log.metadata.sigma_position = 2e-5;
+  log.metadata.sigma_angle = 1e-4;
+  const RunPhase phases[3] = {RunPhase::kTare, RunPhase::kRamp,
+                              RunPhase::kReturn};
+  for (int j = 0; j < 3; ++j) log.samples[j].phase = RunPhaseName(phases[j]);
+  const std::string csv = (dir / "run.csv").string();
+  ASSERT_TRUE(WriteRunLog(csv, log).ok());
+  RunLog read;
+  const Status status = ReadRunLog(csv, &read);
+  ASSERT_TRUE(status.ok()) << status.message();
+  for (int j = 0; j < 3; ++j) {
+    EXPECT_EQ(read.samples[j].phase, RunPhaseName(phases[j]));
+  }
+  std::stringstream text;
+  text << std::ifstream(csv).rdbuf();
+  std::string edited = text.str();
+  edited.replace(edited.find(",ramp,"), 6, ",rampe,");
+  std::ofstream(csv) << edited;
+  const Status bad = ReadRunLog(csv, &read);
+  EXPECT_FALSE(bad.ok());
+  EXPECT_NE(bad.message().find("run.csv:3: column 'phase': unknown phase "
+                               "'rampe'"),
+            std::string::npos)
+      << bad.message();
+  fs::remove_all(dir);
+}
+
 TEST(RunLogTest, FailureLeavesNoFileBehind) {
   const fs::path dir = fs::temp_directory_path() / "kcrig_run_log_fail_test";
   fs::remove_all(dir);
