@@ -33,7 +33,7 @@ struct LogSample {
   bool fresh = true;
   // Static strings: RunPhaseName(); empty in logs without a phase column.
   std::string_view phase;
-  int safety = 0;          // SafetyState
+  int safety = 0;  // SafetyState
   std::uint32_t rig_sample = 0;
   std::uint16_t rig_status = 0;
   Vec6<double> predicted = Vec6<double>::Zero();
