@@ -445,6 +445,7 @@ void ToSae(KcSheet* sheet) {
   for (RunSheet& r : sheet->runs) {
     r.phi = -r.phi;
     r.z_a = -r.z_a;
+    for (Vec6<double>& y : r.model_response) y = y.cwiseProduct(kSaeChannel);
     for (int c = 0; c < 6; ++c) {
       FlipChannel(kSaeChannel(c), &r.rig[c]);
       FlipChannel(kSaeChannel(c), &r.model[c]);
@@ -626,10 +627,13 @@ Status ComputeKcSheet(const std::vector<KcRun>& runs, const KcModel* model,
     if (s.index[kFalling].size() < 3) s.index[kFalling].clear();
     r.has_falling = !s.index[kFalling].empty();
     r.rig = FitChannels(s, run.experiment->measured, run.experiment->sigma);
+    r.force_along = s.f;
+    r.branches = s.index;
     if (model != nullptr) {
       KCRIG_RETURN_IF_ERROR(
           SimulateRun(*model, *run.experiment, &simulated[i]));
       AddModel(run, s, *model, simulated[i], options, &r);
+      r.model_response = simulated[i].sensed[0];
       const Vec6<double> g =
           StaticGradient(sheet->compliance, s.direction, r.z_a);
       for (int c = 0; c < 6; ++c) {

@@ -142,6 +142,12 @@ struct RunSheet {
   // d(channel)/d(force along the excitation) of the model's static
   // compliance at the run's acting height.
   std::array<double, 6> static_gradient{};
+  // For plotting the loops: the force along the excitation per log sample
+  // [N], the samples of each branch (rising, falling; indices into the
+  // log) and the model's reading per log sample (empty without a model).
+  std::vector<double> force_along;
+  std::array<std::vector<int>, 2> branches;
+  std::vector<Vec6<double>> model_response;
 };
 
 // Gradients per force component from runs in several directions at one

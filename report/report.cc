@@ -18,6 +18,8 @@
 #include "estimator/estimate_io.h"
 #include "estimator/estimator.h"
 #include "estimator/experiment.h"
+#include "kc_sheet/kc_sheet.h"
+#include "kc_sheet/kc_sheet_io.h"
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"
 #include "records/timing_file.h"
@@ -365,6 +367,75 @@ Json KrigingJson(const KcrigConfig& config, const fs::path& root,
   return nullptr;
 }
 
+// One run's response-vs-force loops as the page draws them: per channel and
+// branch the force along the excitation [kN] and the rig's and the model's
+// readings (mm, deg), decimated.
+Json LoopsJson(const RunSheet& run, const Experiment& e, int max_points) {
+  Json branches = Json::array();
+  for (int b = 0; b < 2; ++b) {
+    const std::vector<int>& index = run.branches[b];
+    if (index.empty()) continue;
+    Json force = Json::array();
+    Json rig = Json::array(), model = Json::array();
+    for (int c = 0; c < 6; ++c) {
+      rig.push_back(Json::array());
+      model.push_back(Json::array());
+    }
+    for (size_t k : Decimation(index.size(), max_points)) {
+      const int j = index[k];
+      force.push_back(run.force_along[j] * 1e-3);
+      for (int c = 0; c < 6; ++c) {
+        rig[c].push_back(ChannelDisplayValue(c, e.measured[j](c)));
+        model[c].push_back(ChannelDisplayValue(c, run.model_response[j](c)));
+      }
+    }
+    branches.push_back({{"name", b == 0 ? "rising" : "falling"},
+                        {"force", force},
+                        {"rig", rig},
+                        {"model", model}});
+  }
+  return {{"log", run.source}, {"branches", branches}};
+}
+
+// The K&C sheet of the campaign's runs against the model of the last
+// iteration's est.json (its adopted effect included), and their loops.
+Status KcJson(const KcrigConfig& config, const fs::path& root,
+              const std::vector<CampaignIteration>& iterations,
+              const ReportOptions& options, Json* out) {
+  const fs::path est =
+      fs::path(CampaignIterationDir(root.string(), iterations.back().index)) /
+      "est.json";
+  EstimateFile estimate;
+  KCRIG_RETURN_IF_ERROR(ReadEstimateFile(est.string(), &estimate));
+  KcModel model;
+  Status status =
+      KcModelOfEstimate(config.model, estimate.names, estimate.values,
+                        estimate.covariance, config.experiment.step, &model);
+  if (!status.ok())
+    return Status::Error(est.string() + ": " + status.message());
+  std::vector<RunLog> logs(iterations.size());
+  std::vector<Experiment> experiments(iterations.size());
+  std::vector<KcRun> runs;
+  for (size_t i = 0; i < iterations.size(); ++i) {
+    const fs::path log =
+        fs::path(CampaignIterationDir(root.string(), iterations[i].index)) /
+        "run.csv";
+    KCRIG_RETURN_IF_ERROR(
+        LoadExperiment(log.string(), config, "", &experiments[i], &logs[i]));
+    experiments[i].source = fs::relative(log, root).string();
+    runs.push_back({&logs[i], &experiments[i]});
+  }
+  KcSheet sheet;
+  KCRIG_RETURN_IF_ERROR(ComputeKcSheet(runs, &model, KcSheetOptions(), &sheet));
+  Json loops = Json::array();
+  for (size_t i = 0; i < sheet.runs.size(); ++i) {
+    loops.push_back(
+        LoopsJson(sheet.runs[i], experiments[i], options.max_plot_samples));
+  }
+  *out = {{"sheet", Json::parse(KcSheetToJson(sheet))}, {"loops", loops}};
+  return Status::Ok();
+}
+
 // The campaign's figures: every experiment against the final estimate, the
 // estimates per iteration, the criterion surfaces and the kriging surrogate.
 Status CampaignJson(const KcrigConfig& config, const fs::path& root,
@@ -409,6 +480,10 @@ Status CampaignJson(const KcrigConfig& config, const fs::path& root,
       SurfacesJson(config, root, criterion, iterations, options, &surfaces));
   (*data)["surfaces"] = surfaces;
   (*data)["kriging"] = KrigingJson(config, root, criterion, iterations);
+  KCRIG_RETURN_IF_ERROR(Progress(options, "K&C sheet", -1));
+  Json kc;
+  KCRIG_RETURN_IF_ERROR(KcJson(config, root, iterations, options, &kc));
+  (*data)["kc"] = kc;
   return Status::Ok();
 }
 
@@ -670,7 +745,8 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
   if (summary->campaign) {
     figures += summary->experiments + 2 +
                static_cast<int>(data["surfaces"].size()) +
-               (data["kriging"].is_null() ? 0 : 1);
+               (data["kriging"].is_null() ? 0 : 1) +
+               static_cast<int>(data["kc"]["loops"].size());
   }
   for (const Json& d : diagnoses) {
     figures +=

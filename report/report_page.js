@@ -148,6 +148,119 @@
 
   });
 
+  // The K&C sheet: per run the gradients and loop widths, the rig beside
+  // the model, their difference coloured by its significance, and the
+  // response-vs-force loops; the standard figures; the model's compliance
+  // matrix.
+  function significance(z) {
+    if (z === null || z === undefined) return '';
+    var a = Math.abs(z);
+    return a > 3 ? '#f4b6b4' : (a > 2 ? '#fbe3a6' : '');
+  }
+  function row(table, cells, header) {
+    var tr = el('tr');
+    cells.forEach(function (c) {
+      var cell = el(header ? 'th' : 'td', {}, c.text !== undefined ? c.text : c);
+      if (c.color) cell.style.background = c.color;
+      tr.appendChild(cell);
+    });
+    table.appendChild(tr);
+  }
+  function zCell(z) { return {text: fmt(z, 2), color: significance(z)}; }
+  function kcRun(s, run, loops, model) {
+    s.appendChild(el('h3', {}, run.log + ' \u2014 phi ' + fmt(run.phi_deg, 3) +
+                             ' deg, z_a ' + fmt(run.z_a, 3) + ' m'));
+    var table = el('table');
+    row(table, ['channel', 'gradient', 'rig', '\u00b1 se', model,
+                'z', 'loop width', 'rig', '\u00b1 se', model, 'z'], true);
+    run.channels.forEach(function (c) {
+      var w = c.loop_width;
+      row(table, [c.channel, c.gradient.unit, fmt(c.gradient.rig.value, 4),
+                  fmt(c.gradient.rig.standard_error, 2),
+                  fmt(c.gradient.model.value, 4),
+                  zCell(c.gradient.difference_z),
+                  w ? w.unit : '\u2014', w ? fmt(w.rig.value, 3) : '',
+                  w ? fmt(w.rig.standard_error, 2) : '',
+                  w ? fmt(w.model.value, 3) : '',
+                  w ? zCell(w.difference_z) : '']);
+    });
+    s.appendChild(table);
+    var traces = [];
+    var layout = {title: {text: 'Response against the force along the ramp: ' +
+                                run.log, x: 0, xanchor: 'left'},
+                  grid: {rows: 2, columns: 3, pattern: 'independent'},
+                  showlegend: true,
+                  legend: {orientation: 'h', x: 1, xanchor: 'right', y: 1.12}};
+    loops.branches.forEach(function (b, bi) {
+      run.channels.forEach(function (c, k) {
+        var first = k === 0;
+        traces.push({x: b.force, y: b.rig[k], mode: 'lines',
+                     name: 'rig, ' + b.name, legendgroup: 'r' + bi,
+                     showlegend: first,
+                     line: {color: bi === 0 ? '#444' : '#999', width: 1},
+                     xaxis: 'x' + ax(k + 1), yaxis: 'y' + ax(k + 1)});
+        traces.push({x: b.force, y: b.model[k], mode: 'lines',
+                     name: model + ', ' + b.name, legendgroup: 'm' + bi,
+                     showlegend: first,
+                     line: {color: palette[bi === 0 ? 0 : 1], width: 1.5,
+                            dash: 'dash'},
+                     xaxis: 'x' + ax(k + 1), yaxis: 'y' + ax(k + 1)});
+        layout['xaxis' + ax(k + 1)] = {title: {text: 'F [kN]'}};
+        layout['yaxis' + ax(k + 1)] = {title: {text: c.channel + ' [' +
+            (k < 3 ? 'mm' : 'deg') + ']'}};
+      });
+    });
+    figure(s, traces, layout, 620);
+  }
+  function kcMatrix(s, title, m) {
+    s.appendChild(el('h3', {}, title));
+    var table = el('table');
+    row(table, [''].concat(m.columns), true);
+    m.rows.forEach(function (name, r) {
+      row(table, [name].concat(m.matrix[r].map(function (v, c) {
+        return fmt(v, 4) + ' ' + m.units[r][c];
+      })));
+    });
+    s.appendChild(table);
+  }
+  guarded('kc', function () { if (data.kc) {
+    var sheet = data.kc.sheet;
+    var model = sheet.model + ' model';
+    var s = section('kc', 'K&C sheet');
+    note(s, 'Compliance gradients against the force along each ramp (' +
+         sheet.convention + ' axes: mm/kN, deg/kN) and the loop width at zero ' +
+         'force (falling minus rising branch), the rig beside the ' + model +
+         ' at the final estimate; z is their difference in combined standard ' +
+         'errors, amber beyond 2, red beyond 3.' +
+         (sheet.differing_channels.length ?
+          ' Channels that differ: ' + sheet.differing_channels.join(', ') + '.' :
+          ' Model and rig agree on every channel.'));
+    sheet.runs.forEach(function (run, i) {
+      kcRun(s, run, data.kc.loops[i], model);
+    });
+    s.appendChild(el('h3', {}, 'Standard figures'));
+    var named = el('table');
+    row(named, ['figure', 'at', 'rig', '\u00b1 se', model, 'z',
+                'suspension static', 'unit'], true);
+    sheet.named_figures.forEach(function (f) {
+      row(named, [f.name, f.place, f.rig === null ? '' : fmt(f.rig, 4),
+                  f.rig === null ? '' : fmt(f.rig_standard_error, 2),
+                  f.model === null ? '' : fmt(f.model, 4),
+                  f.difference_z === null ? '' : zCell(f.difference_z),
+                  fmt(f.model_static, 4), f.unit]);
+    });
+    s.appendChild(named);
+    note(s, 'Suspension static: the model\u2019s analytic compliance at zero ' +
+         'speed, without the rig\u2019s own compliance or dynamics, which the ' +
+         'measured figures include.');
+    if (sheet.compliance) {
+      kcMatrix(s, 'Wheel-centre compliance matrix of the model (force and ' +
+               'moment at the wheel centre \u2192 its displacement and the ' +
+               'angles)', sheet.compliance.wheel_centre);
+    }
+  }
+  });
+
   guarded('estimates', function () { if (data.estimates) {
     var e = data.estimates;
     var s2 = section('sensitivity', 'Sensitivities and estimates');

@@ -31,7 +31,7 @@ MAY_INCLUDE = {
     "designer": ["base", "rt_core/model", "records", "estimator",
                  "diagnosis"],
     "report": ["base", "rt_core/model", "records", "estimator", "diagnosis",
-               "designer"],
+               "kc_sheet", "designer"],
     "apps": ["base", "rt_core/model", "rt_core/runtime", "io_drivers",
              "records", "hil", "emulator", "estimator", "diagnosis",
              "kc_sheet", "designer", "report"],

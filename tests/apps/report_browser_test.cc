@@ -53,7 +53,7 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
   CliResult r =
       RunKcrig("campaign --iterations 1 --budget 12 --quiet --out " + dir);
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("report with 7 figures: " + dir + "/report.html"),
+  EXPECT_NE(r.output.find("report with 9 figures: " + dir + "/report.html"),
             std::string::npos)
       << r.output;
   ASSERT_TRUE(fs::exists(dir + "/report.html"));
@@ -86,8 +86,9 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
 
   r = RunKcrig("report --from " + dir + " --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  // 7 campaign figures, 3 of the diagnosis, 2 of the timing.
-  ASSERT_NE(r.output.find("12 figures"), std::string::npos) << r.output;
+  // 9 campaign figures (2 of them the K&C loops), 3 of the diagnosis, 2 of
+  // the timing.
+  ASSERT_NE(r.output.find("14 figures"), std::string::npos) << r.output;
 
   const std::string screenshot =
       std::string(KCRIG_TEST_ARTIFACT_DIR) + "/report_screenshot.png";
@@ -111,9 +112,14 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
   ASSERT_NE(dom.find("id=\"kcrig-status\""), std::string::npos)
       << dom.substr(0, 2000);
   EXPECT_EQ(Attribute(dom, "data-state"), "done");
-  EXPECT_EQ(Attribute(dom, "data-expected"), "12");
-  EXPECT_EQ(Attribute(dom, "data-figures"), "12");
-  EXPECT_EQ(Attribute(dom, "data-rendered"), "12");
+  EXPECT_EQ(Attribute(dom, "data-expected"), "14");
+  EXPECT_EQ(Attribute(dom, "data-figures"), "14");
+  EXPECT_EQ(Attribute(dom, "data-rendered"), "14");
+  // The K&C sheet's tables: per run the channels, the standard figures and
+  // the compliance matrix.
+  EXPECT_NE(dom.find(">K&amp;C sheet</h2>"), std::string::npos);
+  EXPECT_NE(dom.find(">lateral force steer</td>"), std::string::npos);
+  EXPECT_NE(dom.find("Wheel-centre compliance matrix"), std::string::npos);
   EXPECT_EQ(Attribute(dom, "data-errors"), "[]");
   // The markup is drawn as its characters: no link, no bold element.
   EXPECT_NE(dom.find("&lt;a href=https:evil.example&gt;link &lt;b&gt;bold"),

@@ -75,8 +75,9 @@ TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
   const CliResult r = RunKcrig("report --from " + Campaign() +
                                " --grid 4x3 --quiet --out " + html);
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  // 2 experiments, sensitivities, estimates, D and A surfaces, kriging.
-  EXPECT_NE(r.output.find("7 figures (2 experiments, campaign)"),
+  // 2 experiments, sensitivities, estimates, D and A surfaces, kriging,
+  // the K&C loops of the 2 runs.
+  EXPECT_NE(r.output.find("9 figures (2 experiments, campaign)"),
             std::string::npos)
       << r.output;
   const std::string text = ReadText(html);
@@ -84,7 +85,25 @@ TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
   EXPECT_NE(text.find("plotly.js v"), std::string::npos);
   EXPECT_EQ(text.find("<script src="), std::string::npos);
   const Json data = PageData(text);
-  EXPECT_EQ(data["expected_figures"], 7);
+  EXPECT_EQ(data["expected_figures"], 9);
+  // The K&C sheet of both runs against the final model, with their loops:
+  // the rising branch is the 4 s ramp, decimated to at most 1001 points.
+  ASSERT_EQ(data["kc"]["sheet"]["runs"].size(), 2u);
+  ASSERT_EQ(data["kc"]["loops"].size(), 2u);
+  for (const Json& loops : data["kc"]["loops"]) {
+    ASSERT_EQ(loops["branches"].size(), 1u);
+    const Json& rising = loops["branches"][0];
+    EXPECT_EQ(rising["name"], "rising");
+    EXPECT_LE(rising["force"].size(), 1001u);
+    EXPECT_GT(rising["force"].size(), 500u);
+    ASSERT_EQ(rising["rig"].size(), 6u);
+    EXPECT_EQ(rising["rig"][3].size(), rising["force"].size());
+    // From -Fmax to +Fmax, in kN.
+    EXPECT_NEAR(rising["force"][0].get<double>(), -4.0, 0.05);
+    EXPECT_NEAR(rising["force"].back().get<double>(), 4.0, 0.05);
+  }
+  EXPECT_EQ(data["kc"]["sheet"]["compliance"]["wheel_centre"]["matrix"].size(),
+            6u);
 
   ASSERT_EQ(data["experiments"].size(), 2u);
   for (const Json& e : data["experiments"]) {
@@ -298,8 +317,9 @@ TEST(ReportSurfacesTest, AreTheObjectiveTheCampaignSearched) {
   const CliResult r = RunKcrig("report --from " + campaign +
                                " --grid 3x2 --quiet --out " + html);
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  // 3 experiments, sensitivities, estimates, D and A of 2 designs, kriging.
-  EXPECT_NE(r.output.find("10 figures (3 experiments, campaign)"),
+  // 3 experiments, sensitivities, estimates, D and A of 2 designs, kriging,
+  // 3 K&C loops.
+  EXPECT_NE(r.output.find("13 figures (3 experiments, campaign)"),
             std::string::npos)
       << r.output;
   const Json data = PageData(ReadText(html));
