@@ -36,9 +36,11 @@ Status ModelAtEstimate(const std::string& path, const KcrigConfig& config,
                        KcModel* model) {
   EstimateFile estimate;
   if (!path.empty()) KCRIG_RETURN_IF_ERROR(ReadEstimateFile(path, &estimate));
-  const Status status =
-      KcModelOfEstimate(config.model, estimate.names, estimate.values,
-                        estimate.covariance, config.experiment.step, model);
+  const Status status = KcModelOfEstimate(
+      config.model, estimate.names, estimate.values, estimate.covariance,
+      estimate.integrator_step > 0 ? estimate.integrator_step
+                                   : config.experiment.step,
+      model);
   if (!status.ok()) return Status::Error(path + ": " + status.message());
   return Status::Ok();
 }

@@ -351,10 +351,10 @@ class CampaignRun {
   Status FitAdopted(CampaignIteration* it) {
     EffectFit fit;
     KCRIG_RETURN_IF_ERROR(FitModel(adopted_, adopted_fit_.values,
-                                   adopted_fit_.integrator_step, &fit));
+                                   adopted_fit_.result.integrator_step, &fit));
     adopted_fit_ = std::move(fit);
     it->estimate = adopted_fit_.result;
-    it->model_step = adopted_fit_.integrator_step;
+    it->model_step = adopted_fit_.result.integrator_step;
     return Status::Ok();
   }
 
@@ -436,7 +436,7 @@ class CampaignRun {
       it->action = one_log ? "undecided" : "stopped";
       char step[64];
       std::snprintf(step, sizeof(step), " (fitted at a %.3g ms step)",
-                    fit.integrator_step * 1e3);
+                    fit.result.integrator_step * 1e3);
       it->rejected_adoption = fit.result.adequacy.reason + step;
       return Status::Ok();
     }
@@ -447,7 +447,7 @@ class CampaignRun {
     it->action = "adopted";
     it->model = adopted_name_;
     it->estimate = adopted_fit_.result;
-    it->model_step = adopted_fit_.integrator_step;
+    it->model_step = adopted_fit_.result.integrator_step;
     return Status::Ok();
   }
 

@@ -456,8 +456,8 @@ Status FitAtStep(const EffectModel& model,
 
   *fit = EffectFit();
   fit->model = model.Name();
-  fit->integrator_step = integrator_step;
   EstimationResult& result = fit->result;
+  result.integrator_step = integrator_step;
   for (int i = 0; i < n; ++i) {
     const EffectParameter& p = model.parameters()[i];
     ParameterEstimate estimate;
@@ -573,10 +573,11 @@ Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
                          " model");
   }
   // At the fit's step: the model whose intervals are predicted.
-  const int factor = fit.integrator_step > 0
-                         ? std::max(1, static_cast<int>(std::lround(
-                                           given_step / fit.integrator_step)))
-                         : 1;
+  const int factor =
+      fit.result.integrator_step > 0
+          ? std::max(1, static_cast<int>(std::lround(
+                            given_step / fit.result.integrator_step)))
+          : 1;
   const std::vector<Experiment> experiments = RefinedExperiments(given, factor);
   const double integrator_step = given_step / factor;
   std::vector<double> lower, upper, theta(n);

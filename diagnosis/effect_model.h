@@ -137,15 +137,13 @@ struct EffectFitOptions {
 
 struct EffectFit {
   std::string model;  // EffectModel::Name()
-  // [s] the step the fit was made at; with estimate_discretisation its
-  // discretisation error there is result.adequacy.discretisation, and the
-  // bias it leaves in each parameter widens the intervals
-  // (AddDiscretisationBias).
-  double integrator_step = 0;
   // Per parameter (the bushings, then each effect's): value, standard
   // error, 95 % interval, in physical units; covariance, sigma_hat, cost,
   // iterations, convergence (EstimationResult's meaning; `nominal` holds
-  // the parameter's scale).
+  // the parameter's scale). result.integrator_step is the step the fit was
+  // made at; with estimate_discretisation its discretisation error there is
+  // result.adequacy.discretisation, and the bias it leaves in each
+  // parameter widens the intervals (AddDiscretisationBias).
   EstimationResult result;
   std::vector<double> values;  // physical, one per parameter
 };

@@ -148,6 +148,9 @@ std::string EstimationResultToJson(
   doc["sigma_hat"] = result.sigma_hat;
   doc["iterations"] = result.iterations;
   doc["seconds"] = result.seconds;
+  doc["integrator_step_s"] = result.integrator_step > 0
+                                 ? Number(result.integrator_step)
+                                 : nlohmann::ordered_json();
   doc["converged"] = result.converged;
   doc["termination"] = result.termination;
   doc["adequacy"] =
@@ -336,6 +339,15 @@ Status ReadEstimateFile(const std::string& path, EstimateFile* estimate) {
   KCRIG_RETURN_IF_ERROR(
       read_matrix("information_matrix", false, &estimate->information));
   KCRIG_RETURN_IF_ERROR(read_matrix("covariance", true, &estimate->covariance));
+  if (doc.contains("integrator_step_s") &&
+      !doc["integrator_step_s"].is_null()) {
+    const nlohmann::json& step = doc["integrator_step_s"];
+    if (!step.is_number() ||
+        !(step.get<double>() > 0 && step.get<double>() <= 1)) {
+      return error("integrator_step_s", "must be a number within (0, 1] s");
+    }
+    estimate->integrator_step = step.get<double>();
+  }
   return Status::Ok();
 }
 

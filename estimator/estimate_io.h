@@ -60,6 +60,7 @@ struct EstimateFile {
   std::vector<double> values;   // physical units
   Eigen::MatrixXd information;  // empty when the file has none
   Eigen::MatrixXd covariance;   // physical units; empty when none
+  double integrator_step = 0;   // [s] the fit's step; 0 when unrecorded
 };
 
 // Reads and checks an est.json written by kcrig estimate; errors name the

@@ -321,6 +321,7 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   const Eigen::VectorXd gradient = jacobian.transpose() * discretisation;
   AnalyzeUncertainty(std::move(jacobian), options, result);
   AddDiscretisationBias(gradient, result);
+  result->integrator_step = integrator_step;
   result->seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();

@@ -106,6 +106,9 @@ struct EstimationResult {
   Adequacy adequacy;
   int iterations = 0;
   double seconds = 0;
+  // [s] the step the model was integrated at (0: not recorded): an
+  // estimate's model is the model at this step (est.json integrator_step_s).
+  double integrator_step = 0;
   bool converged = false;
   std::string termination;
 };

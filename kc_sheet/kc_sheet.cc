@@ -226,8 +226,19 @@ struct ModelRun {
   std::vector<double> step;
 };
 
-Status SimulateRun(const KcModel& m, const Experiment& experiment,
-                   ModelRun* run) {
+Status SimulateRun(const KcModel& m, const Experiment& logged, ModelRun* run) {
+  // The experiment at the model's step: a whole fraction of the log's.
+  const double logged_step = logged.sample_period / logged.steps_per_sample;
+  const long factor = std::lround(logged_step / m.integrator_step);
+  if (factor < 1 ||
+      std::abs(factor * m.integrator_step - logged_step) > 1e-9 * logged_step) {
+    return Status::Error(logged.source + ": the model's step " +
+                         std::to_string(m.integrator_step) +
+                         " s is not a whole fraction of the log's " +
+                         std::to_string(logged_step) + " s");
+  }
+  const Experiment experiment =
+      RefinedExperiments({logged}, static_cast<int>(factor)).front();
   const int np = static_cast<int>(m.uncertain.size());
   run->sensed.assign(1 + 2 * np, {});
   run->step.assign(np, 0.0);

@@ -407,10 +407,13 @@ Status KcJson(const KcrigConfig& config, const fs::path& root,
       "est.json";
   EstimateFile estimate;
   KCRIG_RETURN_IF_ERROR(ReadEstimateFile(est.string(), &estimate));
+  // The model as it was fitted: at the step its fit needed.
+  const double step = estimate.integrator_step > 0 ? estimate.integrator_step
+                                                   : config.experiment.step;
   KcModel model;
   Status status =
       KcModelOfEstimate(config.model, estimate.names, estimate.values,
-                        estimate.covariance, config.experiment.step, &model);
+                        estimate.covariance, step, &model);
   if (!status.ok())
     return Status::Error(est.string() + ": " + status.message());
   std::vector<RunLog> logs(iterations.size());

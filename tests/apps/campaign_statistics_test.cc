@@ -25,7 +25,8 @@
 // The environment variable KCRIG_CAMPAIGN_EFFECTS (comma-separated names)
 // runs only those effects' cases, to work on one; a run that way prints
 // "effects: only ..." and, when its checks hold, ends skipped: it is not
-// the acceptance.
+// the acceptance. KCRIG_CAMPAIGN_SEED in the environment draws other cases
+// (independent ones, to tell a figure from its sampling noise).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -229,6 +230,12 @@ int Covered(const Outcome& o, const CampaignCase& c, bool* per_parameter) {
 #define KCRIG_CAMPAIGN_SUITE CampaignStatisticsTest
 #endif
 
+// The seed of the cases: the build's, or KCRIG_CAMPAIGN_SEED's.
+int CampaignSeed() {
+  const char* seed = std::getenv("KCRIG_CAMPAIGN_SEED");
+  return seed != nullptr ? std::atoi(seed) : KCRIG_CAMPAIGN_SEED;
+}
+
 class KCRIG_CAMPAIGN_SUITE : public TempDirTest {
  protected:
   // Runs the case's campaign with the checks acting and with the nominal
@@ -280,7 +287,7 @@ TEST_F(KCRIG_CAMPAIGN_SUITE, LibraryEffectsAreAdoptedAndTheIntervalsCover) {
   for (const std::string& effect : EffectsToRun()) {
     int adopted = 0, large = 0, stopped = 0;
     for (int k = 0; k < cases; ++k) {
-      const CampaignCase c = Draw(effect, k, KCRIG_CAMPAIGN_SEED);
+      const CampaignCase c = Draw(effect, k, CampaignSeed());
       const std::string name = effect + std::to_string(k);
       Outcome acting, nominal;
       if (!RunCase(c, name, &acting, &nominal)) continue;
@@ -362,7 +369,7 @@ TEST_F(KCRIG_CAMPAIGN_SUITE,
   const int cases = KCRIG_CAMPAIGN_CASES;
   int adopted_nothing = 0, same = 0, covered = 0;
   for (int k = 0; k < cases; ++k) {
-    const CampaignCase c = Draw("none", k, KCRIG_CAMPAIGN_SEED);
+    const CampaignCase c = Draw("none", k, CampaignSeed());
     const std::string name = "none" + std::to_string(k);
     Outcome acting, nominal;
     if (!RunCase(c, name, &acting, &nominal)) continue;
@@ -398,7 +405,7 @@ TEST_F(KCRIG_CAMPAIGN_SUITE, OneEffectThroughModbusAgainstTheEmulator) {
   int adopted = 0, stopped = 0, counted = 0, retried = 0;
   int covered[kNumBushings] = {}, nominal_covered[kNumBushings] = {};
   for (int k = 0; k < cases; ++k) {
-    const CampaignCase c = Draw("rig_compliance", 100 + k, KCRIG_CAMPAIGN_SEED);
+    const CampaignCase c = Draw("rig_compliance", 100 + k, CampaignSeed());
     const std::string config =
         CaseConfig(Path("modbus" + std::to_string(k) + "_config"), c);
     Outcome outcome[2];
