@@ -13,6 +13,7 @@
 #include "apps/diagnose_command.h"
 #include "apps/emulate_command.h"
 #include "apps/estimate_command.h"
+#include "apps/export_command.h"
 #include "apps/kc_command.h"
 #include "apps/report_command.h"
 #include "apps/run_command.h"
@@ -40,6 +41,7 @@ int main(int argc, char** argv) {
   kcrig::AddRunCommand(&app, &run);
   kcrig::AddTimingCheckCommand(&app, &run);
   kcrig::AddCanLogCommand(&app, &run);
+  kcrig::AddExportCommand(&app, &run);
   kcrig::AddReportCommand(&app, &run);
   kcrig::RequireDecimalNumbers(&app);
   // CLI11 would call an unknown subcommand an "extra argument"; say it plainly.

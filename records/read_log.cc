@@ -1,5 +1,7 @@
 #include "records/read_log.h"
 
+#include "records/mat_run_log.h"
+
 namespace kcrig {
 
 bool IsCanBusLog(const std::string& path) {
@@ -8,6 +10,7 @@ bool IsCanBusLog(const std::string& path) {
 
 Status ReadLog(const std::string& path, const CanLogDecoderOptions& can,
                RunLog* log) {
+  if (IsMatRunLog(path)) return ReadMatRunLog(path, log);
   if (!IsCanBusLog(path)) return ReadRunLog(path, log);
   if (can.dbc_file.empty()) {
     return Status::Error(path +

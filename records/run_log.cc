@@ -16,6 +16,7 @@
 #include "base/input_file.h"
 #include "base/json_reader.h"
 #include "nlohmann/json.hpp"
+#include "records/internal/run_log_sidecar.h"
 #include "records/partial_file.h"
 
 namespace kcrig {
@@ -83,6 +84,8 @@ std::string FormatCsv(const RunLog& log) {
   return csv;
 }
 
+}  // namespace
+
 std::string FormatSidecar(const RunLog& log, std::int64_t rows) {
   const RunMetadata& m = log.metadata;
   nlohmann::ordered_json doc;
@@ -124,9 +127,14 @@ std::string FormatSidecar(const RunLog& log, std::int64_t rows) {
   return doc.dump(2) + "\n";
 }
 
+namespace {
+
 constexpr const char* kChannels[] = {"t", "Fx", "Fy",  "Fz",     "x",
                                      "y", "z",  "toe", "camber", "caster"};
 constexpr const char* kCommandedChannels[] = {"Fx_cmd", "Fy_cmd", "Fz_cmd"};
+constexpr const char* kLoopColumns[] = {
+    "safety",  "rig_sample", "rig_status",   "x_model",     "y_model",
+    "z_model", "toe_model",  "camber_model", "caster_model"};
 
 std::vector<std::string_view> SplitFields(std::string_view line) {
   std::vector<std::string_view> fields;
@@ -150,19 +158,40 @@ bool ParseFinite(std::string_view text, double* value) {
   return result.ec == std::errc() && result.ptr == end && std::isfinite(*value);
 }
 
-// The static name of the run phase called `text` (RunPhaseName), or "".
-std::string_view PhaseName(std::string_view text) {
-  for (int k = 0; k <= static_cast<int>(RunPhase::kDone); ++k) {
-    const char* name = RunPhaseName(static_cast<RunPhase>(k));
-    if (text == name) return name;
+// safety, rig_sample, rig_status (whole numbers in their ranges) and the
+// live model prediction of one row.
+Status ParseLoopColumns(const std::vector<std::string_view>& fields,
+                        const int* column, const std::string& where,
+                        LogSample* sample) {
+  double values[9];
+  for (int k = 0; k < 9; ++k) {
+    if (!ParseFinite(fields[column[k]], &values[k])) {
+      return Status::Error(where + ": column '" + kLoopColumns[k] +
+                           "': not a finite number");
+    }
   }
-  return {};
+  const double limits[3] = {2, 4294967295.0, 65535};
+  for (int k = 0; k < 3; ++k) {
+    if (values[k] != std::floor(values[k]) || values[k] < 0 ||
+        values[k] > limits[k]) {
+      return Status::Error(where + ": column '" + kLoopColumns[k] +
+                           "': not a whole number within [0, " +
+                           std::to_string(static_cast<long long>(limits[k])) +
+                           "]");
+    }
+  }
+  sample->safety = static_cast<int>(values[0]);
+  sample->rig_sample = static_cast<std::uint32_t>(values[1]);
+  sample->rig_status = static_cast<std::uint16_t>(values[2]);
+  for (int k = 0; k < 6; ++k) sample->predicted(k) = values[3 + k];
+  return Status::Ok();
 }
 
-Status ReadSidecar(const std::string& path, size_t rows, double first_t,
-                   double last_t, RunMetadata* m) {
-  nlohmann::json doc;
-  KCRIG_RETURN_IF_ERROR(ReadJsonFile(path, &doc));
+}  // namespace
+
+Status ParseSidecar(const nlohmann::json& doc, const std::string& path,
+                    size_t rows, double first_t, double last_t,
+                    RunMetadata* m) {
   auto number = [&](const nlohmann::json& parent, const char* section,
                     const char* key, double* out) -> Status {
     if (!parent.contains(key) || !parent[key].is_number()) {
@@ -234,7 +263,24 @@ Status ReadSidecar(const std::string& path, size_t rows, double first_t,
   if (doc.contains("geometry") && doc["geometry"].is_string()) {
     m->geometry = doc["geometry"].get<std::string>();
   }
+  if (doc.contains("noise") && doc["noise"].is_object()) {
+    const nlohmann::json& noise = doc["noise"];
+    m->noise_added = noise.contains("added") && noise["added"].is_boolean() &&
+                     noise["added"].get<bool>();
+    if (noise.contains("seed") && noise["seed"].is_number_unsigned()) {
+      m->seed = noise["seed"].get<std::uint64_t>();
+    }
+  }
   return Status::Ok();
+}
+
+namespace {
+
+Status ReadSidecar(const std::string& path, size_t rows, double first_t,
+                   double last_t, RunMetadata* m) {
+  nlohmann::json doc;
+  KCRIG_RETURN_IF_ERROR(ReadJsonFile(path, &doc));
+  return ParseSidecar(doc, path, rows, first_t, last_t, m);
 }
 
 }  // namespace
@@ -308,6 +354,16 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
   log->has_commanded_force = commanded_found == 3;
   const int fresh_column = find("fresh");
   const int phase_column = find("phase");
+  // The loop's other columns, all or none: a rig log re-written (kcrig
+  // export) keeps them.
+  int loop[3 + 6];
+  int loop_found = 0;
+  for (int k = 0; k < 9; ++k) {
+    loop[k] = find(kLoopColumns[k]);
+    loop_found += loop[k] >= 0;
+  }
+  log->has_loop_columns =
+      loop_found == 9 && fresh_column >= 0 && phase_column >= 0;
   log->samples.clear();
 
   long line_number = 1;
@@ -352,8 +408,11 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
       }
       sample.fresh = fresh == "1";
     }
+    if (log->has_loop_columns) {
+      KCRIG_RETURN_IF_ERROR(ParseLoopColumns(fields, loop, where, &sample));
+    }
     if (phase_column >= 0) {
-      sample.phase = PhaseName(fields[phase_column]);
+      sample.phase = RunPhaseNamed(fields[phase_column]);
       if (sample.phase.empty()) {
         return Status::Error(where + ": column 'phase': unknown phase '" +
                              std::string(fields[phase_column]) + "'");

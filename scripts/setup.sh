@@ -8,7 +8,7 @@ packages=(
   libeigen3-dev libceres-dev libnlopt-dev libnlopt-cxx-dev libmodbus-dev
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libsundials-dev can-utils minpack-dev
+  libsundials-dev can-utils minpack-dev libmatio-dev zlib1g-dev
   mbpoll socat python3-pymodbus python3-serial python3-serial-asyncio rt-tests
   qemu-system-x86 busybox-static cpio python3-can python3-canmatrix
   clang-14 libclang-rt-14-dev

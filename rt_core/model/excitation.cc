@@ -24,6 +24,14 @@ const char* RunPhaseName(RunPhase phase) {
   return "unknown";
 }
 
+std::string_view RunPhaseNamed(std::string_view text) {
+  for (int k = 0; k <= static_cast<int>(RunPhase::kDone); ++k) {
+    const char* name = RunPhaseName(static_cast<RunPhase>(k));
+    if (text == name) return name;
+  }
+  return {};
+}
+
 RunProfile::RunProfile(const RunProfileTimes& times,
                        const RampExcitation<double>& excitation)
     : excitation_{0.0,

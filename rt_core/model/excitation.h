@@ -14,6 +14,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <string_view>
 #include <vector>
 
 #include "rt_core/model/suspension_model.h"
@@ -105,6 +106,10 @@ enum class RunPhase : std::uint8_t {
 };
 
 const char* RunPhaseName(RunPhase phase);
+
+// The static name (RunPhaseName) of the phase called `text`; empty when no
+// phase is called so.
+std::string_view RunPhaseNamed(std::string_view text);
 
 struct RunProfileTimes {
   double tare = 0.2;       // [s]
