@@ -232,6 +232,7 @@ int RunCampaignCommand(const CampaignArgs& args) {
     if (status.ok()) {
       std::printf("  report with %d figures: %s (open it in a browser)\n",
                   report.figures, html.c_str());
+      std::printf("  %s\n", KcSheetLine(report).c_str());
     } else {
       std::fprintf(stderr, "kcrig campaign: warning: no report: %s\n",
                    status.message().c_str());

@@ -73,6 +73,7 @@ int RunReport(const ReportArgs& args) {
               summary.campaign ? ", campaign" : "",
               summary.diagnosis ? ", diagnosis" : "",
               summary.timing ? ", timing" : "", out.c_str());
+  if (summary.campaign) std::printf("  %s\n", KcSheetLine(summary).c_str());
   return 0;
 }
 

@@ -401,7 +401,7 @@ Json LoopsJson(const RunSheet& run, const Experiment& e, int max_points) {
 // iteration's est.json (its adopted effect included), and their loops.
 Status KcJson(const KcrigConfig& config, const fs::path& root,
               const std::vector<CampaignIteration>& iterations,
-              const ReportOptions& options, Json* out) {
+              const ReportOptions& options, Json* out, ReportSummary* summary) {
   const fs::path est =
       fs::path(CampaignIterationDir(root.string(), iterations.back().index)) /
       "est.json";
@@ -430,6 +430,11 @@ Status KcJson(const KcrigConfig& config, const fs::path& root,
   }
   KcSheet sheet;
   KCRIG_RETURN_IF_ERROR(ComputeKcSheet(runs, &model, KcSheetOptions(), &sheet));
+  for (int c = 0; c < 6; ++c) {
+    if (sheet.channel_differs[c]) {
+      summary->kc_differing_channels.push_back(kChannelNames[c]);
+    }
+  }
   Json loops = Json::array();
   for (size_t i = 0; i < sheet.runs.size(); ++i) {
     loops.push_back(
@@ -485,7 +490,8 @@ Status CampaignJson(const KcrigConfig& config, const fs::path& root,
   (*data)["kriging"] = KrigingJson(config, root, criterion, iterations);
   KCRIG_RETURN_IF_ERROR(Progress(options, "K&C sheet", -1));
   Json kc;
-  KCRIG_RETURN_IF_ERROR(KcJson(config, root, iterations, options, &kc));
+  KCRIG_RETURN_IF_ERROR(
+      KcJson(config, root, iterations, options, &kc, summary));
   (*data)["kc"] = kc;
   return Status::Ok();
 }
@@ -671,6 +677,19 @@ Status FillTemplate(const std::string& plotly, const std::string& data,
 }
 
 }  // namespace
+
+std::string KcSheetLine(const ReportSummary& summary) {
+  if (summary.kc_differing_channels.empty()) {
+    return "K&C sheet: the final model and the rig agree within 3 standard "
+           "errors on every channel's gradient and loop width";
+  }
+  std::string channels;
+  for (const std::string& c : summary.kc_differing_channels) {
+    channels += (channels.empty() ? "" : ", ") + c;
+  }
+  return "K&C sheet: the final model and the rig differ (|z| > 3) on " +
+         channels + " (the report's K&C sheet shows where)";
+}
 
 Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
                    const std::string& html_path, const ReportOptions& options,

@@ -19,6 +19,7 @@
 #define KCRIG_REPORT_REPORT_H_
 
 #include <string>
+#include <vector>
 
 #include "base/iteration_callback.h"
 #include "base/status.h"
@@ -55,7 +56,14 @@ struct ReportSummary {
   int figures = 0;
   int experiments = 0;
   bool campaign = false, diagnosis = false, timing = false;
+  // A campaign's K&C sheet: the channels on which the final model and the
+  // rig differ (|z| > 3 on a gradient or loop width of some run).
+  std::vector<std::string> kc_differing_channels;
 };
+
+// The K&C sheet's verdict in one line, for a campaign report: the channels
+// on which the final model and the rig differ, or that they agree.
+std::string KcSheetLine(const ReportSummary& summary);
 
 // Reads a campaign output folder `from_dir` (campaign.json and its
 // iteration_*/ folders; a diag.json and timing.json there or in an
