@@ -9,13 +9,11 @@
 #include "records/mat_run_log.h"
 #include "records/read_log.h"
 #include "records/run_log.h"
-#include "rt_core/model/model_config.h"
 
 namespace kcrig {
 namespace {
 
 struct ExportArgs {
-  std::string config_dir;
   std::string log;
   std::string out;
 };
@@ -38,17 +36,14 @@ int RunExport(const ExportArgs& args) {
     status = CheckOutput("--out", SidecarPath(args.out), {args.log});
   }
   if (!status.ok()) return fail(status);
-  CanLogDecoderOptions can;
   if (IsCanBusLog(args.log)) {
-    KcrigConfig config;
-    status = LoadConfig(args.config_dir, &config);
-    if (status.ok()) status = ConfiguredDbc(config, &can.dbc_file);
-    if (!status.ok()) return fail(status);
-    can.sigma_position = config.experiment.sigma_position;
-    can.sigma_angle = config.experiment.sigma_angle;
+    return fail(Status::Error(
+        args.log +
+        ": a CAN bus log carries no record of its excitation; export the "
+        "run.csv the run wrote beside it"));
   }
   RunLog log;
-  status = ReadLog(args.log, can, &log);
+  status = ReadLog(args.log, CanLogDecoderOptions(), &log);
   if (!status.ok()) return fail(status);
   status = extension == ".mat" ? WriteMatRunLog(args.out, log)
                                : WriteRunLog(args.out, log);
@@ -65,10 +60,7 @@ void AddExportCommand(CLI::App* app, std::function<int()>* run) {
   CLI::App* cmd = app->add_subcommand(
       "export",
       "Write a run log as a MATLAB MAT-file (.mat) or as run.csv + run.json");
-  cmd->add_option("--config", args->config_dir,
-                  "Config directory, for a CAN bus log's DBC and sigmas");
-  cmd->add_option("--log", args->log,
-                  "Run log: run.csv, a MAT-file or a CAN bus log")
+  cmd->add_option("--log", args->log, "Run log: run.csv or a MAT-file")
       ->required();
   cmd->add_option("--out", args->out, "File to write: .mat or .csv")
       ->required();

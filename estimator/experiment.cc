@@ -41,11 +41,14 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
   experiment->measured.clear();
   experiment->observed.clear();
   // The measured force when the rig has a load cell, else the commanded
-  // ramp of the sidecar (its time origin is the log's first sample).
+  // set-points the rig log recorded, else the commanded ramp of the sidecar
+  // (its time origin is the log's first sample).
   const RampExcitation<double>& commanded = m.excitation;
   for (const LogSample& s : log.samples) {
-    experiment->forces.push_back(
-        log.has_measured_force ? s.force : commanded.LoadAt(s.t - t0).force);
+    experiment->forces.push_back(log.has_measured_force ? s.force
+                                 : log.has_commanded_force
+                                     ? s.commanded
+                                     : commanded.LoadAt(s.t - t0).force);
     experiment->measured.push_back(s.y);
   }
   const size_t n = log.samples.size();

@@ -141,6 +141,18 @@ ChannelFigures FitChannel(const RunSamples& s,
       }
     }
     figures.loop_area -= area;
+    // The loop is closed by straight segments between the branches' ends
+    // (across the hold, and back to the start).
+    if (b == kFalling) {
+      const int last_rise = s.index[kRising].back();
+      const int first_fall = index.front(), last_fall = index.back();
+      const int first_rise = s.index[kRising].front();
+      for (const auto& [from, to] : {std::pair{last_rise, first_fall},
+                                     std::pair{last_fall, first_rise}}) {
+        figures.loop_area -=
+            0.5 * (response[from](c) + response[to](c)) * (s.f[to] - s.f[from]);
+      }
+    }
     const Regression line = Regress(xb, yb);
     LineFit& fit = b == kRising ? figures.rising : figures.falling;
     fit = {line.beta(1),
@@ -165,30 +177,54 @@ std::array<ChannelFigures, 6> FitChannels(
 
 // The model's sensor readings of one experiment, with the value of
 // uncertain parameter `perturbed` (-1: none) moved by `delta`.
+// The index in `model`'s parameters of the effect parameter called
+// "effect.parameter", or -1.
+int EffectParameterIndex(const EffectModel& model, const std::string& name) {
+  for (int i = kNumBushings; i < model.num_parameters(); ++i) {
+    const EffectParameter& p = model.parameters()[i];
+    if (p.effect + "." + p.name == name) return i;
+  }
+  return -1;
+}
+
+// A model's stiffness bounds do not matter for a simulation.
+Status CreateModel(const SuspensionParameters<double>& parameters,
+                   const std::vector<std::string>& effects,
+                   EffectModel* model) {
+  return EffectModel::Create(parameters, effects, 0.01, 100.0, model);
+}
+
+// The value of uncertain parameter `name` in `m`.
+double UncertainValue(const KcModel& m, const EffectModel& model,
+                      const std::string& name) {
+  if (const double* value = FindParameter(m.parameters, name)) return *value;
+  const int i = EffectParameterIndex(model, name);
+  return i >= 0 ? m.effect_values[i - kNumBushings] : 0.0;
+}
+
+// The model's sensor readings of one experiment, with the value of
+// uncertain parameter `perturbed` (-1: none) moved by `delta`. The model is
+// created after the move: its nominal parameters (damping, spring, masses,
+// hard points) are what it simulates.
 Status SimulateModel(const KcModel& m, int perturbed, double delta,
                      const Experiment& experiment,
                      std::vector<Vec6<double>>* sensed) {
   SuspensionParameters<double> parameters = m.parameters;
   std::vector<double> effect_values = m.effect_values;
   EffectModel model;
-  KCRIG_RETURN_IF_ERROR(
-      EffectModel::Create(parameters, m.effects, 0.01, 100.0, &model));
+  KCRIG_RETURN_IF_ERROR(CreateModel(parameters, m.effects, &model));
   if (perturbed >= 0) {
     const std::string& name = m.uncertain[perturbed];
     if (double* value = FindParameter(&parameters, name)) {
       *value += delta;
+      KCRIG_RETURN_IF_ERROR(CreateModel(parameters, m.effects, &model));
     } else {
-      bool found = false;
-      for (int i = 0; i < model.num_parameters() && !found; ++i) {
-        const EffectParameter& p = model.parameters()[i];
-        if (p.effect.empty() || p.effect + "." + p.name != name) continue;
-        effect_values[i - kNumBushings] += delta;
-        found = true;
-      }
-      if (!found) {
+      const int i = EffectParameterIndex(model, name);
+      if (i < 0) {
         return Status::Error("K&C sheet: no parameter \"" + name +
                              "\" in the " + m.name + " model");
       }
+      effect_values[i - kNumBushings] += delta;
     }
   }
   std::vector<double> values;
@@ -202,8 +238,6 @@ Status SimulateModel(const KcModel& m, int perturbed, double delta,
                          " effect parameters, " +
                          std::to_string(effect_values.size()) + " given");
   }
-  // The stiffnesses' EffectModel is created at the parameters before the
-  // perturbation: the stiffness values passed carry it.
   return SimulateEffectModel(model, values, experiment, m.integrator_step,
                              sensed);
 }
@@ -219,32 +253,38 @@ Comparison Compare(const Figure& rig, const Figure& model, double model_se,
 }
 
 // The model's simulations of one run: at its values (first), then at each
-// uncertain parameter moved by +h and -h (h a tenth of its standard error:
-// linear over the span that matters; 0 when it has none).
+// uncertain parameter moved by +h and -h (h a tenth of its standard error,
+// at most 1 % of its value; 0 when it has none).
 struct ModelRun {
   std::vector<std::vector<Vec6<double>>> sensed;
   std::vector<double> step;
 };
 
 Status SimulateRun(const KcModel& m, const Experiment& logged, ModelRun* run) {
-  // The experiment at the model's step: a whole fraction of the log's.
-  const double logged_step = logged.sample_period / logged.steps_per_sample;
-  const long factor = std::lround(logged_step / m.integrator_step);
-  if (factor < 1 ||
-      std::abs(factor * m.integrator_step - logged_step) > 1e-9 * logged_step) {
+  // The experiment at the model's step, which must divide the sample
+  // period.
+  Experiment experiment = logged;
+  const long steps = std::lround(logged.sample_period / m.integrator_step);
+  if (steps < 1 || std::abs(steps * m.integrator_step - logged.sample_period) >
+                       1e-9 * logged.sample_period) {
     return Status::Error(logged.source + ": the model's step " +
                          std::to_string(m.integrator_step) +
-                         " s is not a whole fraction of the log's " +
-                         std::to_string(logged_step) + " s");
+                         " s does not divide the log's sample period " +
+                         std::to_string(logged.sample_period) + " s");
   }
-  const Experiment experiment =
-      RefinedExperiments({logged}, static_cast<int>(factor)).front();
+  experiment.steps_per_sample = static_cast<int>(steps);
   const int np = static_cast<int>(m.uncertain.size());
   run->sensed.assign(1 + 2 * np, {});
   run->step.assign(np, 0.0);
   KCRIG_RETURN_IF_ERROR(SimulateModel(m, -1, 0, experiment, &run->sensed[0]));
+  EffectModel model;
+  KCRIG_RETURN_IF_ERROR(CreateModel(m.parameters, m.effects, &model));
   for (int i = 0; i < np; ++i) {
+    // A tenth of a standard error, and at most 1 % of the value: a poorly
+    // determined stiffness must not turn negative.
+    const double value = std::abs(UncertainValue(m, model, m.uncertain[i]));
     run->step[i] = 0.1 * std::sqrt(std::max(m.covariance(i, i), 0.0));
+    if (value > 0) run->step[i] = std::min(run->step[i], 0.01 * value);
     if (run->step[i] == 0) continue;
     for (int k = 0; k < 2; ++k) {
       KCRIG_RETURN_IF_ERROR(
@@ -577,8 +617,7 @@ Status KcModelOfEstimate(const SuspensionParameters<double>& nominal,
     }
   }
   EffectModel effects;
-  KCRIG_RETURN_IF_ERROR(
-      EffectModel::Create(nominal, model->effects, 0.01, 100.0, &effects));
+  KCRIG_RETURN_IF_ERROR(CreateModel(nominal, model->effects, &effects));
   model->name = effects.Name();
   for (int i = kNumBushings; i < effects.num_parameters(); ++i) {
     model->effect_values.push_back(effects.parameters()[i].initial);
@@ -630,10 +669,24 @@ Status ComputeKcSheet(const std::vector<KcRun>& runs, const KcModel* model,
     r.phi = run.log->metadata.excitation.phi;
     r.z_a = run.experiment->z_a;
     r.fmax = run.log->metadata.excitation.fmax;
+    if (!(r.fmax > 0 && run.log->metadata.excitation.duration > 0)) {
+      return Status::Error(
+          r.source +
+          ": the log records no excitation (a CAN bus log carries none): "
+          "use the run.csv the run wrote beside it");
+    }
     if (s.index[kRising].size() < 3) {
       return Status::Error(r.source +
                            ": no ramp to fit (fewer than 3 measured samples "
                            "on the rising branch)");
+    }
+    const auto [low, high] =
+        std::minmax_element(s.index[kRising].begin(), s.index[kRising].end(),
+                            [&s](int a, int b) { return s.f[a] < s.f[b]; });
+    if (!(s.f[*high] - s.f[*low] > 1.0)) {
+      return Status::Error(r.source +
+                           ": the force along the excitation does not move "
+                           "on the ramp (under 1 N): nothing to fit");
     }
     if (s.index[kFalling].size() < 3) s.index[kFalling].clear();
     r.has_falling = !s.index[kFalling].empty();

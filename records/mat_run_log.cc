@@ -74,19 +74,24 @@ matvar_t* CharRow(const char* name, const std::string& text) {
                        const_cast<char*>(text.data()), MAT_F_DONT_COPY_DATA);
 }
 
+// The phases as a char matrix, one name per row padded with blanks
+// (MATLAB's char matrix; cellstr(phase) gives the names): one array, where
+// a cell per sample would cost every reader an array per sample.
 Status WritePhases(mat_t* mat, const RunLog& log, const std::string& path) {
-  size_t dims[2] = {log.samples.size(), 1};
-  matvar_t* cell =
-      Mat_VarCreate("phase", MAT_C_CELL, MAT_T_CELL, 2, dims, nullptr, 0);
-  if (cell == nullptr) return Status::Error(path + ": cannot create 'phase'");
-  // The phase names are static strings: the cells point at them.
-  std::vector<std::string> names;
-  names.reserve(log.samples.size());
-  for (size_t j = 0; j < log.samples.size(); ++j) {
-    names.emplace_back(log.samples[j].phase);
-    Mat_VarSetCell(cell, static_cast<int>(j), CharRow(nullptr, names.back()));
+  const size_t rows = log.samples.size();
+  size_t width = 1;
+  for (const LogSample& s : log.samples)
+    width = std::max(width, s.phase.size());
+  std::string chars(rows * width, ' ');  // column-major
+  for (size_t j = 0; j < rows; ++j) {
+    const std::string_view name = log.samples[j].phase;
+    for (size_t k = 0; k < name.size(); ++k) chars[j + rows * k] = name[k];
   }
-  return WriteVariable(mat, cell, path);
+  size_t dims[2] = {rows, width};
+  return WriteVariable(mat,
+                       Mat_VarCreate("phase", MAT_C_CHAR, MAT_T_UTF8, 2, dims,
+                                     chars.data(), MAT_F_DONT_COPY_DATA),
+                       path);
 }
 
 // Every column of `log` as Write in the CSV's order.
@@ -171,6 +176,39 @@ Status FormatMat(const RunLog& log, const std::string& path,
 
 // ---- Reading -------------------------------------------------------------
 
+// `bytes` in a new file of the temporary directory, removed with this.
+class PrivateCopy {
+ public:
+  explicit PrivateCopy(const std::string& bytes) {
+    std::string path =
+        (std::filesystem::temp_directory_path() / "kcrig-mat-XXXXXX").string();
+    const int fd = mkstemp(path.data());
+    if (fd < 0) return;
+    size_t written = 0;
+    while (written < bytes.size()) {
+      const ssize_t n =
+          write(fd, bytes.data() + written, bytes.size() - written);
+      if (n <= 0) break;
+      written += static_cast<size_t>(n);
+    }
+    close(fd);
+    if (written == bytes.size()) {
+      path_ = path;
+    } else {
+      std::filesystem::remove(path);
+    }
+  }
+  ~PrivateCopy() {
+    if (!path_.empty()) std::filesystem::remove(path_);
+  }
+  PrivateCopy(const PrivateCopy&) = delete;
+  PrivateCopy& operator=(const PrivateCopy&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
 // The elements of a real numeric array as doubles; false for any other
 // class.
 bool NumericValues(const matvar_t& var, std::vector<double>* out) {
@@ -219,6 +257,25 @@ bool NumericValues(const matvar_t& var, std::vector<double>* out) {
   return true;
 }
 
+// Character `i` of a char array's data (ASCII), or -1.
+int CharAt(const matvar_t& var, size_t i) {
+  unsigned code = 0;
+  switch (var.data_type) {
+    case MAT_T_UINT8:
+    case MAT_T_UTF8:
+    case MAT_T_INT8:
+      code = static_cast<const unsigned char*>(var.data)[i];
+      break;
+    case MAT_T_UINT16:
+    case MAT_T_UTF16:
+      code = static_cast<const std::uint16_t*>(var.data)[i];
+      break;
+    default:
+      return -1;
+  }
+  return code <= 127 ? static_cast<int>(code) : -1;
+}
+
 // A char array's text (ASCII: the sidecar's JSON, the phase names); false
 // for any other class or a non-ASCII character.
 bool Text(const matvar_t& var, std::string* out) {
@@ -230,22 +287,41 @@ bool Text(const matvar_t& var, std::string* out) {
     return false;
   }
   for (size_t i = 0; i < n; ++i) {
-    unsigned code = 0;
-    switch (var.data_type) {
-      case MAT_T_UINT8:
-      case MAT_T_UTF8:
-      case MAT_T_INT8:
-        code = static_cast<const unsigned char*>(var.data)[i];
-        break;
-      case MAT_T_UINT16:
-      case MAT_T_UTF16:
-        code = static_cast<const std::uint16_t*>(var.data)[i];
-        break;
-      default:
-        return false;
+    const int c = CharAt(var, i);
+    if (c < 0) return false;
+    out->push_back(static_cast<char>(c));
+  }
+  return true;
+}
+
+// `rows` names from a char matrix (rows x width, blank-padded, as kcrig,
+// MATLAB and SciPy write one) or a cell array of char rows.
+bool PhaseNames(const matvar_t& var, size_t rows,
+                std::vector<std::string>* names) {
+  names->assign(rows, "");
+  if (var.rank != 2) return false;
+  if (var.class_type == MAT_C_CELL) {
+    if (var.dims[0] * var.dims[1] != rows) return false;
+    for (size_t j = 0; j < rows; ++j) {
+      const matvar_t* cell =
+          Mat_VarGetCell(const_cast<matvar_t*>(&var), static_cast<int>(j));
+      if (cell == nullptr || !Text(*cell, &(*names)[j])) return false;
     }
-    if (code > 127) return false;
-    out->push_back(static_cast<char>(code));
+    return true;
+  }
+  if (var.class_type != MAT_C_CHAR || var.dims[0] != rows ||
+      var.data == nullptr) {
+    return false;
+  }
+  const size_t width = var.dims[1];
+  for (size_t j = 0; j < rows; ++j) {
+    std::string& name = (*names)[j];
+    for (size_t k = 0; k < width; ++k) {
+      const int c = CharAt(var, j + rows * k);
+      if (c < 0) return false;
+      name.push_back(static_cast<char>(c));
+    }
+    name.erase(name.find_last_not_of(' ') + 1);
   }
   return true;
 }
@@ -288,17 +364,14 @@ class MatReader {
     const MatVar var(Mat_VarRead(mat_, "phase"));
     *present = var != nullptr;
     if (var == nullptr) return Status::Ok();
-    if (var->class_type != MAT_C_CELL || var->rank != 2 ||
-        var->dims[0] * var->dims[1] != rows) {
-      return Error("phase", "must be a cell array of " + std::to_string(rows) +
-                                " phase names");
+    std::vector<std::string> names;
+    if (!PhaseNames(*var, rows, &names)) {
+      return Error("phase", "must be a char matrix (or a cell array) of " +
+                                std::to_string(rows) + " phase names");
     }
     phases->assign(rows, {});
-    std::string name;
     for (size_t j = 0; j < rows; ++j) {
-      const matvar_t* cell = Mat_VarGetCell(var.get(), static_cast<int>(j));
-      (*phases)[j] = cell != nullptr && Text(*cell, &name) ? RunPhaseNamed(name)
-                                                           : std::string_view();
+      (*phases)[j] = RunPhaseNamed(names[j]);
       if ((*phases)[j].empty()) {
         return Error("phase", "element " + std::to_string(j + 1) +
                                   " is not a phase name");
@@ -438,9 +511,15 @@ Status ReadMatRunLog(const std::string& mat_path, RunLog* log) {
   if (!in.good() && !in.eof()) return Status::Error(mat_path + ": cannot read");
   KCRIG_RETURN_IF_ERROR(
       CheckMat5Structure(bytes.str(), mat_path, kMaxLogBytes));
+  // libmatio reads the bytes checked, from a private copy: the file at
+  // mat_path may change in between (still being written, replaced).
+  const PrivateCopy copy(bytes.str());
+  if (copy.path().empty()) {
+    return Status::Error(mat_path + ": cannot make a private copy to read");
+  }
   Mat_LogInitFunc("kcrig", SilentLog);
-  const MatFile mat(Mat_Open(mat_path.c_str(), MAT_ACC_RDONLY));
-  if (mat == nullptr) {
+  const MatFile mat(Mat_Open(copy.path().c_str(), MAT_ACC_RDONLY));
+  if (mat == nullptr || Mat_GetVersion(mat.get()) != MAT_FT_MAT5) {
     return Status::Error(mat_path + ": not a readable MAT-file");
   }
   *log = RunLog();

@@ -58,6 +58,31 @@ struct Element {
   std::size_t next = 0;    // the following element's tag
 };
 
+// At most this many arrays (variables, cells, struct fields): libmatio
+// allocates about a hundred bytes for each, however small, on every read
+// that passes it.
+constexpr std::size_t kMaxArrays = 100000;
+
+// Bytes per element of array class `array_class` in memory (what libmatio
+// allocates, whatever the stored type).
+std::size_t ClassSize(std::uint32_t array_class) {
+  switch (array_class) {
+    case 4:
+    case 10:
+    case 11:
+      return 2;  // char (UTF-16), int16, uint16
+    case 8:
+    case 9:
+      return 1;  // int8, uint8
+    case 7:
+    case 12:
+    case 13:
+      return 4;  // single, int32, uint32
+    default:
+      return 8;  // double, int64, uint64
+  }
+}
+
 class Checker {
  public:
   Checker(const std::string& path, std::size_t budget)
@@ -71,7 +96,10 @@ class Checker {
                            ": a MAT-file v7.3 (HDF5); save it with -v7 "
                            "(MATLAB: save(name, '-v7')) to read it here");
     }
-    if (data[126] != 'I' || data[127] != 'M') {
+    // Level 5 (version 0x0100), little-endian: libmatio would read any
+    // other version as a level-4 file, whose header this check never sees.
+    if (data[126] != 'I' || data[127] != 'M' || data[124] != 0x00 ||
+        data[125] != 0x01) {
       return Error("not a little-endian level-5 MAT-file");
     }
     return Elements(data, kHeaderBytes, bytes.size(), 0);
@@ -100,6 +128,12 @@ class Checker {
     e->offset = pos + 8;
     if (e->size > end - e->offset) {
       return Error("a data element larger than what holds it");
+    }
+    // libmatio moves past an array by exactly its size: one that is not a
+    // whole number of 8-byte words would put the next tag where this check
+    // did not look.
+    if (e->type == kMiMatrix && e->size % 8 != 0) {
+      return Error("an array whose size is not a multiple of 8 bytes");
     }
     // Padded to 8 bytes, except a compressed element.
     const std::size_t padded =
@@ -159,6 +193,9 @@ class Checker {
   Status Matrix(const unsigned char* data, std::size_t pos, std::size_t end,
                 int depth) {
     if (depth > kMaxDepth) return Error("nested too deeply");
+    if (++arrays_ > kMaxArrays) {
+      return Error("more than " + std::to_string(kMaxArrays) + " arrays");
+    }
     if (pos == end) return Status::Ok();  // an empty array
     Element flags, dims, name;
     KCRIG_RETURN_IF_ERROR(Tag(data, pos, end, &flags));
@@ -218,6 +255,13 @@ class Checker {
       if (size == 0 || values.size != count * size) {
         return Error("an array whose data does not match its dimensions");
       }
+      // What libmatio will hold in memory, at its class's size.
+      const std::size_t held = count * ClassSize(array_class);
+      if (held > budget_ - std::min(budget_, held_)) {
+        return Error("arrays larger than " + std::to_string(budget_ >> 20) +
+                     " MB in memory");
+      }
+      held_ += held;
       pos_data = values.next;
     }
     return Status::Ok();
@@ -240,6 +284,8 @@ class Checker {
   const std::string& path_;
   const std::size_t budget_;
   std::size_t inflated_ = 0;
+  std::size_t held_ = 0;
+  std::size_t arrays_ = 0;
 };
 
 }  // namespace

@@ -3,6 +3,7 @@
 // back bit for bit, what SciPy writes kcrig estimates from exactly as from
 // the CSV, a rig log's loop columns survive CSV -> MAT -> CSV byte for
 // byte, and a corrupt MAT-file is one line.
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -18,6 +19,36 @@ namespace kcrig {
 namespace {
 
 namespace fs = std::filesystem;
+
+// A level-5 MAT-file's header (version 0x0100, little-endian) and data
+// elements, byte by byte: the hostile files of the structural check.
+std::string MatHeader(std::uint8_t version_low = 0x00,
+                      std::uint8_t version_high = 0x01) {
+  std::string header(128, ' ');
+  header.replace(0, 10, "MATLAB 5.0");
+  header[124] = static_cast<char>(version_low);
+  header[125] = static_cast<char>(version_high);
+  header[126] = 'I';
+  header[127] = 'M';
+  return header;
+}
+std::string Word(std::uint32_t v) {
+  std::string w(4, '\0');
+  for (int k = 0; k < 4; ++k) w[k] = static_cast<char>((v >> (8 * k)) & 0xff);
+  return w;
+}
+std::string Element(std::uint32_t type, const std::string& data) {
+  std::string e =
+      Word(type) + Word(static_cast<std::uint32_t>(data.size())) + data;
+  e.resize((e.size() + 7) / 8 * 8, '\0');
+  return e;
+}
+// An array's flags, dimensions and one-letter name.
+std::string ArrayStart(std::uint32_t array_class, std::uint32_t rows,
+                       std::uint32_t cols) {
+  return Element(6, Word(array_class) + Word(0)) +
+         Element(5, Word(rows) + Word(cols)) + Element(1, "v");
+}
 
 std::string ReadFile(const std::string& path) {
   std::stringstream text;
@@ -85,6 +116,15 @@ TEST_F(ExportCliTest, SciPyReadsWhatKcrigWritesBitForBit) {
     const std::string back = Path(std::string(log) + "_back.csv");
     ASSERT_EQ(RunKcrig("export --log " + mat + " --out " + back).exit_code, 0);
     EXPECT_EQ(ReadFile(back), ReadFile(csv)) << log;
+    // SciPy's MAT-file of the same log (phases as a cell array, as
+    // MATLAB's cellstr) reads back to the same CSV too.
+    const std::string peer_mat = Path(std::string(log) + "_peer.mat");
+    ASSERT_EQ(Peer("write " + csv + " " + peer_mat).exit_code, 0);
+    const std::string peer_back = Path(std::string(log) + "_peer.csv");
+    ASSERT_EQ(
+        RunKcrig("export --log " + peer_mat + " --out " + peer_back).exit_code,
+        0);
+    EXPECT_EQ(ReadFile(peer_back), ReadFile(csv)) << log;
   }
 }
 
@@ -138,6 +178,29 @@ TEST_F(ExportCliTest, BadMatFilesAreOneLineAndWriteNothing) {
   std::ofstream(Path("cut.mat"), std::ios::binary)
       << whole.substr(0, whole.size() / 2);
   expect_refused(Path("cut.mat"), "cut.mat: not a readable MAT-file");
+  // Hostile structures the check refuses before libmatio allocates: a
+  // level-4 header (libmatio would parse it as such), an array whose size
+  // is not whole 8-byte words, an array claiming a billion doubles, and a
+  // hundred thousand and one empty cells.
+  std::ofstream(Path("v4.mat"), std::ios::binary)
+      << MatHeader(0x00, 0x00) +
+             Element(14, ArrayStart(6, 1, 1) + Element(9, std::string(8, 'x')));
+  expect_refused(Path("v4.mat"), "not a little-endian level-5 MAT-file");
+  std::string odd = ArrayStart(6, 1, 1) + Element(9, std::string(8, 'x'));
+  odd += "oddb";
+  std::ofstream(Path("odd.mat"), std::ios::binary)
+      << MatHeader() + Word(14) + Word(static_cast<std::uint32_t>(odd.size())) +
+             odd + "pad!";
+  expect_refused(Path("odd.mat"), "not a multiple of 8 bytes");
+  std::ofstream(Path("huge.mat"), std::ios::binary)
+      << MatHeader() + Element(14, ArrayStart(6, 1000000000, 1) +
+                                       Element(9, std::string(8, 'x')));
+  expect_refused(Path("huge.mat"), "does not match its dimensions");
+  std::string cells = ArrayStart(1, 100001, 1);
+  for (int k = 0; k < 100001; ++k) cells += Element(14, "");
+  std::ofstream(Path("cells.mat"), std::ios::binary)
+      << MatHeader() + Element(14, cells);
+  expect_refused(Path("cells.mat"), "more than 100000 arrays");
   // The output's format goes by its extension.
   const CliResult r = RunKcrig("export --log " + Path("run.csv") + " --out " +
                                Path("run.xlsx"));

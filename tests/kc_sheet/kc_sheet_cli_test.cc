@@ -150,10 +150,24 @@ TEST_F(KcSheetCliTest, SaeAxesFlipYZAndTheRotationsAboutThem) {
     const double b = sae["runs"][0]["channels"][c]["gradient"]["rig"]["value"];
     EXPECT_DOUBLE_EQ(b, flip[c] * a) << c;
   }
-  // Lateral force steer: toe and Fy both flip, the figure keeps its sign.
+  // Lateral force steer: toe and Fy both flip, the figure keeps its sign;
+  // longitudinal force steer: toe flips, Fx does not.
   EXPECT_EQ(iso["named_figures"][0]["name"], "lateral force steer");
   EXPECT_DOUBLE_EQ(iso["named_figures"][0]["rig"].get<double>(),
                    sae["named_figures"][0]["rig"].get<double>());
+  EXPECT_EQ(iso["named_figures"][4]["name"], "longitudinal force steer");
+  EXPECT_DOUBLE_EQ(iso["named_figures"][4]["rig"].get<double>(),
+                   -sae["named_figures"][4]["rig"].get<double>());
+  // The compliance matrix: y/Fx flips, y/Fy does not; loop widths follow
+  // their channel.
+  const auto& iso_wc = iso["compliance"]["wheel_centre"]["matrix"];
+  const auto& sae_wc = sae["compliance"]["wheel_centre"]["matrix"];
+  EXPECT_DOUBLE_EQ(iso_wc[1][0].get<double>(), -sae_wc[1][0].get<double>());
+  EXPECT_DOUBLE_EQ(iso_wc[1][1].get<double>(), sae_wc[1][1].get<double>());
+  EXPECT_DOUBLE_EQ(
+      iso["runs"][0]["channels"][3]["loop_width"]["rig"]["value"].get<double>(),
+      -sae["runs"][0]["channels"][3]["loop_width"]["rig"]["value"]
+           .get<double>());
   EXPECT_DOUBLE_EQ(iso["runs"][0]["phi_deg"].get<double>(),
                    -sae["runs"][0]["phi_deg"].get<double>());
 }

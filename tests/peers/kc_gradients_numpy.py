@@ -10,7 +10,8 @@ falling return [tf + hold, end]), fits with numpy.linalg.lstsq:
     the loop width at zero force,
   - one line per branch,
 computes ordinary least squares' standard errors and the loop area (the
-trapezoid rule, -closed integral of r df), and compares each with the rows
+trapezoid rule, -closed integral of r df over rising, falling and back),
+and compares each with the rows
 of kcrig's kc.csv for this log. Prints the largest relative difference and
 exits 1 when it exceeds 1e-9.
 """
@@ -75,13 +76,15 @@ def figures(rows, sidecar):
         out[(name, "loop_width")] = ((beta[1] - beta[0]) * display(c),
                                      math.sqrt(s2 * w @ inverse @ w) *
                                      display(c))
-        area = 0.0
         for branch, label in ((rising, "rising_gradient"),
                               (falling, "falling_gradient")):
             xb = np.column_stack([np.ones(branch.sum()), force[branch]])
             b, s, _, _ = ols(xb, r[branch])
             out[(name, label)] = (b[1] * per_kn, s[1] * per_kn)
-            area -= np.trapz(r[branch], force[branch])
+        # The closed loop: rising, then falling, back to the start.
+        path = np.concatenate([np.flatnonzero(rising), np.flatnonzero(falling),
+                               np.flatnonzero(rising)[:1]])
+        area = -np.trapz(r[path], force[path])
         out[(name, "loop_area")] = (area * display(c) * 1e-3, None)
     return out
 

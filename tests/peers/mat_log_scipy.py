@@ -40,7 +40,8 @@ def check(csv_path, mat_path):
             problems.append(f"{name}: missing in the MAT-file")
             continue
         if name == "phase":
-            got = [str(cell[0]) for cell in mat[name][:, 0]]
+            # A char matrix, one blank-padded name per row.
+            got = [str(row).rstrip() for row in mat[name]]
             if got != columns[name]:
                 problems.append("phase: differs")
             continue
@@ -73,6 +74,7 @@ def write(csv_path, mat_path, nan=None):
     variables = {}
     for name in header:
         if name == "phase":
+            # A cell array of the names, as MATLAB's cellstr.
             cells = np.empty((len(columns[name]), 1), dtype=object)
             for i, text in enumerate(columns[name]):
                 cells[i, 0] = text
