@@ -730,6 +730,7 @@ Status ComputeKcSheet(const std::vector<KcRun>& runs, const KcModel* model,
     }
   }
   sheet->convention = options.convention;
+  sheet->flag_z = options.flag_z;
   if (options.convention == SignConvention::kSae) ToSae(sheet);
   AddNamedFigures(sheet);
   return Status::Ok();

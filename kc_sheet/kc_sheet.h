@@ -29,6 +29,7 @@
 #define KCRIG_KC_SHEET_KC_SHEET_H_
 
 #include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -187,6 +188,7 @@ struct NamedFigure {
 
 struct KcSheet {
   SignConvention convention = SignConvention::kIso8855;
+  double flag_z = 3.0;  // KcSheetOptions::flag_z
   bool has_model = false;
   std::string model_name;
   std::vector<RunSheet> runs;

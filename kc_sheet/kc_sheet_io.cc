@@ -90,14 +90,14 @@ Json ChannelJson(const KcSheet& sheet, const RunSheet& run, int c) {
   return channel;
 }
 
-Json MatrixJson(const Mat6<double>& m, bool per_moment_units) {
+Json MatrixJson(const Mat6<double>& m) {
   static const char* kLoads[6] = {"Fx", "Fy", "Fz", "Mx", "My", "Mz"};
   Json rows = Json::array(), units = Json::array();
   for (int c = 0; c < 6; ++c) {
     Json row = Json::array(), unit_row = Json::array();
     for (int k = 0; k < 6; ++k) {
-      const double per = k < 3 ? 1e3 : (per_moment_units ? 1e3 : 1.0);
-      row.push_back(Number(ChannelDisplayValue(c, m(c, k)) * per));
+      // Per kN, or per kN m.
+      row.push_back(Number(ChannelDisplayValue(c, m(c, k)) * 1e3));
       unit_row.push_back(std::string(ChannelDisplayUnit(c)) +
                          (k < 3 ? "/kN" : "/kN m"));
     }
@@ -178,15 +178,14 @@ std::string KcSheetToJson(const KcSheet& sheet) {
   if (sheet.has_model) {
     Json compliance = {
         {"rest", Json::array()},
-        {"wheel_centre", MatrixJson(sheet.compliance.wheel_centre, true)}};
+        {"wheel_centre", MatrixJson(sheet.compliance.wheel_centre)}};
     for (int c = 0; c < 6; ++c) {
       compliance["rest"].push_back(
           Number(ChannelDisplayValue(c, sheet.compliance.rest(c))));
     }
     if (sheet.has_contact_patch) {
       compliance["contact_patch_z"] = Number(sheet.compliance.contact_patch_z);
-      compliance["contact_patch"] =
-          MatrixJson(sheet.compliance.contact_patch, true);
+      compliance["contact_patch"] = MatrixJson(sheet.compliance.contact_patch);
     }
     doc["compliance"] = compliance;
   } else {
@@ -333,14 +332,12 @@ std::string KcSheetSummary(const KcSheet& sheet) {
   std::string text;
   char line[256];
   for (const RunSheet& run : sheet.runs) {
-    std::snprintf(
-        line, sizeof line,
-        "K&C sheet (%s) of %s: phi %.1f deg, z_a %.3f m, Fmax "
-        "%.2f kN%s\n",
-        ConventionName(sheet.convention), run.source.c_str(), run.phi / kDegree,
-        run.z_a, run.fmax * 1e-3,
-        sheet.has_model ? (", model " + sheet.model_name).c_str() : "");
-    text += line;
+    // The log's name may be long: only the numbers go through the buffer.
+    std::snprintf(line, sizeof line, ": phi %.1f deg, z_a %.3f m, Fmax %.2f kN",
+                  run.phi / kDegree, run.z_a, run.fmax * 1e-3);
+    text += std::string("K&C sheet (") + ConventionName(sheet.convention) +
+            ") of " + run.source + line +
+            (sheet.has_model ? ", model " + sheet.model_name : "") + "\n";
     text += sheet.has_model
                 ? "  channel  gradient   rig                model        "
                   "[se]   loop width   rig             model      [se]\n"
@@ -398,7 +395,7 @@ std::string KcSheetSummary(const KcSheet& sheet) {
     }
     if (f.has_model && f.has_rig) {
       std::snprintf(line, sizeof line, "  %+9.5f %+6.1f%s", f.model, f.z,
-                    std::abs(f.z) > 3 ? " <<" : "   ");
+                    std::abs(f.z) > sheet.flag_z ? " <<" : "   ");
       text += line;
     } else {
       text += std::string(22, ' ');
@@ -415,10 +412,12 @@ std::string KcSheetSummary(const KcSheet& sheet) {
     }
   }
   if (sheet.has_model) {
+    std::snprintf(line, sizeof line, "%g", sheet.flag_z);
     text += differing.empty()
-                ? "model and rig agree within their standard errors "
-                  "(|z| <= 3) on every channel\n"
-                : "model and rig differ (|z| > 3) on: " + differing +
+                ? "model and rig agree within their standard errors (|z| <= " +
+                      std::string(line) + ") on every channel\n"
+                : "model and rig differ (|z| > " + std::string(line) +
+                      ") on: " + differing +
                       " — run kcrig diagnose on these logs\n";
   }
   return text;
