@@ -235,6 +235,25 @@ void AppendRow(const CsvRow& r, std::string* csv) {
           CsvNumber(r.z) + "," + (r.differs ? "1" : "0") + "\n";
 }
 
+// The row of a compared figure (a gradient, a loop width), in display
+// units (`scale` from SI).
+CsvRow FigureRow(CsvRow row, const char* figure, const std::string& unit,
+                 double scale, const Figure& rig, bool has_model, double model,
+                 double model_se, const Comparison& comparison) {
+  row.figure = figure;
+  row.unit = unit;
+  row.rig = rig.value * scale;
+  row.rig_se = rig.standard_error * scale;
+  row.rig_noise_se = rig.noise_standard_error * scale;
+  if (has_model) {
+    row.model = model * scale;
+    row.model_se = model_se * scale;
+    row.z = comparison.z;
+    row.differs = comparison.differs;
+  }
+  return row;
+}
+
 void AppendRunRows(const KcSheet& sheet, const RunSheet& run,
                    std::string* csv) {
   for (int c = 0; c < 6; ++c) {
@@ -244,19 +263,11 @@ void AppendRunRows(const KcSheet& sheet, const RunSheet& run,
     base.z_a = CsvNumber(run.z_a);
     base.channel = kChannelNames[c];
     const double per_kn = PerKilonewton(c, 1.0);
-    CsvRow g = base;
-    g.figure = "gradient";
-    g.unit = GradientUnit(c);
-    g.rig = run.rig[c].gradient.value * per_kn;
-    g.rig_se = run.rig[c].gradient.standard_error * per_kn;
-    g.rig_noise_se = run.rig[c].gradient.noise_standard_error * per_kn;
-    if (sheet.has_model) {
-      g.model = run.model[c].gradient.value * per_kn;
-      g.model_se = run.model_gradient_se[c] * per_kn;
-      g.z = run.gradient_difference[c].z;
-      g.differs = run.gradient_difference[c].differs;
-    }
-    AppendRow(g, csv);
+    AppendRow(FigureRow(base, "gradient", GradientUnit(c), per_kn,
+                        run.rig[c].gradient, sheet.has_model,
+                        run.model[c].gradient.value, run.model_gradient_se[c],
+                        run.gradient_difference[c]),
+              csv);
     for (int b = 0; b < 2; ++b) {
       const LineFit& line = b == 0 ? run.rig[c].rising : run.rig[c].falling;
       if (line.samples == 0) continue;
@@ -274,19 +285,12 @@ void AppendRunRows(const KcSheet& sheet, const RunSheet& run,
     }
     if (!run.has_falling) continue;
     const double display = ChannelDisplayValue(c, 1.0);
-    CsvRow w = base;
-    w.figure = "loop_width";
-    w.unit = ChannelDisplayUnit(c);
-    w.rig = run.rig[c].loop_width.value * display;
-    w.rig_se = run.rig[c].loop_width.standard_error * display;
-    w.rig_noise_se = run.rig[c].loop_width.noise_standard_error * display;
-    if (sheet.has_model) {
-      w.model = run.model[c].loop_width.value * display;
-      w.model_se = run.model_loop_width_se[c] * display;
-      w.z = run.loop_width_difference[c].z;
-      w.differs = run.loop_width_difference[c].differs;
-    }
-    AppendRow(w, csv);
+    AppendRow(
+        FigureRow(base, "loop_width", ChannelDisplayUnit(c), display,
+                  run.rig[c].loop_width, sheet.has_model,
+                  run.model[c].loop_width.value, run.model_loop_width_se[c],
+                  run.loop_width_difference[c]),
+        csv);
     CsvRow a = base;
     a.figure = "loop_area";
     a.unit = AreaUnit(c);
