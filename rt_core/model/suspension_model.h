@@ -87,6 +87,15 @@ class SuspensionModel {
     return v;
   }
 
+  // dQ/dp for the parameters Q is linear in: each element's stiffness and
+  // damping (the five bushings in BushingIndex order, then the
+  // spring-damper) and the principal inertias (the gyroscopic moment).
+  struct LinearParameterJacobian {
+    Mat6<T> stiffness;
+    Mat6<T> damping;
+    Eigen::Matrix<T, 6, 3> inertia;
+  };
+
   // Q(y, z) under `load`; with `with_jacobians` also dQ/dy and dQ/dz.
   //
   // Derivatives are first taken with respect to q = (r, small body-frame
@@ -98,8 +107,12 @@ class SuspensionModel {
   //   g = [e; b x e_b - w x u_b],  e = (I - u u^T) pdot / l,  e_b = R^T e,
   //   H = [ -W/l       R W_b B/l           ]   W = I - u u^T, B = [b]x,
   //       [ (.)^T      B W_b B/l + B[u_b]x ]   W_b = I - u_b u_b^T.
+  //
+  // With `parameter_jacobian`, also dQ/dp for the parameters Q is linear in
+  // (see LinearParameterJacobian), from the same element states.
   void Evaluate(const RigLoad<T>& load, const Vec6<T>& y, const Vec6<T>& z,
-                bool with_jacobians, GeneralizedForce<T>* out) const {
+                bool with_jacobians, GeneralizedForce<T>* out,
+                LinearParameterJacobian* parameter_jacobian = nullptr) const {
     const Vec3<T> r = y.template head<3>();
     const Vec3<T> angles = y.template tail<3>();
     const Vec3<T> v = z.template head<3>();
@@ -132,6 +145,10 @@ class SuspensionModel {
       const T& magnitude = element.magnitude;
       const Vec3<T> w = omega.cross(b);  // carrier-point velocity, body frame
       out->q += magnitude * a;
+      if (parameter_jacobian != nullptr) {
+        parameter_jacobian->stiffness.col(i) = (length - free_length_[i]) * a;
+        parameter_jacobian->damping.col(i) = -a.dot(z) * a;
+      }
       if (!with_jacobians) continue;
 
       const Vec3<T> point_velocity = v + rot * w;
@@ -167,6 +184,14 @@ class SuspensionModel {
     // Gyroscopic moment of the body-frame Euler equations.
     const Vec3<T> angular_momentum = parameters_.inertia.cwiseProduct(omega);
     out->q.template tail<3>() -= omega.cross(angular_momentum);
+    if (parameter_jacobian != nullptr) {
+      for (int k = 0; k < 3; ++k) {
+        Vec3<T> spin = Vec3<T>::Zero();
+        spin(k) = omega(k);
+        parameter_jacobian->inertia.col(k) << T(0), T(0), T(0),
+            -omega.cross(spin);
+      }
+    }
     if (!with_jacobians) return;
     out->dq_dz.template block<3, 3>(3, 3) -=
         Skew<T>(omega) * Mat3<T>(parameters_.inertia.asDiagonal()) -
@@ -174,32 +199,6 @@ class SuspensionModel {
     out->dq_dy.template leftCols<3>() = dq_dq.template leftCols<3>();
     out->dq_dy.template rightCols<3>() =
         dq_dq.template rightCols<3>() * cardan.RateMatrix();
-  }
-
-  // dQ/dp for the parameters Q is linear in: each element's stiffness and
-  // damping (the five bushings in BushingIndex order, then the
-  // spring-damper) and the principal inertias (the gyroscopic moment).
-  struct LinearParameterJacobian {
-    Mat6<T> stiffness;
-    Mat6<T> damping;
-    Eigen::Matrix<T, 6, 3> inertia;
-  };
-  void EvaluateLinearParameterJacobian(const Vec6<T>& y, const Vec6<T>& z,
-                                       LinearParameterJacobian* out) const {
-    const Mat3<T> rot = CardanAngles<T>(y.template tail<3>()).Rotation();
-    const Mat3<T> rot_t = rot.transpose();
-    for (int i = 0; i < kNumElements; ++i) {
-      const ElementState element =
-          StateOf(i, y.template head<3>(), rot, rot_t, z);
-      out->stiffness.col(i) = (element.length - free_length_[i]) * element.a;
-      out->damping.col(i) = -element.a.dot(z) * element.a;
-    }
-    const Vec3<T> omega = z.template tail<3>();
-    for (int k = 0; k < 3; ++k) {
-      Vec3<T> spin = Vec3<T>::Zero();
-      spin(k) = omega(k);
-      out->inertia.col(k) << T(0), T(0), T(0), -omega.cross(spin);
-    }
   }
 
   // Unmodelled-effect hooks of the plant (rt_core/model/rig_plant.h); both zero

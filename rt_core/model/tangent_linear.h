@@ -269,16 +269,14 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
   point.dz = lu.solve(h * g.q);
 
   // The tangents of the predicted pose and of w(dz) (through G^-1(y)).
-  const J jet_h(h);
   const Mat3<J> g_inv_jet =
       InverseAngularRateMatrix<J>(state->y.template tail<3>());
   Vec6<J> y_rate_jet;
   y_rate_jet << state->z.template head<3>(),
       g_inv_jet * state->z.template tail<3>();
-  point.y_predicted_jet = state->y + y_rate_jet * jet_h;
+  point.y_predicted_jet = state->y + y_rate_jet * h;
   point.z_jet = state->z;
-  point.w_rotation =
-      (g_inv_jet * Constants(point.dz).template tail<3>()) * J(h * h);
+  point.w_rotation = (g_inv_jet * point.dz.template tail<3>()) * (h * h);
   for (int k = 0; k < 3; ++k) {
     point.w(k) = h * h * point.dz(k);
     point.w(k + 3) = point.w_rotation(k).a;
@@ -295,9 +293,8 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
     state->z(k) =
         J(point.z(k) + point.dz(k), state->z(k).v + d_dz.row(k).transpose());
   }
-  state->y.template head<3>() += state->z.template head<3>() * jet_h;
-  state->y.template tail<3>() +=
-      (g_inv_jet * state->z.template tail<3>()) * jet_h;
+  state->y.template head<3>() += state->z.template head<3>() * h;
+  state->y.template tail<3>() += (g_inv_jet * state->z.template tail<3>()) * h;
 }
 
 template <typename J>
@@ -318,33 +315,33 @@ TangentLinearModel<J>::RightHandSideByDirectionalJacobians(
     load_dual.point(k) = D(load.point(k));
   }
   GeneralizedForce<D> g_dual;
-  directional_.Evaluate(load_dual, y_dual, z_dual, true, &g_dual);
   typename SuspensionModel<D>::LinearParameterJacobian p_dual;
-  directional_.EvaluateLinearParameterJacobian(y_dual, z_dual, &p_dual);
+  directional_.Evaluate(load_dual, y_dual, z_dual, true, &g_dual, &p_dual);
 
-  auto values = [](const auto& m) {
-    return m.unaryExpr([](const D& x) { return x.a; }).eval();
+  // h dQ + d(DQ[w]) = (h A + A') dx per Jacobian A and its derivative A'
+  // along w: one product per Jacobian instead of two.
+  const double h = point.h;
+  auto combined = [h](const auto& m) {
+    return m.unaryExpr([h](const D& x) { return h * x.a + x.e; });
   };
-  auto derivatives = [](const auto& m) {
-    return m.unaryExpr([](const D& x) { return x.e; }).eval();
-  };
-  const Tangent6 d_pose = Tangents(point.y_predicted_jet);
-  const Tangent6 d_rate = Tangents(point.z_jet);
   Eigen::Matrix<double, 3, kDirections> d_w_rotation;
   for (int k = 0; k < 3; ++k) {
     d_w_rotation.row(k) = point.w_rotation(k).v.transpose();
   }
-  const Tangent6 dq = g.dq_dy * d_pose + g.dq_dz * d_rate +
-                      values(p_dual.stiffness) * stiffness_tangents_ +
-                      values(p_dual.damping) * damping_tangents_ +
-                      values(p_dual.inertia) * inertia_tangents_;
-  const Tangent6 d_directional =
-      derivatives(g_dual.dq_dy) * d_pose + derivatives(g_dual.dq_dz) * d_rate +
-      g.dq_dy.template rightCols<3>() * d_w_rotation +
-      derivatives(p_dual.stiffness) * stiffness_tangents_ +
-      derivatives(p_dual.damping) * damping_tangents_ +
-      derivatives(p_dual.inertia) * inertia_tangents_;
-  return point.h * dq - MassTangentTimes(point.dz) + d_directional;
+  Tangent6 rhs = -MassTangentTimes(point.dz);
+  rhs.noalias() += combined(g_dual.dq_dy)
+                       .eval()
+                       .lazyProduct(Tangents(point.y_predicted_jet));
+  rhs.noalias() +=
+      combined(g_dual.dq_dz).eval().lazyProduct(Tangents(point.z_jet));
+  rhs.noalias() += g.dq_dy.template rightCols<3>().lazyProduct(d_w_rotation);
+  rhs.noalias() +=
+      combined(p_dual.stiffness).eval().lazyProduct(stiffness_tangents_);
+  rhs.noalias() +=
+      combined(p_dual.damping).eval().lazyProduct(damping_tangents_);
+  rhs.noalias() +=
+      combined(p_dual.inertia).eval().lazyProduct(inertia_tangents_);
+  return rhs;
 }
 
 template <typename J>
