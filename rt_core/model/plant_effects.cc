@@ -56,6 +56,53 @@ bool* EnabledFlag(std::string_view effect, PlantEffects* e) {
   return nullptr;
 }
 
+// Where a bushing effect acts (nullptr: the effect has no `at`).
+BushingSet* PlacementOf(std::string_view effect, PlantEffects* e) {
+  if (effect == "bushing_damping") return &e->bushing_damping.at;
+  if (effect == "hysteresis") return &e->hysteresis.at;
+  if (effect == "progressive_stiffness") return &e->progressive_stiffness.at;
+  return nullptr;
+}
+
+constexpr std::string_view kBushingComponent = "bushing:";
+
+// "bushing:O1+bushing:V2" into the set it names.
+Status ParsePlacement(std::string_view text, BushingSet* at) {
+  BushingSet parsed{};
+  while (true) {
+    const size_t plus = text.find('+');
+    const std::string_view component = text.substr(0, plus);
+    int found = -1;
+    for (int i = 0; i < kNumBushings; ++i) {
+      if (component.substr(0, kBushingComponent.size()) == kBushingComponent &&
+          component.substr(kBushingComponent.size()) ==
+              kBushingChassisNames[i]) {
+        found = i;
+      }
+    }
+    if (found < 0) {
+      return Status::Error("unknown component '" + std::string(component) +
+                           "' (bushing:O1, bushing:O2, bushing:V1, "
+                           "bushing:V2 or bushing:P, joined by +)");
+    }
+    parsed[found] = true;
+    if (plus == std::string_view::npos) break;
+    text = text.substr(plus + 1);
+  }
+  *at = parsed;
+  return Status::Ok();
+}
+
+std::string DescribePlacement(const BushingSet& at) {
+  std::string text;
+  for (int i = 0; i < kNumBushings; ++i) {
+    if (!at[i]) continue;
+    text += (text.empty() ? "" : "+") + std::string(kBushingComponent) +
+            std::string(kBushingChassisNames[i]);
+  }
+  return text;
+}
+
 std::string Names() {
   std::string names;
   for (std::string_view name : kEffectNames) {
@@ -91,6 +138,12 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
     }
     const std::string_view key = item.substr(0, equals);
     const std::string value_text(item.substr(equals + 1));
+    BushingSet* at = PlacementOf(name, &parsed);
+    if (key == "at" && at != nullptr) {
+      const Status status = ParsePlacement(value_text, at);
+      if (!status.ok()) return Status::Error(where + ": " + status.message());
+      continue;
+    }
     Key* match = nullptr;
     for (Key& k : keys) {
       if (k.name == key) match = &k;
@@ -100,6 +153,7 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
       for (const Key& k : keys) {
         allowed += (allowed.empty() ? "" : ", ") + std::string(k.name);
       }
+      if (at != nullptr) allowed += ", at";
       return Status::Error(where + ": unknown parameter of " +
                            std::string(name) + " (one of " + allowed + ")");
     }
@@ -133,6 +187,10 @@ std::vector<std::string> DescribeEffects(const PlantEffects& effects) {
       std::snprintf(value, sizeof(value), "%.6g", *k.value);
       text += separator + std::string(k.name) + "=" + value;
       separator = ',';
+    }
+    const BushingSet* at = PlacementOf(name, &copy);
+    if (at != nullptr && *at != kEveryBushing) {
+      text += ",at=" + DescribePlacement(*at);
     }
     out.push_back(text);
   }

@@ -30,6 +30,10 @@
 //                          x, y, z [m] = 1e-4, -1e-4, 5e-5;
 //                          toe, camber, caster [rad] = 2e-4, -2e-4, 1e-4;
 //                          scale [-] = 1.03
+//
+// The three bushing effects act in every bushing unless `at` places them
+// (`at=bushing:V1`, `at=bushing:O1+bushing:O2`): a worn bushing is one
+// component, not the whole axle.
 #ifndef KCRIG_RT_CORE_MODEL_PLANT_EFFECTS_H_
 #define KCRIG_RT_CORE_MODEL_PLANT_EFFECTS_H_
 
@@ -40,12 +44,17 @@
 
 #include "base/status.h"
 #include "rt_core/model/rotation.h"
+#include "rt_core/model/suspension_parameters.h"
 
 namespace kcrig {
 
 inline constexpr std::array<std::string_view, 6> kEffectNames = {
     "bushing_damping", "hysteresis",     "progressive_stiffness",
     "actuator_lag",    "rig_compliance", "sensor_offset"};
+
+// Where a bushing effect acts: one flag per bushing, in BushingIndex order.
+using BushingSet = std::array<bool, kNumBushings>;
+inline constexpr BushingSet kEveryBushing = {true, true, true, true, true};
 
 // Which effects the plant has and their parameters (SI). Defaults as in the
 // table above; `enabled` false means the nominal model. Templated on the
@@ -56,15 +65,18 @@ struct BasicPlantEffects {
   struct BushingDamping {
     bool enabled = false;
     T d = T(3e5);  // [N s/m], replaces the model's bushing damping
+    BushingSet at = kEveryBushing;
   } bushing_damping;
   struct Hysteresis {
     bool enabled = false;
     T force = T(400);  // Dahl saturation force F [N]
     T sigma = T(4e7);  // Dahl rest stiffness [N/m]
+    BushingSet at = kEveryBushing;
   } hysteresis;
   struct ProgressiveStiffness {
     bool enabled = false;
     T c3 = T(4e11);  // [N/m^3]; negative: softening
+    BushingSet at = kEveryBushing;
   } progressive_stiffness;
   struct ActuatorLag {
     bool enabled = false;
@@ -92,11 +104,13 @@ struct BasicPlantEffects {
   template <typename U>
   BasicPlantEffects<U> Cast() const {
     BasicPlantEffects<U> out;
-    out.bushing_damping = {bushing_damping.enabled, U(bushing_damping.d)};
+    out.bushing_damping = {bushing_damping.enabled, U(bushing_damping.d),
+                           bushing_damping.at};
     out.hysteresis = {hysteresis.enabled, U(hysteresis.force),
-                      U(hysteresis.sigma)};
+                      U(hysteresis.sigma), hysteresis.at};
     out.progressive_stiffness = {progressive_stiffness.enabled,
-                                 U(progressive_stiffness.c3)};
+                                 U(progressive_stiffness.c3),
+                                 progressive_stiffness.at};
     out.actuator_lag = {actuator_lag.enabled, U(actuator_lag.tau),
                         U(actuator_lag.dead_time)};
     out.rig_compliance = {rig_compliance.enabled, U(rig_compliance.k)};
@@ -113,8 +127,9 @@ using PlantEffects = BasicPlantEffects<double>;
 
 // Turns on one effect from "NAME" or "NAME:key=value,key=value" (keys as in
 // the table above: d; force, sigma; c3; tau, dead_time; k; x, y, z, toe,
-// camber, caster, scale). Errors are one line naming the offending part
-// (the caller leads them with where the text came from: "--effect ").
+// camber, caster, scale; and `at` for the bushing effects). Errors are one line
+// naming the offending part (the caller leads them with where the text came
+// from: "--effect ").
 Status ParseEffect(std::string_view text, PlantEffects* effects);
 
 // The enabled effects with all their parameters, in the --effect syntax

@@ -104,8 +104,10 @@ template <typename T>
 SuspensionParameters<T> WithBushingDamping(
     SuspensionParameters<T> parameters, const BasicPlantEffects<T>& effects) {
   if (effects.bushing_damping.enabled) {
-    for (AxialElement<T>& bushing : parameters.bushings) {
-      bushing.damping = effects.bushing_damping.d;
+    for (int i = 0; i < kNumBushings; ++i) {
+      if (effects.bushing_damping.at[i]) {
+        parameters.bushings[i].damping = effects.bushing_damping.d;
+      }
     }
   }
   return parameters;
@@ -123,7 +125,13 @@ BasicRigPlant<T, Model>::BasicRigPlant(
   using std::exp;
   using std::expm1;
   if (effects_.progressive_stiffness.enabled) {
-    model_.SetProgressiveStiffness(effects_.progressive_stiffness.c3);
+    std::array<T, kNumBushings> cubic;
+    for (int i = 0; i < kNumBushings; ++i) {
+      cubic[i] = effects_.progressive_stiffness.at[i]
+                     ? effects_.progressive_stiffness.c3
+                     : T(0);
+    }
+    model_.SetProgressiveStiffness(cubic);
   }
   size_t delay_steps = 0;
   if (effects_.actuator_lag.enabled) {
@@ -152,7 +160,11 @@ Status BasicRigPlant<T, Model>::Settle(const Vec3<T>& force, const T& z_a) {
   const Status status = SolveStaticEquilibrium(model_, load, 50, &state_.y);
   if (effects_.hysteresis.enabled) {
     hysteresis_.reference = model_.BushingDeflections(state_.y);
-    hysteresis_.stiffness.fill(effects_.hysteresis.sigma);
+    for (int i = 0; i < kNumBushings; ++i) {
+      if (effects_.hysteresis.at[i]) {
+        hysteresis_.stiffness[i] = effects_.hysteresis.sigma;
+      }
+    }
     model_.SetExtraBushingForce(hysteresis_);
   }
   return status;
@@ -196,6 +208,7 @@ void BasicRigPlant<T, Model>::UpdateHysteresis() {
   const T& f = effects_.hysteresis.force;
   const T& sigma = effects_.hysteresis.sigma;
   for (int i = 0; i < kNumBushings; ++i) {
+    if (!effects_.hysteresis.at[i]) continue;  // no Dahl force there
     const T change = deflection[i] - hysteresis_.reference[i];
     T& h = hysteresis_.force[i];
     if (ValueOf(change) != 0.0) {

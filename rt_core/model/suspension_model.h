@@ -202,7 +202,7 @@ class SuspensionModel {
   }
 
   // Unmodelled-effect hooks of the plant (rt_core/model/rig_plant.h); both zero
-  // in the nominal model. A cubic term c3 (l - l0)^3 on every bushing's axial
+  // in the nominal model. A cubic term c3 (l - l0)^3 on each bushing's axial
   // force (progressive rubber stiffness; in Q and its Jacobian), and an extra
   // axial force per bushing, linearised about a reference deflection
   // (hysteresis, whose state the plant updates after each step; the tangent
@@ -212,7 +212,8 @@ class SuspensionModel {
     std::array<T, kNumBushings> stiffness{};  // tangent [N/m]
     std::array<T, kNumBushings> reference{};  // deflection l - l0 [m]
   };
-  void SetProgressiveStiffness(const T& cubic_stiffness) {
+  void SetProgressiveStiffness(
+      const std::array<T, kNumBushings>& cubic_stiffness) {
     cubic_stiffness_ = cubic_stiffness;
   }
   void SetExtraBushingForce(const ExtraBushingForce& extra) { extra_ = extra; }
@@ -278,10 +279,11 @@ class SuspensionModel {
     s.tangent_stiffness = e.stiffness;
     if (i < kNumBushings) {
       const T squared = deflection * deflection;
-      s.magnitude += cubic_stiffness_ * squared * deflection + extra_.force[i] +
+      s.magnitude += cubic_stiffness_[i] * squared * deflection +
+                     extra_.force[i] +
                      extra_.stiffness[i] * (deflection - extra_.reference[i]);
       s.tangent_stiffness +=
-          T(3) * cubic_stiffness_ * squared + extra_.stiffness[i];
+          T(3) * cubic_stiffness_[i] * squared + extra_.stiffness[i];
     }
     return s;
   }
@@ -290,7 +292,7 @@ class SuspensionModel {
   std::array<T, kNumElements> free_length_;
   std::array<Mat3<T>, kNumElements> skew_carrier_point_;
   Mat6<T> mass_matrix_;
-  T cubic_stiffness_ = T(0);
+  std::array<T, kNumBushings> cubic_stiffness_{};
   ExtraBushingForce extra_;
 };
 

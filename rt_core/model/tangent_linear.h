@@ -75,12 +75,22 @@ class TangentLinearModel {
   }
 
   // The effect hooks of SuspensionModel, on every evaluation it keeps.
-  void SetProgressiveStiffness(const J& cubic_stiffness) {
-    values_.SetProgressiveStiffness(cubic_stiffness.a);
+  void SetProgressiveStiffness(
+      const std::array<J, kNumBushings>& cubic_stiffness) {
+    std::array<double, kNumBushings> value;
+    std::array<Second, kNumBushings> second;
+    std::array<Dual<double>, kNumBushings> directional;
+    cubic_tangents_ = false;
+    for (int i = 0; i < kNumBushings; ++i) {
+      value[i] = cubic_stiffness[i].a;
+      second[i] = Second(cubic_stiffness[i], J(0.0));
+      directional[i] = Dual<double>(value[i]);
+      cubic_tangents_ = cubic_tangents_ || Carries(cubic_stiffness[i]);
+    }
+    values_.SetProgressiveStiffness(value);
     jets_.SetProgressiveStiffness(cubic_stiffness);
-    second_.SetProgressiveStiffness(Second(cubic_stiffness, J(0.0)));
-    directional_.SetProgressiveStiffness(Dual<double>(cubic_stiffness.a));
-    cubic_tangents_ = Carries(cubic_stiffness);
+    second_.SetProgressiveStiffness(second);
+    directional_.SetProgressiveStiffness(directional);
   }
   void SetExtraBushingForce(
       const typename SuspensionModel<J>::ExtraBushingForce& extra) {

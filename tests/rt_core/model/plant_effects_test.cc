@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <functional>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "gtest/gtest.h"
@@ -127,6 +129,46 @@ TEST(PlantEffectsTest, ProgressiveStiffnessStiffensMoreAtLargerLoad) {
             3 * kSigmaPosition);
 }
 
+// An effect placed in one bushing acts there only: damping in V1 is the
+// model with V1's damping set; the five single-bushing deviations from the
+// nominal plant add up to the global form's (first order in the effect);
+// one bushing's hysteresis or stiffening lies strictly between none and all.
+TEST(PlantEffectsTest, BushingEffectsPlacedInOneBushingActOnlyThere) {
+  const auto load = Ramp(2);
+  const Response nominal = Respond(PlantEffects(), load, 2);
+
+  KcrigConfig config = SourceConfig();
+  config.model.bushings[kV1].damping = 3e5;
+  RigPlant set_by_hand(config.model, PlantEffects(), kStep);
+  ASSERT_TRUE(set_by_hand.Settle(load(0), config.experiment.z_a).ok());
+  const Response v1 = Respond(With("bushing_damping:at=bushing:V1"), load, 2);
+  for (size_t k = 1; k < v1.pose.size(); ++k) {
+    set_by_hand.Step(load(k * kStep));
+    EXPECT_EQ(v1.pose[k], set_by_hand.pose()) << k;
+  }
+
+  for (const char* effect :
+       {"bushing_damping:d=5e4", "progressive_stiffness", "hysteresis"}) {
+    const Response all = Respond(With(effect), load, 2);
+    Vec6<double> sum = Vec6<double>::Zero();
+    for (std::string_view name : kBushingChassisNames) {
+      const std::string base(effect);
+      const std::string placed =
+          base + (base.find(':') == std::string::npos ? ":" : ",") +
+          "at=bushing:" + std::string(name);
+      const Response one = Respond(With(placed.c_str()), load, 2);
+      const double part = (one.pose[1500] - nominal.pose[1500]).norm();
+      EXPECT_GT(part, 0.0) << placed;
+      EXPECT_LT(part, (all.pose[1500] - nominal.pose[1500]).norm()) << placed;
+      sum += one.pose[1500] - nominal.pose[1500];
+    }
+    const Vec6<double> global = all.pose[1500] - nominal.pose[1500];
+    if (std::string(effect) != "hysteresis") {  // Dahl is not additive
+      EXPECT_LT((sum - global).norm(), 0.02 * global.norm()) << effect;
+    }
+  }
+}
+
 TEST(PlantEffectsTest, ActuatorLagDelaysTheWheelForceByTauPlusDeadTime) {
   const PlantEffects lagged = With("actuator_lag:tau=0.02,dead_time=0.005");
   EXPECT_EQ(With("actuator_lag").actuator_lag.tau, 0.05);
@@ -203,6 +245,20 @@ TEST(PlantEffectsTest, ParsesDefaultsOverridesAndDescribesThem) {
     ASSERT_TRUE(ParseEffect(text, &again).ok());
   }
   EXPECT_EQ(DescribeEffects(again), described);
+
+  // A placed effect keeps its place through the description.
+  PlantEffects placed;
+  ASSERT_TRUE(
+      ParseEffect("hysteresis:force=180,at=bushing:V2+bushing:O1", &placed)
+          .ok());
+  const BushingSet o1_v2 = {true, false, false, true, false};
+  EXPECT_EQ(placed.hysteresis.at, o1_v2);
+  ASSERT_EQ(DescribeEffects(placed).size(), 1u);
+  EXPECT_EQ(DescribeEffects(placed)[0],
+            "hysteresis:force=180,sigma=4e+07,at=bushing:O1+bushing:V2");
+  PlantEffects placed_again;
+  ASSERT_TRUE(ParseEffect(DescribeEffects(placed)[0], &placed_again).ok());
+  EXPECT_EQ(placed_again.hysteresis.at, o1_v2);
 }
 
 TEST(PlantEffectsTest, BadEffectTextIsAOneLineErrorAndChangesNothing) {
@@ -215,7 +271,11 @@ TEST(PlantEffectsTest, BadEffectTextIsAOneLineErrorAndChangesNothing) {
       {"hysteresis:force", "'force': expected key=value"},
       {"hysteresis:mass=3",
        "unknown parameter of hysteresis (one of force, "
-       "sigma)"},
+       "sigma, at)"},
+      {"hysteresis:at=bushing:X9", "unknown component 'bushing:X9'"},
+      {"hysteresis:at=V1", "unknown component 'V1'"},
+      {"progressive_stiffness:at=bushing:O1+", "unknown component ''"},
+      {"rig_compliance:at=bushing:V1", "unknown parameter of rig_compliance"},
       {"hysteresis:force=-1", "must be a finite number > 0"},
       {"actuator_lag:dead_time=-0.1", "must be a finite number >= 0"},
       {"rig_compliance:k=nan", "must be a finite number > 0"},

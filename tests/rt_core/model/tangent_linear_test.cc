@@ -222,7 +222,8 @@ TEST(TangentLinearTest, OneStepWithHardPointsAndLoadMatchesTheJets) {
 // Enables `effect`; c_O1 and, with `seed_effect`, the effect's parameters
 // carry the directions (their number is returned).
 int SeedEffect(const std::string& effect, bool seed_effect,
-               BasicPlantEffects<Jet8>* e, SuspensionParameters<Jet8>* p) {
+               const BushingSet& at, BasicPlantEffects<Jet8>* e,
+               SuspensionParameters<Jet8>* p) {
   int d = 0;
   auto seed_always = [&d](Jet8* x) { x->v[d++] = x->a != 0 ? x->a : 1e-3; };
   auto seed = [&](Jet8* x) {
@@ -251,18 +252,20 @@ int SeedEffect(const std::string& effect, bool seed_effect,
     for (int k = 0; k < 6; ++k) seed(&e->sensor_offset.offset(k));
     seed(&e->sensor_offset.scale);
   }
+  e->bushing_damping.at = e->hysteresis.at = e->progressive_stiffness.at = at;
   return d;
 }
 
 // The worst relative difference between the tangent-linear plant's sensed
 // sensitivities and the Jet reference's over a ramp up and back down
 // (hysteresis reverses), with `effect` enabled (see SeedEffect).
-double WorstPlantDifference(const std::string& effect, bool seed_effect) {
+double WorstPlantDifference(const std::string& effect, bool seed_effect,
+                            const BushingSet& at = kEveryBushing) {
   const KcrigConfig config = SourceConfig();
   const double h = 1e-3;
   SuspensionParameters<Jet8> p = config.model.Cast<Jet8>();
   BasicPlantEffects<Jet8> e = PlantEffects().Cast<Jet8>();
-  const int directions = SeedEffect(effect, seed_effect, &e, &p);
+  const int directions = SeedEffect(effect, seed_effect, at, &e, &p);
   BasicRigPlant<Jet8> tangent_linear(p, e, h, 0.02);
   BasicRigPlant<Jet8, SuspensionModel<Jet8>> reference(p, e, h, 0.02);
   auto force = [](double t) {
@@ -308,6 +311,16 @@ TEST(TangentLinearTest, EveryPlantEffectMatchesTheJets) {
 TEST(TangentLinearTest, EffectsWithFixedParametersMatchTheJets) {
   for (std::string_view name : kEffectNames) {
     EXPECT_LE(WorstPlantDifference(std::string(name), false), 1e-10) << name;
+  }
+}
+
+// A bushing effect placed in some bushings (component-level candidates):
+// the same exactness.
+TEST(TangentLinearTest, BushingEffectsPlacedInSomeBushingsMatchTheJets) {
+  const BushingSet o1_and_p = {true, false, false, false, true};
+  for (const char* name :
+       {"bushing_damping", "hysteresis", "progressive_stiffness"}) {
+    EXPECT_LE(WorstPlantDifference(name, true, o1_and_p), 1e-10) << name;
   }
 }
 
