@@ -63,6 +63,11 @@ std::vector<EffectParameter> ParametersOf(
   return {};
 }
 
+bool IsBushingEffect(const std::string& effect) {
+  return effect == "bushing_damping" || effect == "hysteresis" ||
+         effect == "progressive_stiffness";
+}
+
 template <typename T>
 void SetEffectParameter(const EffectParameter& p, const T& value,
                         BasicPlantEffects<T>* e) {
@@ -236,7 +241,22 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
   }
   EffectModel m;
   m.nominal_ = nominal;
-  m.effects_ = effects;
+  for (const std::string& effect : effects) {
+    const size_t at = effect.find('@');
+    m.effects_.push_back(effect.substr(0, at));
+    m.placements_.push_back(kEveryBushing);
+    if (at == std::string::npos) continue;
+    if (!IsBushingEffect(m.effects_.back())) {
+      return Status::Error("'" + effect + "': only " +
+                           "bushing_damping, hysteresis and " +
+                           "progressive_stiffness are placed on bushings");
+    }
+    const Status status =
+        ParseBushingSet(effect.substr(at + 1), &m.placements_.back());
+    if (!status.ok()) {
+      return Status::Error("'" + effect + "': " + status.message());
+    }
+  }
   for (int i = 0; i < kNumBushings; ++i) {
     const double c = nominal.bushings[i].stiffness;
     m.parameters_.push_back({"",
@@ -249,14 +269,15 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
                              c,
                              {c}});
   }
-  for (size_t e = 0; e < effects.size(); ++e) {
-    if (std::find(effects.begin(), effects.begin() + e, effects[e]) !=
-        effects.begin() + e) {
-      return Status::Error("effect '" + effects[e] + "' given twice");
+  const std::vector<std::string>& classes = m.effects_;
+  for (size_t e = 0; e < classes.size(); ++e) {
+    if (std::find(classes.begin(), classes.begin() + e, classes[e]) !=
+        classes.begin() + e) {
+      return Status::Error("effect '" + classes[e] + "' given twice");
     }
-    const std::vector<EffectParameter> own = ParametersOf(effects[e], nominal);
+    const std::vector<EffectParameter> own = ParametersOf(classes[e], nominal);
     if (own.empty()) {
-      return Status::Error("unknown effect '" + effects[e] + "'");
+      return Status::Error("unknown effect '" + classes[e] + "'");
     }
     m.parameters_.insert(m.parameters_.end(), own.begin(), own.end());
     for (const EffectParameter& p : own) {
@@ -289,11 +310,18 @@ std::vector<double> EffectModel::LaterStart(int k) const {
 Status EffectModel::CreateNamed(const SuspensionParameters<double>& nominal,
                                 const std::string& name, double lower_scale,
                                 double upper_scale, EffectModel* model) {
+  // Effects are joined by '+', and so are a placement's components: a part
+  // that names a component continues the effect before it.
   std::vector<std::string> effects;
   if (name != "nominal") {
     for (size_t begin = 0;;) {
       const size_t end = name.find('+', begin);
-      effects.push_back(name.substr(begin, end - begin));
+      const std::string part = name.substr(begin, end - begin);
+      if (part.rfind("bushing:", 0) == 0 && !effects.empty()) {
+        effects.back() += "+" + part;
+      } else {
+        effects.push_back(part);
+      }
       if (end == std::string::npos) break;
       begin = end + 1;
     }
@@ -304,7 +332,12 @@ Status EffectModel::CreateNamed(const SuspensionParameters<double>& nominal,
 std::string EffectModel::Name() const {
   if (effects_.empty()) return "nominal";
   std::string name;
-  for (const std::string& e : effects_) name += (name.empty() ? "" : "+") + e;
+  for (size_t e = 0; e < effects_.size(); ++e) {
+    name += (name.empty() ? "" : "+") + effects_[e];
+    if (placements_[e] != kEveryBushing) {
+      name += "@" + DescribeBushingSet(placements_[e]);
+    }
+  }
   return name;
 }
 
@@ -320,6 +353,15 @@ void EffectModel::Build(const T* theta, SuspensionParameters<T>* parameters,
       parameters->bushings[i].stiffness = value;
     } else {
       SetEffectParameter(p, value, effects);
+    }
+  }
+  for (size_t e = 0; e < effects_.size(); ++e) {
+    if (effects_[e] == "bushing_damping") {
+      effects->bushing_damping.at = placements_[e];
+    } else if (effects_[e] == "hysteresis") {
+      effects->hysteresis.at = placements_[e];
+    } else if (effects_[e] == "progressive_stiffness") {
+      effects->progressive_stiffness.at = placements_[e];
     }
   }
 }

@@ -50,22 +50,30 @@ class EffectModel {
   EffectModel() = default;
 
   // `effects`: distinct names of kEffectNames, at most two; empty is the
-  // nominal model. The bushing stiffnesses are bounded by
-  // [lower_scale, upper_scale] x their `nominal` values.
+  // nominal model. A bushing effect may be placed on components,
+  // "hysteresis@bushing:V1" or "bushing_damping@bushing:O1+bushing:O2"
+  // (plant_effects.h: `at`); unplaced, it acts in every bushing. The
+  // bushing stiffnesses are bounded by [lower_scale, upper_scale] x their
+  // `nominal` values.
   static Status Create(const SuspensionParameters<double>& nominal,
                        const std::vector<std::string>& effects,
                        double lower_scale, double upper_scale,
                        EffectModel* model);
 
   // Create for a model's Name(): "nominal", "hysteresis",
-  // "hysteresis+actuator_lag" (as diag.json and a diagnosis name them).
+  // "hysteresis+actuator_lag", "hysteresis@bushing:O1+bushing:V1+
+  // actuator_lag" (as diag.json and a diagnosis name them).
   static Status CreateNamed(const SuspensionParameters<double>& nominal,
                             const std::string& name, double lower_scale,
                             double upper_scale, EffectModel* model);
 
-  // "nominal", "hysteresis", "hysteresis+actuator_lag".
+  // "nominal", "hysteresis", "hysteresis+actuator_lag",
+  // "hysteresis@bushing:V1".
   std::string Name() const;
+  // The effects' classes (names of kEffectNames) and where each acts
+  // (every bushing unless placed; meaningful for the bushing effects).
   const std::vector<std::string>& effects() const { return effects_; }
+  const std::vector<BushingSet>& placements() const { return placements_; }
   const std::vector<EffectParameter>& parameters() const { return parameters_; }
   int num_parameters() const { return static_cast<int>(parameters_.size()); }
   // The longest dead time the bounds allow [s] (sizes the delay line).
@@ -91,6 +99,7 @@ class EffectModel {
  private:
   SuspensionParameters<double> nominal_;
   std::vector<std::string> effects_;
+  std::vector<BushingSet> placements_;
   std::vector<EffectParameter> parameters_;
   double max_dead_time_ = 0;
 };

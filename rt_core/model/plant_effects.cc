@@ -66,8 +66,18 @@ BushingSet* PlacementOf(std::string_view effect, PlantEffects* e) {
 
 constexpr std::string_view kBushingComponent = "bushing:";
 
-// "bushing:O1+bushing:V2" into the set it names.
-Status ParsePlacement(std::string_view text, BushingSet* at) {
+std::string Names() {
+  std::string names;
+  for (std::string_view name : kEffectNames) {
+    if (!names.empty()) names += ", ";
+    names += name;
+  }
+  return names;
+}
+
+}  // namespace
+
+Status ParseBushingSet(std::string_view text, BushingSet* at) {
   BushingSet parsed{};
   while (true) {
     const size_t plus = text.find('+');
@@ -93,7 +103,7 @@ Status ParsePlacement(std::string_view text, BushingSet* at) {
   return Status::Ok();
 }
 
-std::string DescribePlacement(const BushingSet& at) {
+std::string DescribeBushingSet(const BushingSet& at) {
   std::string text;
   for (int i = 0; i < kNumBushings; ++i) {
     if (!at[i]) continue;
@@ -102,17 +112,6 @@ std::string DescribePlacement(const BushingSet& at) {
   }
   return text;
 }
-
-std::string Names() {
-  std::string names;
-  for (std::string_view name : kEffectNames) {
-    if (!names.empty()) names += ", ";
-    names += name;
-  }
-  return names;
-}
-
-}  // namespace
 
 Status ParseEffect(std::string_view text, PlantEffects* effects) {
   const size_t colon = text.find(':');
@@ -140,7 +139,7 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
     const std::string value_text(item.substr(equals + 1));
     BushingSet* at = PlacementOf(name, &parsed);
     if (key == "at" && at != nullptr) {
-      const Status status = ParsePlacement(value_text, at);
+      const Status status = ParseBushingSet(value_text, at);
       if (!status.ok()) return Status::Error(where + ": " + status.message());
       continue;
     }
@@ -190,7 +189,7 @@ std::vector<std::string> DescribeEffects(const PlantEffects& effects) {
     }
     const BushingSet* at = PlacementOf(name, &copy);
     if (at != nullptr && *at != kEveryBushing) {
-      text += ",at=" + DescribePlacement(*at);
+      text += ",at=" + DescribeBushingSet(*at);
     }
     out.push_back(text);
   }

@@ -132,6 +132,11 @@ using PlantEffects = BasicPlantEffects<double>;
 // from: "--effect ").
 Status ParseEffect(std::string_view text, PlantEffects* effects);
 
+// A set of bushings as components, "bushing:O1+bushing:V2" (at least one;
+// the chassis-side names of kBushingChassisNames); errors are one line.
+Status ParseBushingSet(std::string_view text, BushingSet* set);
+std::string DescribeBushingSet(const BushingSet& set);
+
 // The enabled effects with all their parameters, in the --effect syntax
 // ("hysteresis:force=150,sigma=4e+07"), for sidecars and messages.
 std::vector<std::string> DescribeEffects(const PlantEffects& effects);

@@ -180,6 +180,7 @@ struct Case {
   const char* effect;
   const char* parameter;  // one of the fitted parameters
   double truth;
+  const char* candidate = nullptr;  // default: the effect's class, unplaced
 };
 
 class EffectRecoveryTest : public EffectModelTest,
@@ -189,9 +190,11 @@ TEST_P(EffectRecoveryTest, RecoversTheEffectWithinItsInterval) {
   const Case c = GetParam();
   const std::string name(c.effect);
   const std::string effect = name.substr(0, name.find(':'));
+  const std::string candidate = c.candidate ? c.candidate : effect;
   EffectModel model;
   ASSERT_TRUE(
-      EffectModel::Create(config_.model, {effect}, 0.1, 10, &model).ok());
+      EffectModel::Create(config_.model, {candidate}, 0.1, 10, &model).ok());
+  EXPECT_EQ(model.Name(), candidate);
   EffectFit fit;
   const Status status =
       FitEffectModel(model, TwoExperiments(c.effect), {}, EffectFitOptions(),
@@ -215,11 +218,58 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"progressive_stiffness:c3=4e11", "c3", 4e11},
                       Case{"actuator_lag:tau=0.03,dead_time=0.01", "tau", 0.03},
                       Case{"rig_compliance:k=2e7", "compliance", 5e-8},
-                      Case{"sensor_offset", "toe", 2e-4}),
+                      Case{"sensor_offset", "toe", 2e-4},
+                      Case{"hysteresis:force=300,at=bushing:V1", "force", 300,
+                           "hysteresis@bushing:V1"},
+                      Case{"bushing_damping:d=1e6,at=bushing:O1+bushing:O2",
+                           "d", 1e6, "bushing_damping@bushing:O1+bushing:O2"}),
     [](const ::testing::TestParamInfo<Case>& info) {
-      std::string name(info.param.effect);
-      return name.substr(0, name.find(':'));
+      std::string name(info.param.candidate ? info.param.candidate
+                                            : info.param.effect);
+      name = name.substr(0, name.find(':'));
+      std::replace(name.begin(), name.end(), '@', '_');
+      return name + (info.param.candidate ? "_placed" : "");
     });
+
+// Placed candidates: names round-trip (a pair's components and effects both
+// join with '+'), only bushing effects are placed, and on logs of a worn V1
+// the V1 placement fits better than the same effect in O1.
+TEST_F(EffectModelTest, BushingEffectsArePlacedOnComponents) {
+  EffectModel model;
+  const std::string pair = "hysteresis@bushing:O1+bushing:V1+actuator_lag";
+  ASSERT_TRUE(
+      EffectModel::CreateNamed(config_.model, pair, 0.1, 10, &model).ok());
+  EXPECT_EQ(model.Name(), pair);
+  ASSERT_EQ(model.effects().size(), 2u);
+  EXPECT_EQ(model.effects()[0], "hysteresis");
+  const BushingSet o1_v1 = {true, false, true, false, false};
+  EXPECT_EQ(model.placements()[0], o1_v1);
+  EXPECT_EQ(model.placements()[1], kEveryBushing);
+  for (const char* bad :
+       {"actuator_lag@bushing:V1", "hysteresis@bushing:Q", "hysteresis@"}) {
+    const Status status =
+        EffectModel::CreateNamed(config_.model, bad, 0.1, 10, &model);
+    EXPECT_FALSE(status.ok()) << bad;
+    EXPECT_EQ(status.message().find('\n'), std::string::npos);
+  }
+
+  const std::vector<Experiment> logs =
+      TwoExperiments("hysteresis:force=300,at=bushing:V1");
+  double cost[2];
+  const char* names[2] = {"hysteresis@bushing:V1", "hysteresis@bushing:O1"};
+  for (int k = 0; k < 2; ++k) {
+    ASSERT_TRUE(
+        EffectModel::CreateNamed(config_.model, names[k], 0.1, 10, &model)
+            .ok());
+    EffectFit fit;
+    ASSERT_TRUE(FitEffectModel(model, logs, {}, EffectFitOptions(),
+                               config_.experiment.step, &fit)
+                    .ok());
+    cost[k] = fit.result.cost;
+    std::printf("  %s: sigma_hat %.4f\n", names[k], fit.result.sigma_hat);
+  }
+  EXPECT_LT(cost[0], cost[1]);
+}
 
 }  // namespace
 }  // namespace kcrig
