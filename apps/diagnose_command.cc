@@ -45,9 +45,18 @@ int RunDiagnose(const DiagnoseArgs& args) {
   if (!args.candidates.empty()) {
     options.candidates = SplitList(args.candidates);
     for (const std::string& name : options.candidates) {
-      if (std::find(kEffectNames.begin(), kEffectNames.end(), name) ==
+      std::vector<std::string> effects;
+      std::vector<BushingSet> places;
+      const Status placed = ParseModelName(name, &effects, &places);
+      if (!placed.ok() || effects.size() != 1) {
+        return fail(Status::Error(
+            "--candidates: '" + name + "': " +
+            (placed.ok() ? "one effect per candidate" : placed.message())));
+      }
+      if (std::find(kEffectNames.begin(), kEffectNames.end(), effects[0]) ==
           kEffectNames.end()) {
-        return fail(Status::Error("--candidates: unknown effect '" + name +
+        return fail(Status::Error("--candidates: unknown effect '" +
+                                  effects[0] +
                                   "' (one of bushing_damping, hysteresis, "
                                   "progressive_stiffness, actuator_lag, "
                                   "rig_compliance, sensor_offset)"));

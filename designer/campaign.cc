@@ -121,6 +121,7 @@ Status ReadIteration(const nlohmann::json& node, const std::string& where,
   if (diagnosis.is_object()) {
     it->diagnosed = true;
     it->diagnosis.verdict = diagnosis.value("verdict", "");
+    it->diagnosis.model = diagnosis.value("model", it->diagnosis.verdict);
     it->action = diagnosis.value("action", "");
     it->rejected_adoption = diagnosis.value("rejected_adoption", "");
   }
@@ -423,12 +424,12 @@ class CampaignRun {
   // all logs (refitted to them); else the verdict is as good as unexplained.
   Status Adopt(const DiagnosisResult& d, bool one_log, CampaignIteration* it) {
     EffectModel model;
-    KCRIG_RETURN_IF_ERROR(EffectModel::CreateNamed(
-        config_.model, d.verdict, estimator_.lower_scale,
-        estimator_.upper_scale, &model));
+    KCRIG_RETURN_IF_ERROR(
+        EffectModel::CreateNamed(config_.model, d.model, estimator_.lower_scale,
+                                 estimator_.upper_scale, &model));
     std::vector<double> start;
     for (const CandidateScore& s : d.ranking) {
-      if (s.model == d.verdict && s.ok) start = s.fit.values;
+      if (s.model == d.model && s.ok) start = s.fit.values;
     }
     EffectFit fit;
     KCRIG_RETURN_IF_ERROR(FitModel(model, start, 0, &fit));
@@ -442,7 +443,7 @@ class CampaignRun {
     }
     if (it->model == "nominal") it->nominal_estimate = it->estimate;
     adopted_ = std::move(model);
-    adopted_name_ = d.verdict;
+    adopted_name_ = d.model;
     adopted_fit_ = std::move(fit);
     it->action = "adopted";
     it->model = adopted_name_;
@@ -638,6 +639,8 @@ std::string CampaignToJson(Criterion criterion,
         {"diagnosis",
          it.diagnosed
              ? nlohmann::ordered_json{{"verdict", it.diagnosis.verdict},
+                                      {"model", it.diagnosis.model},
+                                      {"components", it.diagnosis.components},
                                       {"confidence", it.diagnosis.confidence},
                                       {"reason", it.diagnosis.reason},
                                       {"gap_source", it.diagnosis.gap_source},

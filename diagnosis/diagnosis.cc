@@ -29,7 +29,7 @@ void InformationCriteria(double chi2, int k, int m, CandidateScore* s) {
 // One diagnosis in named stages over one state: check the inputs, fit the
 // nominal model and test its gap, localise it, score the nominal model on
 // the data the candidates will be scored on, fit and score the single
-// effects and then pairs, decide.
+// effects and then pairs, place a bushing effect on its bushings, decide.
 class DiagnosisRun {
  public:
   DiagnosisRun(const SuspensionParameters<double>& nominal,
@@ -82,6 +82,8 @@ class DiagnosisRun {
     FitSingles();
     if (progress_.aborted()) return Interrupted("diagnosis");
     const CandidateScore* chosen = ChooseWithPairs();
+    if (progress_.aborted()) return Interrupted("diagnosis");
+    chosen = PlaceOnComponents(chosen);
     if (progress_.aborted()) return Interrupted("diagnosis");
     StateVerdict(chosen, rules_, result_);
     if (result_->gap_source == "prediction") {
@@ -586,6 +588,129 @@ class DiagnosisRun {
       if (s.model == chosen_name) return &s;
     }
     return nullptr;
+  }
+
+  // Stage 6: bushing effects placed on the bushings they act in
+  // (DiagnosisOptions::place_components): the chosen one when it is a
+  // single bushing effect, else, with nothing chosen, every bushing effect
+  // (a worn bushing is one component: the effect in all five explains it
+  // badly, and how badly says little about which effect it is). Placed models
+  // start from their effect's global fit and join the ranking; returns the
+  // chosen model.
+  const CandidateScore* PlaceOnComponents(const CandidateScore* chosen) {
+    if (!options_.place_components) return chosen;
+    std::vector<CandidateScore> globals;
+    for (const CandidateScore& s : result_->ranking) {
+      const bool wanted = chosen == nullptr || s.model == chosen->model;
+      if (wanted && s.ok && IsBushingEffect(s.model)) globals.push_back(s);
+    }
+    // Each effect in each single bushing; the one that scores best is
+    // extended, bushing by bushing (the others' fits would only cost time).
+    std::vector<CandidateScore> tried;
+    const CandidateScore* global = nullptr;
+    CandidateScore placed;
+    for (const CandidateScore& g : globals) {
+      std::vector<CandidateScore> singles =
+          FitPlacements(g.model, BushingSet{}, g.fit.values);
+      if (progress_.aborted()) return chosen;
+      if (singles.empty() || !singles[0].ok) continue;
+      tried.insert(tried.end(), singles.begin(), singles.end());
+      if (global == nullptr || singles[0].score < placed.score) {
+        global = &g;
+        placed = singles[0];
+      }
+    }
+    if (global == nullptr) return chosen;
+    ExtendPlacement(*global, &placed, &tried);
+    // As many parameters either way: the lower score, the effect in all
+    // five bushings when they tie.
+    const std::string best =
+        placed.score < global->score ? placed.model : global->model;
+    if (progress_.aborted() || best.empty()) return chosen;
+    std::vector<CandidateScore>& ranking = result_->ranking;
+    ranking.insert(ranking.end(), tried.begin(), tried.end());
+    RankCandidates(&ranking);
+    const CandidateScore* pick = nullptr;
+    for (const CandidateScore& s : ranking) {
+      if (s.model == best) pick = &s;
+    }
+    if (chosen != nullptr || pick == nullptr) return pick;
+    // Nothing was chosen: the placement decides against the other effects
+    // (not against its own effect elsewhere, which it has beaten already).
+    std::vector<CandidateScore> contenders = {*pick};
+    const std::string effect = best.substr(0, best.find('@'));
+    for (const CandidateScore& s : ranking) {
+      if (s.model.substr(0, s.model.find('@')) != effect) {
+        contenders.push_back(s);
+      }
+    }
+    return rules_.Decides(contenders) ? pick : nullptr;
+  }
+
+  // Forward selection of the bushings `global`'s effect acts in, from
+  // `placed` (its best single bushing): add the bushing that improves the
+  // score most while it Improves it, up to four (five is `global`). Every
+  // fit joins `tried`.
+  void ExtendPlacement(const CandidateScore& global, CandidateScore* placed,
+                       std::vector<CandidateScore>* tried) {
+    std::vector<std::string> effects;
+    std::vector<BushingSet> places;
+    while (ParseModelName(placed->model, &effects, &places).ok() &&
+           std::count(places[0].begin(), places[0].end(), true) <
+               kNumBushings - 1) {
+      std::vector<CandidateScore> scores =
+          FitPlacements(global.model, places[0], global.fit.values);
+      if (progress_.aborted() || scores.empty()) return;
+      tried->insert(tried->end(), scores.begin(), scores.end());
+      if (!Improves(scores[0], *placed)) return;
+      *placed = scores[0];
+    }
+  }
+
+  // `effect` in `set` plus each bushing not in it, fitted from `start` (the
+  // global form's values: the same parameters), then from the effect's later
+  // starts as the candidates are, and ranked.
+  std::vector<CandidateScore> FitPlacements(const std::string& effect,
+                                            const BushingSet& set,
+                                            const Start& start) {
+    std::vector<EffectModel> models;
+    for (int i = 0; i < kNumBushings; ++i) {
+      if (set[i]) continue;
+      BushingSet next = set;
+      next[i] = true;
+      EffectModel m;
+      if (EffectModel::Create(nominal_,
+                              {effect + "@" + DescribeBushingSet(next)},
+                              options_.estimator.lower_scale,
+                              options_.estimator.upper_scale, &m)
+              .ok()) {
+        models.push_back(std::move(m));
+      }
+    }
+    std::vector<const EffectModel*> pointers;
+    std::vector<std::vector<Start>> starts;
+    for (const EffectModel& m : models) {
+      pointers.push_back(&m);
+      starts.push_back({start});
+      // The effect's own later starts: the global fit's values can sit in
+      // a local minimum of the placed effect (a Dahl force spread over five
+      // bushings is not one bushing's).
+      for (int k = 1; k < m.num_starts(); ++k) {
+        starts.back().push_back(m.LaterStart(k));
+      }
+    }
+    std::vector<CandidateScore> scores;
+    FitAndScore(pointers, starts, 0.97, 0.99, &scores);
+    RankCandidates(&scores);
+    return scores;
+  }
+
+  // Whether `a` lowers `b`'s score beyond the noise floor's spread and its
+  // BIC by min_bic_difference (models with as many parameters: the
+  // chi-square's difference).
+  bool Improves(const CandidateScore& a, const CandidateScore& b) const {
+    return a.ok && b.score - a.score > rules_.score_noise &&
+           b.bic - a.bic >= options_.min_bic_difference;
   }
 
   const SuspensionParameters<double>& nominal_;

@@ -57,6 +57,12 @@ struct DiagnosisOptions {
   // structure beyond the noise.
   bool consider_pairs = true;
   int pair_pool = 3;
+  // A single bushing effect as the verdict is placed on the bushings it
+  // acts in: forward selection from the best single bushing, adding the
+  // bushing that lowers the score most while it lowers it beyond the noise
+  // floor's spread and the BIC by min_bic_difference; the effect in every
+  // bushing stays the verdict unless the placement is as good.
+  bool place_components = true;
   // A stiffness estimated from single logs drifts when two logs disagree by
   // more than this many combined standard errors.
   double drift_z = 4;
@@ -178,6 +184,12 @@ struct DiagnosisResult {
   // The verdict: "none", an effect, "a+b", or "unexplained"; confidence
   // "high" or "low" ("" for none); why, in one line.
   std::string verdict;
+  // The verdict's model as fitted, with where its effects act
+  // ("hysteresis@bushing:V1"; equal to the verdict when nothing is placed,
+  // "" for none and unexplained), and those places in the component
+  // vocabulary (plant_effects.h): each bushing a bushing effect acts in.
+  std::string model;
+  std::vector<std::string> components;
   std::string confidence;
   std::string reason;
   // Two candidates the data cannot tell apart (both empty otherwise): the

@@ -121,6 +121,8 @@ Status ReadDiagnosisDocument(const std::string& path, const nlohmann::json& doc,
                              DiagnosisFile* file) {
   DiagnosisResult& r = file->result;
   KCRIG_RETURN_IF_ERROR(ReadField(doc, "verdict", path, &r.verdict));
+  r.model = doc.value("model", r.verdict);
+  r.components = ReadStrings(doc, "components");
   KCRIG_RETURN_IF_ERROR(ReadField(doc, "reason", path, &r.reason));
   r.confidence = doc.value("confidence", "");
   r.scoring = doc.value("scoring", "");
@@ -165,6 +167,8 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
   doc["logs"] = training_logs;
   doc["holdout"] = holdout_logs;
   doc["verdict"] = r.verdict;
+  doc["model"] = r.model;
+  doc["components"] = r.components;
   doc["confidence"] = r.confidence;
   doc["reason"] = r.reason;
   doc["gap"] = {{"present", r.gap},
@@ -235,7 +239,7 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
   // Quantification: the verdict's model against the nominal one.
   const CandidateScore* chosen = nullptr;
   for (const CandidateScore& s : r.ranking) {
-    if (s.model == r.verdict) chosen = &s;
+    if (s.model == r.model) chosen = &s;
   }
   if (chosen != nullptr) {
     Json stiffness = Json::array();
@@ -382,12 +386,18 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
                   "0.0");
     add();
   }
-  std::snprintf(line, sizeof(line), "verdict: %s%s%s — %s\n", r.verdict.c_str(),
+  std::string where;
+  for (const std::string& c : r.components) {
+    where += (where.empty() ? " in " : " and ") + c;
+  }
+  if (r.model == r.verdict) where.clear();  // everywhere: nothing to place
+  std::snprintf(line, sizeof(line), "verdict: %s%s%s%s — %s\n",
+                r.verdict.c_str(), where.c_str(),
                 r.confidence.empty() ? "" : ", confidence ",
                 r.confidence.c_str(), r.reason.c_str());
   add();
   for (const CandidateScore& s : r.ranking) {
-    if (s.model != r.verdict) continue;
+    if (s.model != r.model) continue;
     out += s.heldout ? "  held-out rms before -> after:"
                      : "  (one log, no hold-out: no held-out rms)";
     for (int k = 0; k < 6 && s.heldout; ++k) {

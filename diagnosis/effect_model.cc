@@ -63,11 +63,6 @@ std::vector<EffectParameter> ParametersOf(
   return {};
 }
 
-bool IsBushingEffect(const std::string& effect) {
-  return effect == "bushing_damping" || effect == "hysteresis" ||
-         effect == "progressive_stiffness";
-}
-
 template <typename T>
 void SetEffectParameter(const EffectParameter& p, const T& value,
                         BasicPlantEffects<T>* e) {
@@ -232,6 +227,50 @@ class EffectProblem : public LeastSquaresProblem {
 
 }  // namespace
 
+bool IsBushingEffect(const std::string& effect) {
+  return effect == "bushing_damping" || effect == "hysteresis" ||
+         effect == "progressive_stiffness";
+}
+
+namespace {
+
+// Effects are joined by '+', and so are a placement's components: a part
+// that names a component continues the effect before it.
+std::vector<std::string> SplitModelName(const std::string& name) {
+  std::vector<std::string> effects;
+  if (name == "nominal") return effects;
+  for (size_t begin = 0;;) {
+    const size_t end = name.find('+', begin);
+    const std::string part = name.substr(begin, end - begin);
+    if (part.rfind("bushing:", 0) == 0 && !effects.empty()) {
+      effects.back() += "+" + part;
+    } else {
+      effects.push_back(part);
+    }
+    if (end == std::string::npos) break;
+    begin = end + 1;
+  }
+  return effects;
+}
+
+// "hysteresis@bushing:V1" into its class and place (every bushing when
+// unplaced); only bushing effects are placed.
+Status ParsePlacedEffect(const std::string& effect, std::string* name,
+                         BushingSet* at) {
+  const size_t separator = effect.find('@');
+  *name = effect.substr(0, separator);
+  *at = kEveryBushing;
+  if (separator == std::string::npos) return Status::Ok();
+  if (!IsBushingEffect(*name)) {
+    return Status::Error(
+        "only bushing_damping, hysteresis and progressive_stiffness are "
+        "placed on bushings");
+  }
+  return ParseBushingSet(effect.substr(separator + 1), at);
+}
+
+}  // namespace
+
 Status EffectModel::Create(const SuspensionParameters<double>& nominal,
                            const std::vector<std::string>& effects,
                            double lower_scale, double upper_scale,
@@ -242,17 +281,8 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
   EffectModel m;
   m.nominal_ = nominal;
   for (const std::string& effect : effects) {
-    const size_t at = effect.find('@');
-    m.effects_.push_back(effect.substr(0, at));
-    m.placements_.push_back(kEveryBushing);
-    if (at == std::string::npos) continue;
-    if (!IsBushingEffect(m.effects_.back())) {
-      return Status::Error("'" + effect + "': only " +
-                           "bushing_damping, hysteresis and " +
-                           "progressive_stiffness are placed on bushings");
-    }
-    const Status status =
-        ParseBushingSet(effect.substr(at + 1), &m.placements_.back());
+    const Status status = ParsePlacedEffect(effect, &m.effects_.emplace_back(),
+                                            &m.placements_.emplace_back());
     if (!status.ok()) {
       return Status::Error("'" + effect + "': " + status.message());
     }
@@ -310,23 +340,19 @@ std::vector<double> EffectModel::LaterStart(int k) const {
 Status EffectModel::CreateNamed(const SuspensionParameters<double>& nominal,
                                 const std::string& name, double lower_scale,
                                 double upper_scale, EffectModel* model) {
-  // Effects are joined by '+', and so are a placement's components: a part
-  // that names a component continues the effect before it.
-  std::vector<std::string> effects;
-  if (name != "nominal") {
-    for (size_t begin = 0;;) {
-      const size_t end = name.find('+', begin);
-      const std::string part = name.substr(begin, end - begin);
-      if (part.rfind("bushing:", 0) == 0 && !effects.empty()) {
-        effects.back() += "+" + part;
-      } else {
-        effects.push_back(part);
-      }
-      if (end == std::string::npos) break;
-      begin = end + 1;
-    }
+  return Create(nominal, SplitModelName(name), lower_scale, upper_scale, model);
+}
+
+Status ParseModelName(const std::string& name,
+                      std::vector<std::string>* effects,
+                      std::vector<BushingSet>* placements) {
+  effects->clear();
+  placements->clear();
+  for (const std::string& effect : SplitModelName(name)) {
+    KCRIG_RETURN_IF_ERROR(ParsePlacedEffect(effect, &effects->emplace_back(),
+                                            &placements->emplace_back()));
   }
-  return Create(nominal, effects, lower_scale, upper_scale, model);
+  return Status::Ok();
 }
 
 std::string EffectModel::Name() const {

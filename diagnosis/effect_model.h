@@ -104,6 +104,15 @@ class EffectModel {
   double max_dead_time_ = 0;
 };
 
+// The effects of a model's name (EffectModel::Name(); "nominal": none) and
+// where each acts, without checking the classes (Create does).
+Status ParseModelName(const std::string& name,
+                      std::vector<std::string>* effects,
+                      std::vector<BushingSet>* placements);
+
+// Whether `effect` acts in bushings and can be placed on them.
+bool IsBushingEffect(const std::string& effect);
+
 // What the sensors of the candidate read for one experiment at the physical
 // parameter values `values` (one per EffectModel::parameters()): the plant
 // settled under the first logged force, then stepped through the logged

@@ -517,10 +517,9 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
   DiagnosisFile diag;
   KCRIG_RETURN_IF_ERROR(ReadDiagnosisFile(file.string(), &diag));
   const DiagnosisResult& d = diag.result;
-  Json result = {{"file", file.string()},
-                 {"verdict", d.verdict},
-                 {"confidence", d.confidence},
-                 {"reason", d.reason}};
+  Json result = {{"file", file.string()},      {"verdict", d.verdict},
+                 {"model", d.model},           {"components", d.components},
+                 {"confidence", d.confidence}, {"reason", d.reason}};
   // Residual energy by channel x load regime: the mean squared weighted
   // residual (1 = noise) per channel in each slice.
   Json regimes = Json::array(), energy = Json::array();
@@ -541,7 +540,7 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
   for (const CandidateScore& c : d.ranking) {
     if (!c.ok) continue;
     ranking.push_back(CandidateRow(c));
-    if (c.model == d.verdict ||
+    if (c.model == d.model ||
         (chosen == nullptr && d.verdict == "unexplained")) {
       chosen = &c;
     }

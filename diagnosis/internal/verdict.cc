@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "diagnosis/internal/residual_statistics.h"
 
@@ -55,11 +56,41 @@ void RankCandidates(std::vector<CandidateScore>* list) {
                    });
 }
 
+namespace {
+
+// The verdict of `model`: its classes joined by '+', and the bushings its
+// bushing effects act in.
+void SetVerdictModel(const std::string& model, DiagnosisResult* result) {
+  result->model = model;
+  result->verdict.clear();
+  result->components.clear();
+  std::vector<std::string> effects;
+  std::vector<BushingSet> places;
+  if (!ParseModelName(model, &effects, &places).ok()) {
+    result->verdict = model;  // a name the diagnosis made parses
+    return;
+  }
+  for (size_t e = 0; e < effects.size(); ++e) {
+    result->verdict += (result->verdict.empty() ? "" : "+") + effects[e];
+    for (int i = 0; i < kNumBushings && IsBushingEffect(effects[e]); ++i) {
+      const std::string component =
+          "bushing:" + std::string(kBushingChassisNames[i]);
+      if (places[e][i] &&
+          std::find(result->components.begin(), result->components.end(),
+                    component) == result->components.end()) {
+        result->components.push_back(component);
+      }
+    }
+  }
+}
+
+}  // namespace
+
 void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   DiagnosisResult* result) {
   char text[300];
   if (chosen != nullptr) {
-    result->verdict = chosen->model;
+    SetVerdictModel(chosen->model, result);
     result->confidence = rules.AtNoise(*chosen) ? "high" : "low";
     std::snprintf(text, sizeof(text),
                   "%s closes %.0f %% of the gap (score %.3g -> %.3g, noise "
@@ -86,6 +117,12 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   "needed",
                   best.model.c_str(), second->model.c_str(),
                   100 * best.gap_closed, 100 * second->gap_closed);
+  } else if (best.gap_closed >= rules.min_gap_closed && second != nullptr) {
+    std::snprintf(text, sizeof(text),
+                  "%s closes %.0f %% of the gap but is not clearly better "
+                  "than %s (%.0f %%); see the localisation",
+                  best.model.c_str(), 100 * best.gap_closed,
+                  second->model.c_str(), 100 * second->gap_closed);
   } else {
     std::snprintf(text, sizeof(text),
                   "no candidate closes %.0f %% of the gap (best: %s, "
