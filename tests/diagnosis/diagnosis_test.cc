@@ -1,13 +1,9 @@
 // The diagnosis library on short logs (fast enough for the sanitizers): the
 // three ways of scoring (hold-out, cross-validation
-// over logs, information criteria alone), pairs, a bushing effect placed on
-// its one bushing, and input errors.
+// over logs, information criteria alone), pairs, and input errors.
 #include "diagnosis/diagnosis.h"
 
 #include <cmath>
-#include <cstdio>
-#include <string>
-#include <vector>
 
 #include "gtest/gtest.h"
 #include "rt_core/model/channels.h"
@@ -54,42 +50,6 @@ TEST_F(DiagnosisTest, HoldoutScoringAttributesAStrongEffect) {
   double shares = 0;
   for (const FrequencyBand& b : r.bands) shares += b.energy_share;
   EXPECT_NEAR(shares, 1.0, 1e-9);
-}
-
-// Hysteresis in bushing V1 alone: the effect in all five bushings explains
-// it badly, so the diagnosis places it, names the one component and
-// recovers the Dahl force.
-TEST_F(DiagnosisTest, AWornBushingIsNamedAsOneComponent) {
-  // Ramps at three rates, so that the rate-independent Dahl force is not
-  // mistaken for damping.
-  const std::string effect = "hysteresis:force=600,at=bushing:V1";
-  auto log = [&](double phi, double z_a, double ramp, std::uint64_t seed) {
-    return PlantExperiment(config_, config_.model, effect,
-                           {phi * kDegree, z_a, 4000, ramp, 0.3, ramp}, seed);
-  };
-  DiagnosisResult r;
-  const Status status =
-      Diagnose(config_.model, {log(80, -0.4, 1.0, 11), log(20, -0.1, 0.4, 12)},
-               {log(50, -0.3, 0.7, 13)}, DiagnosisOptions(),
-               config_.experiment.step, &r);
-  for (size_t k = 0; k < 4 && k < r.ranking.size(); ++k) {
-    std::printf("  %s closes %.0f %%\n", r.ranking[k].model.c_str(),
-                100 * r.ranking[k].gap_closed);
-  }
-  ASSERT_TRUE(status.ok()) << status.message();
-  EXPECT_EQ(r.verdict, "hysteresis") << r.reason;
-  EXPECT_EQ(r.model, "hysteresis@bushing:V1") << r.reason;
-  EXPECT_EQ(r.components, std::vector<std::string>{"bushing:V1"});
-  const CandidateScore* chosen = nullptr;
-  for (const CandidateScore& s : r.ranking) {
-    if (s.model == r.model) chosen = &s;
-  }
-  ASSERT_NE(chosen, nullptr);
-  EXPECT_GT(chosen->gap_closed, 0.8);
-  for (const ParameterEstimate& p : chosen->fit.result.parameters) {
-    if (p.name != "hysteresis.force") continue;
-    EXPECT_LT(std::abs(p.value - 600), 4 * p.standard_error + 30) << p.value;
-  }
 }
 
 // One training ramp whose fit absorbs a rig compliance into biased
