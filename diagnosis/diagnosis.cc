@@ -626,7 +626,7 @@ class DiagnosisRun {
     // five bushings when they tie.
     const std::string best =
         placed.score < global->score ? placed.model : global->model;
-    if (progress_.aborted() || best.empty()) return chosen;
+    if (progress_.aborted()) return chosen;
     std::vector<CandidateScore>& ranking = result_->ranking;
     ranking.insert(ranking.end(), tried.begin(), tried.end());
     RankCandidates(&ranking);

@@ -227,11 +227,6 @@ class EffectProblem : public LeastSquaresProblem {
 
 }  // namespace
 
-bool IsBushingEffect(const std::string& effect) {
-  return effect == "bushing_damping" || effect == "hysteresis" ||
-         effect == "progressive_stiffness";
-}
-
 namespace {
 
 // Effects are joined by '+', and so are a placement's components: a part
@@ -242,7 +237,7 @@ std::vector<std::string> SplitModelName(const std::string& name) {
   for (size_t begin = 0;;) {
     const size_t end = name.find('+', begin);
     const std::string part = name.substr(begin, end - begin);
-    if (part.rfind("bushing:", 0) == 0 && !effects.empty()) {
+    if (part.rfind(kBushingComponent, 0) == 0 && !effects.empty()) {
       effects.back() += "+" + part;
     } else {
       effects.push_back(part);
@@ -382,12 +377,8 @@ void EffectModel::Build(const T* theta, SuspensionParameters<T>* parameters,
     }
   }
   for (size_t e = 0; e < effects_.size(); ++e) {
-    if (effects_[e] == "bushing_damping") {
-      effects->bushing_damping.at = placements_[e];
-    } else if (effects_[e] == "hysteresis") {
-      effects->hysteresis.at = placements_[e];
-    } else if (effects_[e] == "progressive_stiffness") {
-      effects->progressive_stiffness.at = placements_[e];
+    if (BushingSet* at = PlacementOf(effects_[e], effects)) {
+      *at = placements_[e];
     }
   }
 }

@@ -110,9 +110,6 @@ Status ParseModelName(const std::string& name,
                       std::vector<std::string>* effects,
                       std::vector<BushingSet>* placements);
 
-// Whether `effect` acts in bushings and can be placed on them.
-bool IsBushingEffect(const std::string& effect);
-
 // What the sensors of the candidate read for one experiment at the physical
 // parameter values `values` (one per EffectModel::parameters()): the plant
 // settled under the first logged force, then stepped through the logged

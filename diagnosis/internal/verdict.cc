@@ -70,17 +70,17 @@ void SetVerdictModel(const std::string& model, DiagnosisResult* result) {
     result->verdict = model;  // a name the diagnosis made parses
     return;
   }
+  BushingSet bushings{};  // of every bushing effect, each listed once
   for (size_t e = 0; e < effects.size(); ++e) {
     result->verdict += (result->verdict.empty() ? "" : "+") + effects[e];
     for (int i = 0; i < kNumBushings && IsBushingEffect(effects[e]); ++i) {
-      const std::string component =
-          "bushing:" + std::string(kBushingChassisNames[i]);
-      if (places[e][i] &&
-          std::find(result->components.begin(), result->components.end(),
-                    component) == result->components.end()) {
-        result->components.push_back(component);
-      }
+      bushings[i] = bushings[i] || places[e][i];
     }
+  }
+  for (int i = 0; i < kNumBushings; ++i) {
+    BushingSet one{};
+    one[i] = true;
+    if (bushings[i]) result->components.push_back(DescribeBushingSet(one));
   }
 }
 

@@ -56,16 +56,6 @@ bool* EnabledFlag(std::string_view effect, PlantEffects* e) {
   return nullptr;
 }
 
-// Where a bushing effect acts (nullptr: the effect has no `at`).
-BushingSet* PlacementOf(std::string_view effect, PlantEffects* e) {
-  if (effect == "bushing_damping") return &e->bushing_damping.at;
-  if (effect == "hysteresis") return &e->hysteresis.at;
-  if (effect == "progressive_stiffness") return &e->progressive_stiffness.at;
-  return nullptr;
-}
-
-constexpr std::string_view kBushingComponent = "bushing:";
-
 std::string Names() {
   std::string names;
   for (std::string_view name : kEffectNames) {

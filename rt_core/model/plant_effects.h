@@ -132,6 +132,23 @@ using PlantEffects = BasicPlantEffects<double>;
 // from: "--effect ").
 Status ParseEffect(std::string_view text, PlantEffects* effects);
 
+// Where a bushing effect of `e` acts; nullptr for the effects that are not
+// placed on bushings (the one list of the bushing effects).
+template <typename T>
+BushingSet* PlacementOf(std::string_view effect, BasicPlantEffects<T>* e) {
+  if (effect == "bushing_damping") return &e->bushing_damping.at;
+  if (effect == "hysteresis") return &e->hysteresis.at;
+  if (effect == "progressive_stiffness") return &e->progressive_stiffness.at;
+  return nullptr;
+}
+inline bool IsBushingEffect(std::string_view effect) {
+  PlantEffects any;
+  return PlacementOf(effect, &any) != nullptr;
+}
+
+// The component prefix of a bushing: "bushing:" + its chassis-side name.
+inline constexpr std::string_view kBushingComponent = "bushing:";
+
 // A set of bushings as components, "bushing:O1+bushing:V2" (at least one;
 // the chassis-side names of kBushingChassisNames); errors are one line.
 Status ParseBushingSet(std::string_view text, BushingSet* set);
