@@ -122,6 +122,8 @@ Status ReadIteration(const nlohmann::json& node, const std::string& where,
     it->diagnosed = true;
     it->diagnosis.verdict = diagnosis.value("verdict", "");
     it->diagnosis.model = diagnosis.value("model", it->diagnosis.verdict);
+    it->diagnosis.components =
+        diagnosis.value("components", std::vector<std::string>());
     it->action = diagnosis.value("action", "");
     it->rejected_adoption = diagnosis.value("rejected_adoption", "");
   }

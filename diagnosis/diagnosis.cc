@@ -627,6 +627,7 @@ class DiagnosisRun {
     const std::string best =
         placed.score < global->score ? placed.model : global->model;
     if (progress_.aborted()) return chosen;
+    const bool decided = chosen != nullptr;  // `chosen` dangles after insert
     std::vector<CandidateScore>& ranking = result_->ranking;
     ranking.insert(ranking.end(), tried.begin(), tried.end());
     RankCandidates(&ranking);
@@ -634,7 +635,7 @@ class DiagnosisRun {
     for (const CandidateScore& s : ranking) {
       if (s.model == best) pick = &s;
     }
-    if (chosen != nullptr || pick == nullptr) return pick;
+    if (decided || pick == nullptr) return pick;
     // Nothing was chosen: the placement decides against the other effects
     // (not against its own effect elsewhere, which it has beaten already).
     std::vector<CandidateScore> contenders = {*pick};
@@ -710,7 +711,7 @@ class DiagnosisRun {
   // chi-square's difference).
   bool Improves(const CandidateScore& a, const CandidateScore& b) const {
     return a.ok && b.score - a.score > rules_.score_noise &&
-           b.bic - a.bic >= options_.min_bic_difference;
+           b.bic - a.bic >= rules_.min_bic_difference;
   }
 
   const SuspensionParameters<double>& nominal_;

@@ -60,8 +60,11 @@ struct DiagnosisOptions {
   // A single bushing effect as the verdict is placed on the bushings it
   // acts in: forward selection from the best single bushing, adding the
   // bushing that lowers the score most while it lowers it beyond the noise
-  // floor's spread and the BIC by min_bic_difference; the effect in every
-  // bushing stays the verdict unless the placement is as good.
+  // floor's spread and the BIC by min_bic_difference; the placement is the
+  // verdict when it scores lower than the effect in every bushing. With no
+  // verdict, every bushing effect is tried in each single bushing and the
+  // best extended; a placement clearly better than the other effects is the
+  // verdict.
   bool place_components = true;
   // A stiffness estimated from single logs drifts when two logs disagree by
   // more than this many combined standard errors.

@@ -387,6 +387,8 @@
     data.diagnoses.forEach(function (d) {
       s5.appendChild(el('h3', {}, d.file));
       s5.appendChild(el('div', {class: 'verdict'}, 'verdict: ' + d.verdict +
+                        (d.model !== d.verdict && d.components.length ?
+                         ' in ' + d.components.join(' and ') : '') +
                         (d.confidence ? ' (confidence ' + d.confidence + ')' : '') +
                         ' \u2014 ' + d.reason));
       // Each cell's value written on it (plotly 2.6 heatmaps have no
@@ -418,7 +420,7 @@
         figure(s5, [{type: 'bar', orientation: 'h', y: models, x: scores,
                      text: closed, textposition: 'auto',
                      marker: {color: models.map(function (m) {
-                       return m === d.verdict ? palette[1] :
+                       return m === d.model ? palette[1] :
                               (m === 'nominal' ? '#999' : palette[0]);
                      })}}],
                {title: {text: 'Candidates ranked by their ' + d.scoring +

@@ -104,6 +104,8 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
     return;
   }
   result->verdict = "unexplained";
+  result->model.clear();
+  result->components.clear();
   const CandidateScore& best = result->ranking.front();
   const CandidateScore* second =
       result->ranking.size() > 1 ? &result->ranking[1] : nullptr;
