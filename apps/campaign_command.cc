@@ -33,6 +33,7 @@ struct CampaignArgs {
   double target_percent = 0;
   std::optional<std::uint64_t> seed;
   std::vector<std::string> plant_effects;
+  std::vector<std::string> plant_sets;
   bool quiet = false;
   bool no_report = false;
   bool no_diagnose = false;
@@ -128,6 +129,12 @@ int RunCampaignCommand(const CampaignArgs& args) {
         return fail(Status::Error("--plant-effect " + status.message()));
       }
     }
+    for (const std::string& set : args.plant_sets) {
+      status = ApplyParameterAssignment("--plant-set", set, &plant.model);
+      if (!status.ok()) return fail(status);
+    }
+    status = ValidateModel(plant.model, "--plant-set");
+    if (!status.ok()) return fail(status);
     rig = [config, plant](const RampExcitation<double>& excitation, int run,
                           const std::string& csv_path) {
       return RunEmbeddedRig(config, plant, excitation, run, csv_path);
@@ -137,10 +144,14 @@ int RunCampaignCommand(const CampaignArgs& args) {
     for (size_t i = 0; i < effects.size(); ++i) {
       rig_text += (i == 0 ? ", plant effects: " : " ") + effects[i];
     }
-  } else if (!args.plant_effects.empty()) {
+    for (size_t i = 0; i < args.plant_sets.size(); ++i) {
+      rig_text += (i == 0 ? ", plant parameters: " : " ") + args.plant_sets[i];
+    }
+  } else if (!args.plant_effects.empty() || !args.plant_sets.empty()) {
     return fail(Status::Error(
-        "--plant-effect: only the embedded rig (--rig sim) has a plant to "
-        "change; give a kcrig emulate rig its effects with emulate --effect"));
+        "--plant-effect, --plant-set: only the embedded rig (--rig sim) has a "
+        "plant to change; give a kcrig emulate rig its effects with emulate "
+        "--effect"));
   } else if (args.rig.rfind("modbus-", 0) == 0 ||
              args.rig.rfind("can:", 0) == 0) {
     CampaignRig hil;
@@ -278,6 +289,11 @@ void AddCampaignCommand(CLI::App* app, std::function<int()>* run) {
       "Unmodelled effect of the embedded rig's plant, NAME[:k=v,...] "
       "(repeatable; the syntax of simulate --effect; --rig sim only): "
       "rehearse the campaign's adequacy checks without a rig");
+  cmd->add_option(
+      "--plant-set", args->plant_sets,
+      "A parameter of the embedded rig's plant that differs from the "
+      "configured model, NAME=VALUE in SI (repeatable; the syntax of "
+      "simulate --set; --rig sim only): rehearse a wrong \"known\" parameter");
   cmd->add_flag("--quiet", args->quiet, "No progress line");
   cmd->add_flag("--no-diagnose", args->no_diagnose,
                 "Check the model every iteration but do not diagnose or act "

@@ -78,6 +78,21 @@ Status ParseAssignment(const std::string& option, const std::string& text,
   return Status::Ok();
 }
 
+Status ApplyParameterAssignment(const std::string& option,
+                                const std::string& text,
+                                SuspensionParameters<double>* model) {
+  std::string name;
+  double value = 0;
+  KCRIG_RETURN_IF_ERROR(ParseAssignment(option, text, &name, &value));
+  double* parameter = FindParameter(model, name);
+  if (parameter == nullptr) {
+    return Status::Error(option + " " + text + ": unknown parameter '" + name +
+                         "' (e.g. c_O1, d_P, k_spring, mass, O1.x)");
+  }
+  *parameter = value;
+  return Status::Ok();
+}
+
 std::vector<std::string> SplitList(const std::string& text, char separator) {
   std::vector<std::string> items;
   size_t start = 0;

@@ -27,6 +27,12 @@ void RequireDecimalNumbers(CLI::App* app);
 Status ParseAssignment(const std::string& option, const std::string& text,
                        std::string* name, double* value);
 
+// "NAME=VALUE" applied to the model parameter NAME (ListParameters' names:
+// c_O1, d_P, k_spring, mass, O1.x, ...); `option` names the flag in errors.
+Status ApplyParameterAssignment(const std::string& option,
+                                const std::string& text,
+                                SuspensionParameters<double>* model);
+
 // "x,toe" -> channel indices into x, y, z, toe, camber, caster.
 Status ParseChannels(const std::string& text, std::vector<int>* channels);
 

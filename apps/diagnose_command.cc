@@ -23,6 +23,7 @@ struct DiagnoseArgs {
   std::vector<std::string> holdout;
   std::string candidates;
   bool no_pairs = false;
+  int free_parameters = 3;
   int threads = 2;
   bool quiet = false;
   std::string out;
@@ -54,16 +55,19 @@ int RunDiagnose(const DiagnoseArgs& args) {
             (placed.ok() ? "one effect per candidate" : placed.message())));
       }
       if (std::find(kEffectNames.begin(), kEffectNames.end(), effects[0]) ==
-          kEffectNames.end()) {
+              kEffectNames.end() &&
+          effects[0] != kModelParameter) {
         return fail(Status::Error("--candidates: unknown effect '" +
                                   effects[0] +
                                   "' (one of bushing_damping, hysteresis, "
                                   "progressive_stiffness, actuator_lag, "
-                                  "rig_compliance, sensor_offset)"));
+                                  "rig_compliance, sensor_offset, "
+                                  "model_parameter@NAME)"));
       }
     }
   }
   options.consider_pairs = !args.no_pairs;
+  options.model_parameter_pool = args.free_parameters;
   if (args.threads < 1) return fail(Status::Error("--threads: must be >= 1"));
   options.num_threads = args.threads;
 
@@ -140,10 +144,16 @@ void AddDiagnoseCommand(CLI::App* app, std::function<int()>* run) {
                   "(repeatable; default: cross-validation over the --log "
                   "files)");
   cmd->add_option("--candidates", args->candidates,
-                  "Comma-separated candidate effects (default: all six)");
+                  "Comma-separated candidate effects (default: all six), or "
+                  "model_parameter@NAME");
   cmd->add_flag("--no-pairs", args->no_pairs,
                 "Do not try pairs of effects when no single one explains "
                 "the gap");
+  cmd->add_option("--free-parameters", args->free_parameters,
+                  "Most model parameters the screening frees as candidates "
+                  "(model_parameter@NAME; 0: none)")
+      ->check(CLI::Range(0, 42))
+      ->capture_default_str();
   cmd->add_option("--threads", args->threads,
                   "Candidates fitted side by side (default 2)");
   cmd->add_flag("--quiet", args->quiet, "No progress line on a terminal");

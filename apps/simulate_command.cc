@@ -28,21 +28,6 @@ struct SimulateArgs {
   std::string out;
 };
 
-Status ApplySet(const std::string& assignment,
-                SuspensionParameters<double>* model) {
-  std::string name;
-  double value = 0;
-  const Status status = ParseAssignment("--set", assignment, &name, &value);
-  if (!status.ok()) return status;
-  double* parameter = FindParameter(model, name);
-  if (parameter != nullptr) {
-    *parameter = value;
-    return Status::Ok();
-  }
-  return Status::Error("--set " + assignment + ": unknown parameter '" + name +
-                       "' (e.g. c_O1, d_P, k_spring, mass, O1.x)");
-}
-
 // Resolves command-line values over the config defaults and checks them.
 Status ResolveExcitation(const SimulateArgs& args,
                          const ExperimentConfig& experiment,
@@ -124,7 +109,7 @@ int RunSimulate(const SimulateArgs& args) {
   // configuration the log is recorded with.
   run_options.geometry = GeometryFingerprint(config.model);
   for (const std::string& set : args.sets) {
-    status = ApplySet(set, &config.model);
+    status = ApplyParameterAssignment("--set", set, &config.model);
     if (!status.ok()) return fail(status);
   }
   status = ValidateModel(config.model, "--set");

@@ -212,9 +212,8 @@ namespace {
 // An adopted model is fitted down to a quarter of the configured step.
 constexpr int kMaxStepHalvings = 2;
 
-// The marginal information of the first `n` parameters (the bushings) with
-// the others (an adopted effect's) as nuisance: the Schur complement
-// I_cc - I_ce I_ee^+ I_ec, in the scaled parameters the designer uses.
+}  // namespace
+
 Eigen::MatrixXd StiffnessInformation(const Eigen::MatrixXd& information,
                                      int n) {
   const int m = static_cast<int>(information.rows()) - n;
@@ -224,6 +223,8 @@ Eigen::MatrixXd StiffnessInformation(const Eigen::MatrixXd& information,
   const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(ee);
   return information.topLeftCorner(n, n) - ce * cod.solve(ce.transpose());
 }
+
+namespace {
 
 // One campaign over one state, an iteration in named stages: run the
 // experiment, predict it, fit, check, diagnose and act, design the next.
@@ -523,7 +524,16 @@ class CampaignRun {
     const Design start{
         std::clamp(next_.phi, bounds_.phi.lower, bounds_.phi.upper),
         std::clamp(next_.z_a, bounds_.z_a.lower, bounds_.z_a.upper)};
-    KCRIG_RETURN_IF_ERROR(DesignStep(config_, step, start, &it->design));
+    // An adopted wrong "known" parameter is the model's own: designed with
+    // its estimate.
+    KcrigConfig design_config = config_;
+    const std::string freed = kModelParameter + std::string(".");
+    for (const ParameterEstimate& p : adopted_fit_.result.parameters) {
+      if (adopted_name_.empty() || p.name.rfind(freed, 0) != 0) continue;
+      *FindParameter(&design_config.model, p.name.substr(freed.size())) =
+          p.value;
+    }
+    KCRIG_RETURN_IF_ERROR(DesignStep(design_config, step, start, &it->design));
     it->designed = true;
     KCRIG_RETURN_IF_ERROR(WriteFilesAtomically(
         {{(std::filesystem::path(Dir(it->index)) / "design.json").string(),

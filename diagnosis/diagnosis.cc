@@ -79,6 +79,7 @@ class DiagnosisRun {
     }
     KCRIG_RETURN_IF_ERROR(ScoreNominal());
     if (!GapReproduced()) return Finish();
+    KCRIG_RETURN_IF_ERROR(ProposeModelParameters());
     FitSingles();
     if (progress_.aborted()) return Interrupted("diagnosis");
     const CandidateScore* chosen = ChooseWithPairs();
@@ -86,6 +87,9 @@ class DiagnosisRun {
     chosen = PlaceOnComponents(chosen);
     if (progress_.aborted()) return Interrupted("diagnosis");
     StateVerdict(chosen, rules_, result_);
+    if (chosen != nullptr) {
+      result_->reason = DescribeFreedParameters(*chosen) + result_->reason;
+    }
     if (result_->gap_source == "prediction") {
       result_->reason = "fits the training logs, mispredicts the hold-out (" +
                         result_->prediction.reason +
@@ -490,6 +494,47 @@ class DiagnosisRun {
     }
   }
 
+  // Stage 3b: wrong "known" parameters proposed by screening
+  // (DiagnosisOptions::model_parameter_pool) join the single candidates.
+  Status ProposeModelParameters() {
+    if (options_.model_parameter_pool <= 0) return Status::Ok();
+    KCRIG_RETURN_IF_ERROR(Progress("screening the model parameters", 0.12));
+    const std::vector<double>& fitted = result_->nominal.fit.values;
+    std::vector<ParameterLead> leads;
+    const Status status = ScreenModelParameters(
+        nominal_, {fitted.begin(), fitted.begin() + kNumBushings},
+        FreeableModelParameters(), training_, step_, options_.num_threads,
+        &leads);
+    if (!status.ok()) {
+      return Status::Error("diagnose: screening the model parameters: " +
+                           status.message());
+    }
+    result_->parameter_leads.assign(
+        leads.begin(), leads.begin() + std::min<size_t>(5, leads.size()));
+    const double price =
+        std::log(static_cast<double>(m_)) + options_.min_bic_difference;
+    int added = 0;
+    for (const ParameterLead& lead : leads) {
+      if (added == options_.model_parameter_pool || lead.chi2_drop < price) {
+        break;
+      }
+      const std::string name = kModelParameter + std::string("@") + lead.name;
+      const bool present =
+          std::any_of(singles_.begin(), singles_.end(),
+                      [&](const EffectModel& m) { return m.Name() == name; });
+      EffectModel m;
+      if (present ||
+          !EffectModel::Create(nominal_, {name}, options_.estimator.lower_scale,
+                               options_.estimator.upper_scale, &m)
+               .ok()) {
+        continue;
+      }
+      singles_.push_back(std::move(m));
+      ++added;
+    }
+    return Status::Ok();
+  }
+
   // Stage 4: each single effect from its starts: the nominal fit's
   // stiffnesses (which the effect has biased) with a small effect, then the
   // configured stiffnesses with larger ones (two more for hysteresis).
@@ -541,24 +586,34 @@ class DiagnosisRun {
   }
 
   // Stage 5: the best single effect when it decides; pairs of the best few
-  // when no single effect suffices or the best leaves structure, and a
-  // pair only when it beats the best single effect clearly too. Pairs join
+  // when the best leaves structure (chosen or not: two candidates that
+  // explain most of the gap alike may be halves of a pair), and a pair
+  // only when it beats the best single effect clearly too. Pairs join
   // the ranking.
   const CandidateScore* ChooseWithPairs() {
     std::vector<CandidateScore>& ranking = result_->ranking;
     const CandidateScore* chosen =
         rules_.Decides(ranking) ? &ranking[0] : nullptr;
-    const bool try_pairs =
-        options_.consider_pairs && ranking.size() > 1 &&
-        (chosen == nullptr ? ranking[0].gap_closed < options_.min_gap_closed
-                           : !rules_.AtNoise(*chosen));
+    const bool try_pairs = options_.consider_pairs && ranking.size() > 1 &&
+                           ranking[0].ok && !rules_.AtNoise(ranking[0]);
     if (!try_pairs) return chosen;
+    // The best few, at most one freed parameter among them: parameters
+    // near each other in the ranking are most often alternatives for one
+    // error (the two ends of a link), and would crowd out the effects.
+    std::vector<std::string> pool;
+    bool has_parameter = false;
+    for (const CandidateScore& s : ranking) {
+      if (static_cast<int>(pool.size()) == options_.pair_pool) break;
+      const bool parameter = s.model.rfind(kModelParameter, 0) == 0;
+      if (!s.ok || (parameter && has_parameter)) continue;
+      has_parameter = has_parameter || parameter;
+      pool.push_back(s.model);
+    }
     std::vector<EffectModel> pair_models;
-    const int pool = std::min<int>(options_.pair_pool, ranking.size());
-    for (int a = 0; a < pool; ++a) {
-      for (int b = a + 1; b < pool; ++b) {
+    for (size_t a = 0; a < pool.size(); ++a) {
+      for (size_t b = a + 1; b < pool.size(); ++b) {
         EffectModel pm;
-        if (EffectModel::Create(nominal_, {ranking[a].model, ranking[b].model},
+        if (EffectModel::Create(nominal_, {pool[a], pool[b]},
                                 options_.estimator.lower_scale,
                                 options_.estimator.upper_scale, &pm)
                 .ok() &&
@@ -599,6 +654,13 @@ class DiagnosisRun {
   // chosen model.
   const CandidateScore* PlaceOnComponents(const CandidateScore* chosen) {
     if (!options_.place_components) return chosen;
+    // Nothing chosen, and the best, no bushing effect, leaves only noise:
+    // no placement can explain more, and the ambiguity stands.
+    const CandidateScore& leader = result_->ranking.front();
+    if (chosen == nullptr && leader.ok && !IsBushingEffect(leader.model) &&
+        rules_.AtNoise(leader)) {
+      return chosen;
+    }
     std::vector<CandidateScore> globals;
     for (const CandidateScore& s : result_->ranking) {
       const bool wanted = chosen == nullptr || s.model == chosen->model;

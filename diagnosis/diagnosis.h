@@ -52,8 +52,8 @@ struct DiagnosisOptions {
   // best single one in the same sense.
   double min_gap_margin = 0.2;
   double min_bic_difference = 10;
-  // Pairs of effects are tried, from the best `pair_pool` single ones, when
-  // no single effect closes min_gap_closed, or when the best one leaves
+  // Pairs of effects are tried, from the best `pair_pool` single ones (at
+  // most one freed model parameter among them), when the best one leaves
   // structure beyond the noise.
   bool consider_pairs = true;
   int pair_pool = 3;
@@ -66,6 +66,13 @@ struct DiagnosisOptions {
   // best extended; a placement clearly better than the other effects is the
   // verdict.
   bool place_components = true;
+  // Wrong "known" parameters: the model parameters (FreeableModelParameters)
+  // whose freeing removes the most of the nominal fit's training
+  // chi-square to first order (ScreenModelParameters), at most this many
+  // and each more than the BIC's price of a parameter plus
+  // min_bic_difference, join the candidates as model_parameter@<name>.
+  // 0: none.
+  int model_parameter_pool = 3;
   // A stiffness estimated from single logs drifts when two logs disagree by
   // more than this many combined standard errors.
   double drift_z = 4;
@@ -178,6 +185,9 @@ struct DiagnosisResult {
   std::vector<LagCorrelation> lags;
   std::vector<StiffnessDrift> drift;  // with two or more training logs
   bool drift_detected = false;
+  // The model parameters the screening found most promising (at most five,
+  // largest chi-square drop first; empty when it did not run).
+  std::vector<ParameterLead> parameter_leads;
   // How candidates were scored: "holdout", "cross_validation" or
   // "information_criterion".
   std::string scoring;

@@ -170,6 +170,13 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
   doc["model"] = r.model;
   doc["components"] = r.components;
   doc["confidence"] = r.confidence;
+  Json leads = Json::array();
+  for (const ParameterLead& lead : r.parameter_leads) {
+    leads.push_back({{"parameter", lead.name},
+                     {"component", ComponentOfParameter(lead.name)},
+                     {"chi2_drop", Number(lead.chi2_drop)}});
+  }
+  doc["parameter_screening"] = leads;
   doc["reason"] = r.reason;
   doc["gap"] = {{"present", r.gap},
                 {"chi2", Number(r.chi2)},

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "Eigen/QR"
+#include "base/parallel_for.h"
 #include "ceres/ceres.h"
 #include "ceres/jet.h"
 #include "estimator/least_squares.h"
@@ -15,12 +16,47 @@
 namespace kcrig {
 namespace {
 
+// A model parameter freed (model_parameter@name), fitted about its
+// configured value: a coordinate within 50 mm (typical 5 mm), a rate, mass
+// or inertia within 0.1 .. 10 times (typical a tenth of it).
+EffectParameter FreedParameter(const std::string& name,
+                               const SuspensionParameters<double>& nominal) {
+  SuspensionParameters<double> copy = nominal;
+  for (const NamedParameter<double>& p : ListParameters(&copy)) {
+    if (p.name != name) continue;
+    const double value = *p.value;
+    if (p.unit == "m") {
+      return {std::string(kModelParameter),
+              name,
+              p.unit,
+              value,
+              0.005,
+              value - 0.05,
+              value + 0.05,
+              value,
+              {}};
+    }
+    return {std::string(kModelParameter),
+            name,
+            p.unit,
+            value,
+            0.1 * value,
+            0.1 * value,
+            10 * value,
+            value,
+            {}};
+  }
+  return {};
+}
+
 // The fitted parameters of each effect. Bounds keep the plant well posed
 // (a Dahl force or lag constant of zero divides by zero) and physically
 // plausible; the start is the "no effect" end of each range, or, where that
 // end is degenerate, a small value of the effect.
 std::vector<EffectParameter> ParametersOf(
-    const std::string& effect, const SuspensionParameters<double>& nominal) {
+    const std::string& effect, const std::string& target,
+    const SuspensionParameters<double>& nominal) {
+  if (effect == kModelParameter) return {FreedParameter(target, nominal)};
   if (effect == "bushing_damping") {
     // Starts at the model's own bushing damping: no change.
     double model_damping = 0;
@@ -249,12 +285,31 @@ std::vector<std::string> SplitModelName(const std::string& name) {
 }
 
 // "hysteresis@bushing:V1" into its class and place (every bushing when
-// unplaced); only bushing effects are placed.
+// unplaced; only bushing effects are placed), "model_parameter@k_spring"
+// into its class and the parameter it frees.
 Status ParsePlacedEffect(const std::string& effect, std::string* name,
-                         BushingSet* at) {
+                         BushingSet* at, std::string* target) {
   const size_t separator = effect.find('@');
   *name = effect.substr(0, separator);
   *at = kEveryBushing;
+  target->clear();
+  if (*name == kModelParameter) {
+    if (separator == std::string::npos) {
+      return Status::Error(
+          "model_parameter needs the parameter it frees, e.g. "
+          "model_parameter@k_spring");
+    }
+    *target = effect.substr(separator + 1);
+    const std::vector<std::string> freeable = FreeableModelParameters();
+    if (std::find(freeable.begin(), freeable.end(), *target) ==
+        freeable.end()) {
+      return Status::Error("'" + *target +
+                           "' is not a model parameter a diagnosis frees "
+                           "(k_spring, d_damper, mass, Jxx, Jyy, Jzz or a "
+                           "hard-point coordinate such as O1.z)");
+    }
+    return Status::Ok();
+  }
   if (separator == std::string::npos) return Status::Ok();
   if (!IsBushingEffect(*name)) {
     return Status::Error(
@@ -270,17 +325,21 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
                            const std::vector<std::string>& effects,
                            double lower_scale, double upper_scale,
                            EffectModel* model) {
-  if (effects.size() > 2) {
-    return Status::Error("a candidate model combines at most two effects");
-  }
   EffectModel m;
   m.nominal_ = nominal;
   for (const std::string& effect : effects) {
     const Status status = ParsePlacedEffect(effect, &m.effects_.emplace_back(),
-                                            &m.placements_.emplace_back());
+                                            &m.placements_.emplace_back(),
+                                            &m.targets_.emplace_back());
     if (!status.ok()) {
       return Status::Error("'" + effect + "': " + status.message());
     }
+  }
+  const long plant_effects =
+      std::count_if(m.effects_.begin(), m.effects_.end(),
+                    [](const std::string& e) { return e != kModelParameter; });
+  if (plant_effects > 2) {
+    return Status::Error("a candidate model combines at most two effects");
   }
   for (int i = 0; i < kNumBushings; ++i) {
     const double c = nominal.bushings[i].stiffness;
@@ -294,20 +353,32 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
                              c,
                              {c}});
   }
-  const std::vector<std::string>& classes = m.effects_;
-  for (size_t e = 0; e < classes.size(); ++e) {
-    if (std::find(classes.begin(), classes.begin() + e, classes[e]) !=
-        classes.begin() + e) {
-      return Status::Error("effect '" + classes[e] + "' given twice");
+  for (size_t e = 0; e < m.effects_.size(); ++e) {
+    for (size_t before = 0; before < e; ++before) {
+      if (m.effects_[before] == m.effects_[e] &&
+          m.targets_[before] == m.targets_[e]) {
+        return Status::Error("effect '" + effects[e] + "' given twice");
+      }
     }
-    const std::vector<EffectParameter> own = ParametersOf(classes[e], nominal);
+    const std::vector<EffectParameter> own =
+        ParametersOf(m.effects_[e], m.targets_[e], nominal);
     if (own.empty()) {
-      return Status::Error("unknown effect '" + classes[e] + "'");
+      return Status::Error("unknown effect '" + m.effects_[e] + "'");
     }
-    m.parameters_.insert(m.parameters_.end(), own.begin(), own.end());
     for (const EffectParameter& p : own) {
+      if (!(p.scale > 0)) {
+        return Status::Error("'" + effects[e] + "': the configured " + p.name +
+                             " is " + std::to_string(p.base) +
+                             "; only a positive value is freed");
+      }
       if (p.name == "dead_time") m.max_dead_time_ = p.upper;
     }
+    m.parameters_.insert(m.parameters_.end(), own.begin(), own.end());
+  }
+  if (m.num_parameters() > kMaxEffectModelParameters) {
+    return Status::Error("a candidate model has at most " +
+                         std::to_string(kMaxEffectModelParameters) +
+                         " parameters");
   }
   *model = std::move(m);
   return Status::Ok();
@@ -340,12 +411,17 @@ Status EffectModel::CreateNamed(const SuspensionParameters<double>& nominal,
 
 Status ParseModelName(const std::string& name,
                       std::vector<std::string>* effects,
-                      std::vector<BushingSet>* placements) {
+                      std::vector<BushingSet>* placements,
+                      std::vector<std::string>* targets) {
   effects->clear();
   placements->clear();
+  std::vector<std::string> own_targets;
+  if (targets == nullptr) targets = &own_targets;
+  targets->clear();
   for (const std::string& effect : SplitModelName(name)) {
     KCRIG_RETURN_IF_ERROR(ParsePlacedEffect(effect, &effects->emplace_back(),
-                                            &placements->emplace_back()));
+                                            &placements->emplace_back(),
+                                            &targets->emplace_back()));
   }
   return Status::Ok();
 }
@@ -355,6 +431,7 @@ std::string EffectModel::Name() const {
   std::string name;
   for (size_t e = 0; e < effects_.size(); ++e) {
     name += (name.empty() ? "" : "+") + effects_[e];
+    if (!targets_[e].empty()) name += "@" + targets_[e];
     if (placements_[e] != kEveryBushing) {
       name += "@" + DescribeBushingSet(placements_[e]);
     }
@@ -372,6 +449,8 @@ void EffectModel::Build(const T* theta, SuspensionParameters<T>* parameters,
     const T value = T(p.base) + theta[i] * p.scale;
     if (i < kNumBushings) {
       parameters->bushings[i].stiffness = value;
+    } else if (p.effect == kModelParameter) {
+      *FindParameter(parameters, p.name) = value;
     } else {
       SetEffectParameter(p, value, effects);
     }
@@ -403,49 +482,142 @@ Status SimulateEffectModel(const EffectModel& model,
   return Status::Ok();
 }
 
-Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
-                    const std::vector<Experiment>& experiments,
-                    double integrator_step, std::vector<double>* refit) {
+namespace {
+
+// The weighted residuals of `experiments` stacked, and their exact Jacobian
+// by theta, at `values` (physical; clamped into the box: a value on its
+// bound may round just outside it). `theta` gets the clamped point.
+Status WeightedJacobian(const EffectModel& model,
+                        const std::vector<double>& values,
+                        const std::vector<Experiment>& experiments,
+                        double integrator_step, std::vector<double>* theta,
+                        Eigen::MatrixXd* jacobian, Eigen::VectorXd* residuals) {
   const int n = model.num_parameters();
   if (static_cast<int>(values.size()) != n) {
     return Status::Error("one value per parameter of " + model.Name() +
                          " is needed");
   }
-  std::vector<double> lower, upper, theta(n);
+  std::vector<double> lower, upper;
   ThetaBox(model, &lower, &upper);
+  theta->resize(n);
   for (int i = 0; i < n; ++i) {
-    // A value on its bound may round just outside it.
-    theta[i] = std::clamp(model.ToTheta(i, values[i]), lower[i], upper[i]);
+    (*theta)[i] = std::clamp(model.ToTheta(i, values[i]), lower[i], upper[i]);
   }
   long rows = 0;
   for (const Experiment& e : experiments) rows += 6L * e.measured.size();
-  Eigen::MatrixXd jacobian(rows, n);
-  Eigen::VectorXd residuals(rows);
+  jacobian->resize(rows, n);
+  residuals->resize(rows);
   std::vector<const double*> parameters(n);
-  for (int i = 0; i < n; ++i) parameters[i] = &theta[i];
+  for (int i = 0; i < n; ++i) parameters[i] = &(*theta)[i];
   std::vector<double*> columns(n);
   long row = 0;
   for (const Experiment& e : experiments) {
     EffectResidual residual(&model, &e, integrator_step, lower, upper);
-    for (int i = 0; i < n; ++i) columns[i] = &jacobian(row, i);
-    if (!residual.Evaluate(parameters.data(), residuals.data() + row,
+    for (int i = 0; i < n; ++i) columns[i] = &(*jacobian)(row, i);
+    if (!residual.Evaluate(parameters.data(), residuals->data() + row,
                            columns.data())) {
       return Status::Error(e.source + ": the " + model.Name() +
                            " model cannot be evaluated at the fit");
     }
     row += residual.num_residuals();
   }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
+                    const std::vector<Experiment>& experiments,
+                    double integrator_step, std::vector<double>* refit) {
+  std::vector<double> theta;
+  Eigen::MatrixXd jacobian;
+  Eigen::VectorXd residuals;
+  KCRIG_RETURN_IF_ERROR(WeightedJacobian(model, values, experiments,
+                                         integrator_step, &theta, &jacobian,
+                                         &residuals));
   // The minimum-norm step: directions the data do not determine (a sensor
   // scale against the stiffnesses) do not move.
   Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> decomposition;
   decomposition.setThreshold(1e-8);
   decomposition.compute(jacobian);
   const Eigen::VectorXd step = decomposition.solve(-residuals);
-  refit->resize(n);
-  for (int i = 0; i < n; ++i) {
+  std::vector<double> lower, upper;
+  ThetaBox(model, &lower, &upper);
+  refit->resize(theta.size());
+  for (size_t i = 0; i < theta.size(); ++i) {
     const double next = std::isfinite(step(i)) ? theta[i] + step(i) : theta[i];
     (*refit)[i] = model.ToPhysical(i, std::clamp(next, lower[i], upper[i]));
   }
+  return Status::Ok();
+}
+
+std::vector<std::string> FreeableModelParameters() {
+  SuspensionParameters<double> names_only{};
+  std::vector<std::string> names;
+  for (const NamedParameter<double>& p : ListParameters(&names_only)) {
+    // A bushing's stiffness and damping are the bushings' own candidates.
+    if (ComponentOfParameter(p.name).rfind(kBushingComponent, 0) != 0) {
+      names.push_back(p.name);
+    }
+  }
+  return names;
+}
+
+Status ScreenModelParameters(const SuspensionParameters<double>& nominal,
+                             const std::vector<double>& stiffness,
+                             const std::vector<std::string>& names,
+                             const std::vector<Experiment>& experiments,
+                             double integrator_step, int num_threads,
+                             std::vector<ParameterLead>* leads) {
+  if (stiffness.size() != kNumBushings) {
+    return Status::Error("screening needs the five bushing stiffnesses");
+  }
+  constexpr int kPerModel = kMaxEffectModelParameters - kNumBushings;
+  const int groups =
+      (static_cast<int>(names.size()) + kPerModel - 1) / kPerModel;
+  std::vector<Status> status(groups, Status::Ok());
+  leads->assign(names.size(), ParameterLead());
+  ParallelFor(groups, num_threads, [&](int g) {
+    const size_t first = static_cast<size_t>(g) * kPerModel;
+    const size_t last = std::min(names.size(), first + kPerModel);
+    std::vector<std::string> freed;
+    for (size_t k = first; k < last; ++k) {
+      freed.push_back(kModelParameter + std::string("@") + names[k]);
+    }
+    // Stiffness bounds wide enough for any fit the screening is asked at.
+    EffectModel model;
+    status[g] = EffectModel::Create(nominal, freed, 1e-6, 1e6, &model);
+    if (!status[g].ok()) return;
+    std::vector<double> values = stiffness;
+    for (int i = kNumBushings; i < model.num_parameters(); ++i) {
+      values.push_back(model.parameters()[i].base);
+    }
+    std::vector<double> theta;
+    Eigen::MatrixXd jacobian;
+    Eigen::VectorXd residuals;
+    status[g] = WeightedJacobian(model, values, experiments, integrator_step,
+                                 &theta, &jacobian, &residuals);
+    if (!status[g].ok()) return;
+    // An orthonormal basis of the stiffnesses' columns.
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(
+        jacobian.leftCols<kNumBushings>());
+    const Eigen::MatrixXd basis =
+        qr.householderQ() *
+        Eigen::MatrixXd::Identity(jacobian.rows(), kNumBushings);
+    for (size_t k = first; k < last; ++k) {
+      Eigen::VectorXd column = jacobian.col(kNumBushings + (k - first));
+      column -= basis * (basis.transpose() * column);
+      const double norm2 = column.squaredNorm();
+      (*leads)[k].name = names[k];
+      (*leads)[k].chi2_drop =
+          norm2 > 0 ? std::pow(column.dot(residuals), 2) / norm2 : 0;
+    }
+  });
+  for (const Status& s : status) KCRIG_RETURN_IF_ERROR(s);
+  std::stable_sort(leads->begin(), leads->end(),
+                   [](const ParameterLead& a, const ParameterLead& b) {
+                     return a.chi2_drop > b.chi2_drop;
+                   });
   return Status::Ok();
 }
 

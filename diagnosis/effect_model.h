@@ -26,6 +26,18 @@
 
 namespace kcrig {
 
+// The class of a wrong "known" parameter: a parameter the nominal model
+// holds fixed (FreeableModelParameters) freed and fitted with the
+// stiffnesses, named "model_parameter@k_spring", "model_parameter@O1.z".
+inline constexpr char kModelParameter[] = "model_parameter";
+
+// The parameters model_parameter frees: the strut's spring and damper
+// rates, the carrier's mass and principal inertias and every hard-point
+// coordinate (ListParameters' names; not the bushing stiffnesses, which
+// every candidate fits, nor the bushing damping, which bushing_damping
+// places on the bushings).
+std::vector<std::string> FreeableModelParameters();
+
 struct EffectParameter {
   std::string effect;  // "" for a bushing stiffness
   std::string name;    // "c_O1", "force", "dead_time", ...
@@ -52,9 +64,10 @@ class EffectModel {
   // `effects`: distinct names of kEffectNames, at most two; empty is the
   // nominal model. A bushing effect may be placed on components,
   // "hysteresis@bushing:V1" or "bushing_damping@bushing:O1+bushing:O2"
-  // (plant_effects.h: `at`); unplaced, it acts in every bushing. The
-  // bushing stiffnesses are bounded by [lower_scale, upper_scale] x their
-  // `nominal` values.
+  // (plant_effects.h: `at`); unplaced, it acts in every bushing. Any number
+  // of model parameters may be freed besides ("model_parameter@k_spring"),
+  // within kMaxEffectModelParameters in all. The bushing stiffnesses are
+  // bounded by [lower_scale, upper_scale] x their `nominal` values.
   static Status Create(const SuspensionParameters<double>& nominal,
                        const std::vector<std::string>& effects,
                        double lower_scale, double upper_scale,
@@ -70,10 +83,12 @@ class EffectModel {
   // "nominal", "hysteresis", "hysteresis+actuator_lag",
   // "hysteresis@bushing:V1".
   std::string Name() const;
-  // The effects' classes (names of kEffectNames) and where each acts
-  // (every bushing unless placed; meaningful for the bushing effects).
+  // The effects' classes (names of kEffectNames, kModelParameter), where
+  // each acts (every bushing unless placed; meaningful for the bushing
+  // effects) and the parameter each frees ("" but for model_parameter).
   const std::vector<std::string>& effects() const { return effects_; }
   const std::vector<BushingSet>& placements() const { return placements_; }
+  const std::vector<std::string>& targets() const { return targets_; }
   const std::vector<EffectParameter>& parameters() const { return parameters_; }
   int num_parameters() const { return static_cast<int>(parameters_.size()); }
   // The longest dead time the bounds allow [s] (sizes the delay line).
@@ -100,15 +115,18 @@ class EffectModel {
   SuspensionParameters<double> nominal_;
   std::vector<std::string> effects_;
   std::vector<BushingSet> placements_;
+  std::vector<std::string> targets_;
   std::vector<EffectParameter> parameters_;
   double max_dead_time_ = 0;
 };
 
-// The effects of a model's name (EffectModel::Name(); "nominal": none) and
-// where each acts, without checking the classes (Create does).
+// The effects of a model's name (EffectModel::Name(); "nominal": none),
+// where each acts and, with `targets`, the parameter each frees, without
+// checking the classes (Create does).
 Status ParseModelName(const std::string& name,
                       std::vector<std::string>* effects,
-                      std::vector<BushingSet>* placements);
+                      std::vector<BushingSet>* placements,
+                      std::vector<std::string>* targets = nullptr);
 
 // What the sensors of the candidate read for one experiment at the physical
 // parameter values `values` (one per EffectModel::parameters()): the plant
@@ -171,6 +189,27 @@ Status FitEffectModel(const EffectModel& model,
                       const std::vector<double>& initial,
                       const EffectFitOptions& options, double integrator_step,
                       EffectFit* fit);
+
+// A model parameter's promise as a candidate: the chi-square that freeing
+// it removes from a fit's training residual, to first order (one
+// Gauss-Newton step with the stiffnesses).
+struct ParameterLead {
+  std::string name;
+  double chi2_drop = 0;
+};
+
+// Screens `names` (of FreeableModelParameters) at a fit of the nominal
+// model, `stiffness` (physical, the five bushings): the exact weighted
+// Jacobian of its residual on `experiments` by the stiffnesses and the
+// names (as many names per trajectory as one model frees, the trajectories
+// on `num_threads` threads); each name's column, made orthogonal to the
+// stiffnesses', is projected on the residual. Largest drop first.
+Status ScreenModelParameters(const SuspensionParameters<double>& nominal,
+                             const std::vector<double>& stiffness,
+                             const std::vector<std::string>& names,
+                             const std::vector<Experiment>& experiments,
+                             double integrator_step, int num_threads,
+                             std::vector<ParameterLead>* leads);
 
 // Weighted residuals (sensed - measured) / sigma per sample (zero where
 // not observed) of `model` at `values` on one experiment.

@@ -587,11 +587,14 @@ void AddNamedFigures(KcSheet* sheet) {
   }
 }
 
-// The effect of a parameter called "effect.parameter", or "".
+// The effect of a parameter called "effect.parameter" (a freed model
+// parameter's, "model_parameter.k_spring", is "model_parameter@k_spring"),
+// or "".
 std::string EffectOf(const std::string& name) {
   const size_t dot = name.find('.');
   if (dot == std::string::npos) return "";
   const std::string effect = name.substr(0, dot);
+  if (effect == kModelParameter) return effect + "@" + name.substr(dot + 1);
   for (std::string_view known : kEffectNames) {
     if (effect == known) return effect;
   }
@@ -632,6 +635,10 @@ Status KcModelOfEstimate(const SuspensionParameters<double>& nominal,
       const EffectParameter& p = effects.parameters()[i];
       found = p.effect + "." + p.name == names[k];
       if (found) model->effect_values[i - kNumBushings] = values[k];
+      // A freed parameter is the model's own (the static compliance).
+      if (found && p.effect == kModelParameter) {
+        *FindParameter(&model->parameters, p.name) = values[k];
+      }
     }
     if (!found) {
       return Status::Error("\"" + names[k] + "\" is not a parameter of the " +

@@ -44,21 +44,6 @@ std::vector<size_t> Decimation(size_t count, int max_points) {
   return index;
 }
 
-// The config's model with the parameters of `estimate` set.
-Status ModelWith(const SuspensionParameters<double>& nominal,
-                 const std::vector<ParameterEstimate>& estimate,
-                 SuspensionParameters<double>* model) {
-  *model = nominal;
-  for (const ParameterEstimate& p : estimate) {
-    double* parameter = FindParameter(model, p.name);
-    if (parameter == nullptr) {
-      return Status::Error("unknown parameter '" + p.name + "'");
-    }
-    *parameter = p.value;
-  }
-  return Status::Ok();
-}
-
 // Measured, model and residual per channel of one experiment, decimated.
 Json TimeHistories(const Experiment& e, const std::vector<Vec6<double>>& model,
                    int max_points) {
@@ -103,25 +88,32 @@ Json TimeHistories(const Experiment& e, const std::vector<Vec6<double>>& model,
   return {{"t", t}, {"channels", channels}};
 }
 
-// What the nominal model (bushings from `estimate`) predicts for `e`.
-Status Predict(const KcrigConfig& config,
-               const std::vector<ParameterEstimate>& estimate,
+// What the model of `it` predicts for `e`: the nominal model or the one
+// with its adopted effect, at its estimate (parameters it did not estimate
+// at their configured values) and the step it was fitted at.
+Status Predict(const KcrigConfig& config, const CampaignIteration& it,
                const Experiment& e, std::vector<Vec6<double>>* sensed) {
-  SuspensionParameters<double> model;
-  Status status = ModelWith(config.model, estimate, &model);
-  if (!status.ok()) return status;
-  EffectModel nominal;
+  SuspensionParameters<double> base = config.model;
+  for (const ParameterEstimate& p : it.estimate.parameters) {
+    if (double* parameter = FindParameter(&base, p.name)) *parameter = p.value;
+  }
+  EffectModel model;
   // The estimator's default stiffness bounds, as the diagnosis uses them.
   const EstimatorOptions bounds;
-  status = EffectModel::Create(model, {}, bounds.lower_scale,
-                               bounds.upper_scale, &nominal);
-  if (!status.ok()) return status;
+  KCRIG_RETURN_IF_ERROR(EffectModel::CreateNamed(
+      base, it.model, bounds.lower_scale, bounds.upper_scale, &model));
   std::vector<double> values;
-  for (int i = 0; i < kNumBushings; ++i) {
-    values.push_back(model.bushings[i].stiffness);
+  for (const EffectParameter& p : model.parameters()) {
+    const std::string name =
+        p.effect.empty() ? p.name : p.effect + "." + p.name;
+    values.push_back(p.initial);
+    for (const ParameterEstimate& estimated : it.estimate.parameters) {
+      if (estimated.name == name) values.back() = estimated.value;
+    }
   }
-  return SimulateEffectModel(nominal, values, e, config.experiment.step,
-                             sensed);
+  const double step =
+      it.model_step > 0 ? it.model_step : config.experiment.step;
+  return SimulateEffectModel(model, values, e, step, sensed);
 }
 
 // A number the page draws, or a gap.
@@ -278,10 +270,19 @@ Status SurfacesJson(const KcrigConfig& config, const fs::path& root,
                            ": information_matrix: missing (the prior the "
                            "design searched with)");
     }
+    // The design searched with the model parameters (an adopted effect's,
+    // after them, were nuisance: StiffnessInformation).
+    size_t n = 0;
+    SuspensionParameters<double> names_only = config.model;
+    while (n < estimate.names.size() &&
+           FindParameter(&names_only, estimate.names[n]) != nullptr) {
+      ++n;
+    }
     DesignStepOptions step;
-    step.names = estimate.names;
-    step.values = estimate.values;
-    step.prior_information = estimate.information;
+    step.names.assign(estimate.names.begin(), estimate.names.begin() + n);
+    step.values.assign(estimate.values.begin(), estimate.values.begin() + n);
+    step.prior_information =
+        StiffnessInformation(estimate.information, static_cast<int>(n));
     step.objective.num_threads = options.num_threads;
     surface_options.points = {it.design.result.best};
     CriterionSurface surface;
@@ -455,8 +456,6 @@ Status CampaignJson(const KcrigConfig& config, const fs::path& root,
   summary->campaign = true;
   (*data)["criterion"] = CriterionName(criterion);
   (*data)["estimates"] = EstimatesJson(iterations);
-  const std::vector<ParameterEstimate>& final_estimate =
-      iterations.back().estimate.parameters;
   Json experiments = Json::array();
   for (const CampaignIteration& it : iterations) {
     const fs::path log =
@@ -469,7 +468,7 @@ Status CampaignJson(const KcrigConfig& config, const fs::path& root,
     Experiment e;
     KCRIG_RETURN_IF_ERROR(LoadExperiment(log.string(), config, "", &e));
     std::vector<Vec6<double>> model;
-    const Status predicted = Predict(config, final_estimate, e, &model);
+    const Status predicted = Predict(config, iterations.back(), e, &model);
     if (!predicted.ok()) {
       return Status::Error(log.string() + ": " + predicted.message());
     }

@@ -64,15 +64,19 @@ void SetVerdictModel(const std::string& model, DiagnosisResult* result) {
   result->model = model;
   result->verdict.clear();
   result->components.clear();
-  std::vector<std::string> effects;
+  std::vector<std::string> effects, targets;
   std::vector<BushingSet> places;
-  if (!ParseModelName(model, &effects, &places).ok()) {
+  if (!ParseModelName(model, &effects, &places, &targets).ok()) {
     result->verdict = model;  // a name the diagnosis made parses
     return;
   }
   BushingSet bushings{};  // of every bushing effect, each listed once
   for (size_t e = 0; e < effects.size(); ++e) {
-    result->verdict += (result->verdict.empty() ? "" : "+") + effects[e];
+    // Two freed parameters are one class.
+    if (std::find(effects.begin(), effects.begin() + e, effects[e]) ==
+        effects.begin() + e) {
+      result->verdict += (result->verdict.empty() ? "" : "+") + effects[e];
+    }
     for (int i = 0; i < kNumBushings && IsBushingEffect(effects[e]); ++i) {
       bushings[i] = bushings[i] || places[e][i];
     }
@@ -82,9 +86,53 @@ void SetVerdictModel(const std::string& model, DiagnosisResult* result) {
     one[i] = true;
     if (bushings[i]) result->components.push_back(DescribeBushingSet(one));
   }
+  for (const std::string& target : targets) {
+    const std::string component = ComponentOfParameter(target);
+    std::vector<std::string>& c = result->components;
+    if (!component.empty() &&
+        std::find(c.begin(), c.end(), component) == c.end()) {
+      c.push_back(component);
+    }
+  }
 }
 
 }  // namespace
+
+std::string DescribeFreedParameters(const CandidateScore& chosen) {
+  const std::string prefix = kModelParameter + std::string(".");
+  std::string text;
+  char line[200];
+  for (const ParameterEstimate& p : chosen.fit.result.parameters) {
+    if (p.name.rfind(prefix, 0) != 0) continue;
+    const std::string name = p.name.substr(prefix.size());
+    // A freed parameter's fit starts at its configured value.
+    const double configured = p.initial;
+    const double interval = 1.96 * p.standard_error;
+    const size_t dot = name.find('.');
+    if (dot == std::string::npos) {
+      std::snprintf(line, sizeof(line),
+                    "%s is %.4g +- %.2g %s, not the "
+                    "configured %.4g; ",
+                    name.c_str(), p.value, interval, p.unit.c_str(),
+                    configured);
+    } else {
+      const char axis = name[dot + 1];
+      const bool more = p.value > configured;
+      const char* where =
+          axis == 'x'   ? (more ? "further forward" : "further back")
+          : axis == 'y' ? (more ? "further left" : "further right")
+                        : (more ? "higher" : "lower");
+      std::snprintf(line, sizeof(line),
+                    "hard point %s sits %.1f +- %.1f mm %s than configured "
+                    "(%s %.4f m, not %.4f); ",
+                    name.substr(0, dot).c_str(),
+                    1e3 * std::abs(p.value - configured), 1e3 * interval, where,
+                    name.c_str(), p.value, configured);
+    }
+    text += line;
+  }
+  return text;
+}
 
 void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   DiagnosisResult* result) {

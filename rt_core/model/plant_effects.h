@@ -146,9 +146,6 @@ inline bool IsBushingEffect(std::string_view effect) {
   return PlacementOf(effect, &any) != nullptr;
 }
 
-// The component prefix of a bushing: "bushing:" + its chassis-side name.
-inline constexpr std::string_view kBushingComponent = "bushing:";
-
 // A set of bushings as components, "bushing:O1+bushing:V2" (at least one;
 // the chassis-side names of kBushingChassisNames); errors are one line.
 Status ParseBushingSet(std::string_view text, BushingSet* set);

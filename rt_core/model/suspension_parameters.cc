@@ -10,4 +10,33 @@ int BushingStiffnessIndex(std::string_view name) {
   return -1;
 }
 
+std::string ComponentOfParameter(std::string_view name) {
+  const size_t dot = name.find('.');
+  if (dot != std::string_view::npos) {
+    const std::string_view point = name.substr(0, dot);
+    const std::string_view axis = name.substr(dot + 1);
+    if (axis != "x" && axis != "y" && axis != "z") return "";
+    bool known = point == "spring_chassis" || point == "spring_carrier";
+    for (int i = 0; i < kNumBushings; ++i) {
+      known = known || point == kBushingChassisNames[i] ||
+              point == kBushingCarrierNames[i];
+    }
+    return known ? "hardpoint:" + std::string(point) : "";
+  }
+  if (name == "k_spring") return "strut:spring";
+  if (name == "d_damper") return "strut:damper";
+  if (name == "mass") return "carrier:mass";
+  if (name == "Jxx" || name == "Jyy" || name == "Jzz") return "carrier:inertia";
+  if (name.size() > 2 &&
+      (name.substr(0, 2) == "c_" || name.substr(0, 2) == "d_")) {
+    for (int i = 0; i < kNumBushings; ++i) {
+      if (name.substr(2) == kBushingChassisNames[i]) {
+        return std::string(kBushingComponent) +
+               std::string(kBushingChassisNames[i]);
+      }
+    }
+  }
+  return "";
+}
+
 }  // namespace kcrig

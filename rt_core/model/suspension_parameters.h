@@ -128,6 +128,17 @@ const T* FindParameter(const SuspensionParameters<T>& p,
 // Index of the bushing whose stiffness is called `name` ("c_O1"), or -1.
 int BushingStiffnessIndex(std::string_view name);
 
+// The component prefix of a bushing: "bushing:" + its chassis-side name.
+inline constexpr std::string_view kBushingComponent = "bushing:";
+
+// Where the parameter called `name` (ListParameters' names) lives, in the
+// diagnosis' component vocabulary: "bushing:O1" (c_O1, d_O1),
+// "strut:spring" (k_spring), "strut:damper" (d_damper), "carrier:mass"
+// (mass), "carrier:inertia" (Jxx, Jyy, Jzz), "hardpoint:O1" (O1.x, O1.y,
+// O1.z; likewise the carrier points N1 .. Q and spring_chassis,
+// spring_carrier); "" for a name that is none of these.
+std::string ComponentOfParameter(std::string_view name);
+
 }  // namespace kcrig
 
 #endif  // KCRIG_RT_CORE_MODEL_SUSPENSION_PARAMETERS_H_

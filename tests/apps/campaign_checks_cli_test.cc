@@ -1,7 +1,8 @@
 // The campaign's model checks acting, through the real CLI on the embedded
 // rig: an unmodelled plant effect adopted after the diagnosis attributes
-// it, and a hard-point error (no effect of the library) that stops the
-// campaign with its own exit status. Release only (label ci-heavy): each
+// it, a wrong "known" parameter found and adopted the same way, and three
+// effects at once (beyond every candidate) that stop the campaign with its
+// own exit status. Release only (label ci-heavy): each
 // runs several fits and a diagnosis.
 #include <algorithm>
 #include <cmath>
@@ -12,7 +13,6 @@
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
 #include "tests/support/cli_runner.h"
-#include "tests/support/edited_config.h"
 #include "tests/support/temp_dir_test.h"
 
 namespace kcrig {
@@ -82,17 +82,42 @@ TEST_F(CampaignChecksCliTest, CampaignAdoptsAnAttributedPlantEffect) {
       << r.output;
 }
 
-// A hard-point error is no effect of the library: the campaign flags the
-// fit, the diagnosis finds nothing that explains it, and the campaign stops
-// with its own exit status instead of presenting intervals.
+// The plant's spring rate is not the configured one: the campaign
+// attributes the gap to it (model_parameter@k_spring), adopts it and
+// estimates it with the stiffnesses; the report is drawn.
+TEST_F(CampaignChecksCliTest, CampaignAdoptsAWrongKnownParameter) {
+  const CliResult r = RunKcrig(
+      "campaign --iterations 2 --budget 20 --quiet "
+      "--plant-set k_spring=1.4e5 --out " +
+      Path("campaign"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("plant parameters: k_spring=1.4e5"),
+            std::string::npos)
+      << r.output;
+  EXPECT_TRUE(fs::exists(dir_ / "campaign" / "report.html")) << r.output;
+  const nlohmann::json doc =
+      nlohmann::json::parse(std::ifstream(Path("campaign/campaign.json")));
+  const nlohmann::json& last = doc["iterations"].back();
+  EXPECT_EQ(last["model"], "model_parameter@k_spring") << last;
+  EXPECT_EQ(last["adequacy"]["verdict"], "adequate") << last["adequacy"];
+  ASSERT_EQ(last["effect_parameters"].size(), 1u);
+  const nlohmann::json& k = last["effect_parameters"][0];
+  EXPECT_EQ(k["name"], "model_parameter.k_spring");
+  const double half =
+      0.5 * (k["ci95"][1].get<double>() - k["ci95"][0].get<double>());
+  EXPECT_LT(std::abs(k["value"].get<double>() - 1.4e5), 1.5 * half + 1) << k;
+}
+
+// Three unmodelled effects at once are beyond every candidate (one effect,
+// a pair, a freed parameter): the campaign flags the fit, the diagnosis
+// finds nothing that explains it, and the campaign stops with its own exit
+// status instead of presenting intervals.
 TEST_F(CampaignChecksCliTest, CampaignStopsOnAnUnexplainedGap) {
-  const std::string config =
-      EditConfig(Path("config"), "plant.yaml", "true_parameters:\n",
-                 "true_parameters:\n  O1.z: 0.125\n");
-  const CliResult r = RunKcrig("campaign --config " + config +
-                               " --iterations 2 --budget 20 --quiet "
-                               "--no-report --out " +
-                               Path("campaign"));
+  const CliResult r = RunKcrig(
+      "campaign --plant-effect hysteresis:force=300 --plant-effect "
+      "actuator_lag:tau=0.03 --plant-effect rig_compliance:k=2e7 "
+      "--iterations 2 --budget 20 --quiet --no-report --out " +
+      Path("campaign"));
   ASSERT_EQ(r.exit_code, 5) << r.output;
   EXPECT_NE(r.output.find("the campaign stopped"), std::string::npos)
       << r.output;

@@ -127,12 +127,16 @@ TEST_F(DesignCampaignCliTest, CampaignWritesEveryIterationAndNarrowsIntervals) {
 TEST_F(DesignCampaignCliTest, PlantEffectErrorsAreOneLine) {
   for (const char* options :
        {"--plant-effect wobble", "--plant-effect rig_compliance:k=-1",
-        "--plant-effect rig_compliance --rig modbus-tcp://127.0.0.1:1"}) {
+        "--plant-effect rig_compliance --rig modbus-tcp://127.0.0.1:1",
+        "--plant-set k_spring", "--plant-set wobble=1", "--plant-set mass=-3",
+        "--plant-set k_spring=nan",
+        "--plant-set k_spring=1e5 --rig modbus-tcp://127.0.0.1:1"}) {
     const CliResult r = RunKcrig(std::string("campaign ") + options +
                                  " --out " + Path("campaign"));
     EXPECT_EQ(r.exit_code, 1) << r.output;
     EXPECT_EQ(CountLines(r.output), 1) << r.output;
-    EXPECT_NE(r.output.find("--plant-effect"), std::string::npos) << r.output;
+    const std::string option = std::string(options).substr(0, 11);
+    EXPECT_NE(r.output.find(option), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(Path("campaign"))) << options;
   }
 }

@@ -55,7 +55,10 @@ TEST_F(DiagnoseAttributionTest, AttributesAndQuantifiesRigCompliance) {
   EXPECT_EQ(diag["confidence"], "high");
   EXPECT_EQ(diag["scoring"], "holdout");
   EXPECT_TRUE(diag["gap"]["present"].get<bool>());
-  EXPECT_EQ(diag["candidates"].size(), 6u);
+  // The six effects, and at most three model parameters by screening.
+  EXPECT_GE(diag["candidates"].size(), 6u);
+  EXPECT_LE(diag["candidates"].size(), 9u);
+  EXPECT_FALSE(diag["parameter_screening"].empty());
   const nlohmann::json& q = diag["quantification"];
   EXPECT_GE(q["gap_closed"].get<double>(), 0.9);
   for (const char* channel : {"x", "y", "z"}) {

@@ -163,6 +163,15 @@ TEST_F(DiagnoseCliTest, UnknownCandidateIsRefused) {
   ExpectCleanFailure(
       Diagnose("--log " + LogA() + " --candidates hysteresis,backlash"),
       "unknown effect 'backlash'");
+  ExpectCleanFailure(
+      Diagnose("--log " + LogA() + " --candidates model_parameter@c_O1"),
+      "'c_O1' is not a model parameter a diagnosis frees");
+  // A bad option value is a usage error (exit 2), one line as well.
+  const CliResult usage = Diagnose("--log " + LogA() + " --free-parameters -1");
+  EXPECT_EQ(usage.exit_code, 2) << usage.output;
+  EXPECT_EQ(CountLines(usage.output), 1) << usage.output;
+  EXPECT_NE(usage.output.find("--free-parameters"), std::string::npos)
+      << usage.output;
 }
 
 }  // namespace

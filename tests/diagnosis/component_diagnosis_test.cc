@@ -2,6 +2,7 @@
 // placed there (diagnosis.h: place_components). Long enough logs to tell a
 // rate-independent loop from damping: too slow for the sanitizers' CI tier
 // (label ci-heavy).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -55,6 +56,66 @@ TEST_F(ComponentDiagnosisTest, AWornBushingIsNamedAsOneComponent) {
   for (const ParameterEstimate& p : chosen->fit.result.parameters) {
     if (p.name != "hysteresis.force") continue;
     EXPECT_LT(std::abs(p.value - 600), 4 * p.standard_error + 30) << p.value;
+  }
+}
+
+// Wrong "known" parameters (diagnosis.h: model_parameter_pool): logs of a
+// plant whose parameter differs from the configured model.
+class WrongParameterTest : public ComponentDiagnosisTest {
+ protected:
+  DiagnosisResult Diagnosed(const std::string& name, double value) {
+    SuspensionParameters<double> truth = config_.model;
+    *FindParameter(&truth, name) = value;
+    auto log = [&](double phi, double z_a, std::uint64_t seed) {
+      return PlantExperiment(config_, truth, "",
+                             {phi * kDegree, z_a, 4000, 2.0, 0.3, 1.7}, seed);
+    };
+    DiagnosisResult r;
+    const Status status = Diagnose(
+        config_.model, {log(85, -0.45, 11), log(20, -0.1, 12)},
+        {log(50, -0.3, 13)}, DiagnosisOptions(), config_.experiment.step, &r);
+    EXPECT_TRUE(status.ok()) << status.message();
+    std::printf("  verdict %s (%s): %s\n", r.verdict.c_str(), r.model.c_str(),
+                r.reason.c_str());
+    return r;
+  }
+};
+
+// A spring rate 27 % above the configured one is named, with its value.
+TEST_F(WrongParameterTest, TheSpringRateIsNamedWithItsValue) {
+  const DiagnosisResult r = Diagnosed("k_spring", 1.4e5);
+  EXPECT_EQ(r.verdict, "model_parameter") << r.reason;
+  EXPECT_EQ(r.model, "model_parameter@k_spring");
+  EXPECT_EQ(r.components, std::vector<std::string>{"strut:spring"});
+  ASSERT_FALSE(r.parameter_leads.empty());
+  for (const CandidateScore& s : r.ranking) {
+    if (s.model != r.model) continue;
+    const ParameterEstimate& k = s.fit.result.parameters.back();
+    EXPECT_EQ(k.name, "model_parameter.k_spring");
+    EXPECT_LE(k.ci95_low, 1.4e5);
+    EXPECT_GE(k.ci95_high, 1.4e5);
+  }
+  EXPECT_NE(r.reason.find("k_spring is"), std::string::npos) << r.reason;
+}
+
+// A hard point 4 mm higher: named, or honestly ambiguous between the two
+// ends of its link (O1 on the chassis, N1 on the carrier), never another
+// component.
+TEST_F(WrongParameterTest, AHardPointIsNamedOrItsLinkIsAmbiguous) {
+  const double configured = *FindParameter(config_.model, "O1.z");
+  const DiagnosisResult r = Diagnosed("O1.z", configured + 0.004);
+  if (r.verdict == "model_parameter") {
+    EXPECT_EQ(r.model, "model_parameter@O1.z");
+    EXPECT_EQ(r.components, std::vector<std::string>{"hardpoint:O1"});
+  } else {
+    EXPECT_EQ(r.verdict, "unexplained");
+    const std::vector<std::string> pair = {r.ambiguous_a, r.ambiguous_b};
+    EXPECT_NE(std::find(pair.begin(), pair.end(), "model_parameter@O1.z"),
+              pair.end())
+        << r.reason;
+    EXPECT_NE(std::find(pair.begin(), pair.end(), "model_parameter@N1.z"),
+              pair.end())
+        << r.reason;
   }
 }
 

@@ -39,7 +39,9 @@ TEST_F(DiagnosisTest, HoldoutScoringAttributesAStrongEffect) {
   EXPECT_EQ(r.verdict, "rig_compliance") << r.reason;
   EXPECT_EQ(r.model, "rig_compliance");
   EXPECT_TRUE(r.components.empty());  // not a bushing effect: not placed
-  ASSERT_EQ(r.ranking.size(), 6u);
+  // The six effects, and at most three model parameters by screening.
+  ASSERT_GE(r.ranking.size(), 6u);
+  ASSERT_LE(r.ranking.size(), 9u);
   EXPECT_EQ(r.ranking[0].model, "rig_compliance");
   EXPECT_GT(r.ranking[0].gap_closed, 0.9);
   // Rig compliance shows in the positions, not the angles.

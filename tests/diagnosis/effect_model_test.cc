@@ -271,5 +271,71 @@ TEST_F(EffectModelTest, BushingEffectsArePlacedOnComponents) {
   EXPECT_LT(cost[0], cost[1]);
 }
 
+// Wrong "known" parameters: model_parameter frees a parameter the nominal
+// model holds fixed, names round-trip, only freeable parameters are taken,
+// and on logs of a spring 27 % stiffer than configured the screening puts
+// the spring rate first and the fit recovers it.
+TEST_F(EffectModelTest, WrongKnownParametersAreFreedAndRecovered) {
+  EffectModel model;
+  const std::string pair = "model_parameter@O1.z+model_parameter@k_spring";
+  ASSERT_TRUE(
+      EffectModel::CreateNamed(config_.model, pair, 0.1, 10, &model).ok());
+  EXPECT_EQ(model.Name(), pair);
+  EXPECT_EQ(model.targets()[0], "O1.z");
+  EXPECT_EQ(model.num_parameters(), kNumBushings + 2);
+  EXPECT_EQ(ComponentOfParameter("O1.z"), "hardpoint:O1");
+  EXPECT_EQ(ComponentOfParameter("k_spring"), "strut:spring");
+  EXPECT_EQ(ComponentOfParameter("Jyy"), "carrier:inertia");
+  EXPECT_EQ(ComponentOfParameter("d_V1"), "bushing:V1");
+  EXPECT_EQ(ComponentOfParameter("O1.w"), "");
+  for (const char* bad :
+       {"model_parameter", "model_parameter@c_O1", "model_parameter@d_O1",
+        "model_parameter@O1.w",
+        "model_parameter@k_spring+model_parameter@k_spring"}) {
+    const Status status =
+        EffectModel::CreateNamed(config_.model, bad, 0.1, 10, &model);
+    EXPECT_FALSE(status.ok()) << bad;
+    EXPECT_EQ(status.message().find('\n'), std::string::npos);
+  }
+
+  SuspensionParameters<double> truth = plant_.model;
+  truth.spring.stiffness = 1.4e5;  // configured 1.1e5
+  const std::vector<Experiment> logs = {
+      PlantExperiment(config_, truth, "",
+                      {85 * kDegree, -0.45, 4000, 2.0, 0.3, 1.0}, 3),
+      PlantExperiment(config_, truth, "",
+                      {20 * kDegree, -0.1, 4000, 1.0, 0.3, 2.0}, 4)};
+  EffectModel nominal;
+  ASSERT_TRUE(EffectModel::Create(config_.model, {}, 0.1, 10, &nominal).ok());
+  EffectFit nominal_fit;
+  ASSERT_TRUE(FitEffectModel(nominal, logs, {}, EffectFitOptions(),
+                             config_.experiment.step, &nominal_fit)
+                  .ok());
+  std::vector<ParameterLead> leads;
+  const Status screened = ScreenModelParameters(
+      config_.model, nominal_fit.values, FreeableModelParameters(), logs,
+      config_.experiment.step, 2, &leads);
+  ASSERT_TRUE(screened.ok()) << screened.message();
+  ASSERT_EQ(leads.size(), FreeableModelParameters().size());
+  for (int k = 0; k < 3; ++k) {
+    std::printf("  lead %s: chi2 drop %.1f\n", leads[k].name.c_str(),
+                leads[k].chi2_drop);
+  }
+  EXPECT_EQ(leads[0].name, "k_spring");
+
+  ASSERT_TRUE(EffectModel::CreateNamed(
+                  config_.model, "model_parameter@k_spring", 0.1, 10, &model)
+                  .ok());
+  EffectFit fit;
+  ASSERT_TRUE(FitEffectModel(model, logs, {}, EffectFitOptions(),
+                             config_.experiment.step, &fit)
+                  .ok());
+  const ParameterEstimate& k = fit.result.parameters.back();
+  EXPECT_EQ(k.name, "model_parameter.k_spring");
+  EXPECT_NEAR(fit.result.sigma_hat, 1.0, 0.05);
+  EXPECT_LT(std::abs(k.value - 1.4e5), 4 * k.standard_error)
+      << k.value << " +- " << k.standard_error;
+}
+
 }  // namespace
 }  // namespace kcrig
