@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,7 +24,7 @@ struct DiagnoseArgs {
   std::vector<std::string> holdout;
   std::string candidates;
   bool no_pairs = false;
-  int free_parameters = 3;
+  std::optional<int> free_parameters;
   int threads = 2;
   bool quiet = false;
   std::string out;
@@ -67,7 +68,9 @@ int RunDiagnose(const DiagnoseArgs& args) {
     }
   }
   options.consider_pairs = !args.no_pairs;
-  options.model_parameter_pool = args.free_parameters;
+  // Candidates given by hand are all that is fitted unless asked otherwise.
+  options.model_parameter_pool = args.free_parameters.value_or(
+      args.candidates.empty() ? options.model_parameter_pool : 0);
   if (args.threads < 1) return fail(Status::Error("--threads: must be >= 1"));
   options.num_threads = args.threads;
 
@@ -147,13 +150,15 @@ void AddDiagnoseCommand(CLI::App* app, std::function<int()>* run) {
                   "Comma-separated candidate effects (default: all six), or "
                   "model_parameter@NAME");
   cmd->add_flag("--no-pairs", args->no_pairs,
-                "Do not try pairs of effects when no single one explains "
-                "the gap");
-  cmd->add_option("--free-parameters", args->free_parameters,
-                  "Most model parameters the screening frees as candidates "
-                  "(model_parameter@NAME; 0: none)")
-      ->check(CLI::Range(0, 42))
-      ->capture_default_str();
+                "Do not try pairs of effects when the best single one "
+                "leaves structure beyond the noise");
+  const int freeable = static_cast<int>(FreeableModelParameters().size());
+  cmd->add_option_function<int>(
+         "--free-parameters",
+         [args](const int& n) { args->free_parameters = n; },
+         "Most model parameters the screening frees as candidates "
+         "(model_parameter@NAME; default 3, 0 with --candidates; 0: none)")
+      ->check(CLI::Range(0, freeable));
   cmd->add_option("--threads", args->threads,
                   "Candidates fitted side by side (default 2)");
   cmd->add_flag("--quiet", args->quiet, "No progress line on a terminal");

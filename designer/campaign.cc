@@ -527,11 +527,12 @@ class CampaignRun {
     // An adopted wrong "known" parameter is the model's own: designed with
     // its estimate.
     KcrigConfig design_config = config_;
-    const std::string freed = kModelParameter + std::string(".");
-    for (const ParameterEstimate& p : adopted_fit_.result.parameters) {
-      if (adopted_name_.empty() || p.name.rfind(freed, 0) != 0) continue;
-      *FindParameter(&design_config.model, p.name.substr(freed.size())) =
-          p.value;
+    if (!adopted_name_.empty()) {
+      std::vector<std::string> names;
+      for (const ParameterEstimate& p : adopted_fit_.result.parameters) {
+        names.push_back(p.name);
+      }
+      ApplyFreedParameters(names, adopted_fit_.values, &design_config.model);
     }
     KCRIG_RETURN_IF_ERROR(DesignStep(design_config, step, start, &it->design));
     it->designed = true;

@@ -136,16 +136,16 @@ std::string CampaignToJson(Criterion criterion,
 // est.json and, when it designed, design.json.
 std::string CampaignIterationDir(const std::string& out_dir, int index);
 
-// Reads a campaign folder back: campaign.json (criterion; per iteration the
-// index, logs, experiment, estimates with intervals and log10
-// diag((J^T J)^-1), criterion of the data, whether it designed) and, for
-// each iteration that designed, its design.json into `design`. Errors name
-// the file and the field.
 // The marginal information of the first `n` parameters (the bushings) with
 // the others (an adopted effect's) as nuisance: the Schur complement
 // I_cc - I_ce I_ee^+ I_ec, in the scaled parameters the designer uses.
 Eigen::MatrixXd StiffnessInformation(const Eigen::MatrixXd& information, int n);
 
+// Reads a campaign folder back: campaign.json (criterion; per iteration the
+// index, logs, experiment, estimates with intervals and log10
+// diag((J^T J)^-1), criterion of the data, whether it designed) and, for
+// each iteration that designed, its design.json into `design`. Errors name
+// the file and the field.
 Status ReadCampaign(const std::string& out_dir, Criterion* criterion,
                     std::vector<CampaignIteration>* iterations);
 

@@ -518,7 +518,7 @@ class DiagnosisRun {
       if (added == options_.model_parameter_pool || lead.chi2_drop < price) {
         break;
       }
-      const std::string name = kModelParameter + std::string("@") + lead.name;
+      const std::string name = FreedModelName(lead.name);
       const bool present =
           std::any_of(singles_.begin(), singles_.end(),
                       [&](const EffectModel& m) { return m.Name() == name; });
@@ -559,27 +559,27 @@ class DiagnosisRun {
     RankCandidates(&result_->ranking);
   }
 
-  // A pair starts from its two single fits: the stiffnesses of the better
-  // one, each effect's parameters from its own fit.
+  // A pair starts from its two single fits: the stiffnesses of its first
+  // effect's, each effect's parameters from its own fit.
   Start PairStart(const EffectModel& pair) const {
+    const std::vector<std::string> parts = pair.EffectNames();
     Start start;
     for (int p = 0; p < pair.num_parameters(); ++p) {
       const EffectParameter& ep = pair.parameters()[p];
-      const std::string& owner =
-          p < kNumBushings ? pair.effects()[0] : ep.effect;
-      const std::string name =
-          p < kNumBushings ? ep.name : ep.effect + "." + ep.name;
+      const bool stiffness = p < kNumBushings;
+      start.push_back(stiffness ? result_->nominal.fit.values[p] : ep.initial);
       for (const CandidateScore& single : result_->ranking) {
-        if (single.model != owner || !single.ok) continue;
-        for (size_t q = 0; q < single.fit.result.parameters.size(); ++q) {
-          if (single.fit.result.parameters[q].name == name) {
-            start.push_back(single.fit.values[q]);
+        const bool owner = stiffness ? single.model == parts[0]
+                                     : std::find(parts.begin(), parts.end(),
+                                                 single.model) != parts.end();
+        if (!single.ok || !owner) continue;
+        const std::vector<ParameterEstimate>& fitted =
+            single.fit.result.parameters;
+        for (size_t q = 0; q < fitted.size(); ++q) {
+          if (fitted[q].name == ep.FullName()) {
+            start.back() = single.fit.values[q];
           }
         }
-      }
-      if (static_cast<int>(start.size()) != p + 1) {
-        start.push_back(p < kNumBushings ? result_->nominal.fit.values[p]
-                                         : ep.initial);
       }
     }
     return start;
@@ -603,7 +603,7 @@ class DiagnosisRun {
     std::vector<std::string> pool;
     bool has_parameter = false;
     for (const CandidateScore& s : ranking) {
-      if (static_cast<int>(pool.size()) == options_.pair_pool) break;
+      if (static_cast<int>(pool.size()) >= options_.pair_pool) break;
       const bool parameter = s.model.rfind(kModelParameter, 0) == 0;
       if (!s.ok || (parameter && has_parameter)) continue;
       has_parameter = has_parameter || parameter;
@@ -616,8 +616,7 @@ class DiagnosisRun {
         if (EffectModel::Create(nominal_, {pool[a], pool[b]},
                                 options_.estimator.lower_scale,
                                 options_.estimator.upper_scale, &pm)
-                .ok() &&
-            pm.num_parameters() <= kMaxEffectModelParameters) {
+                .ok()) {
           pair_models.push_back(std::move(pm));
         }
       }
@@ -654,11 +653,14 @@ class DiagnosisRun {
   // chosen model.
   const CandidateScore* PlaceOnComponents(const CandidateScore* chosen) {
     if (!options_.place_components) return chosen;
-    // Nothing chosen, and the best, no bushing effect, leaves only noise:
-    // no placement can explain more, and the ambiguity stands.
+    // The chosen effect everywhere leaves only noise, or nothing was chosen
+    // and the best, no bushing effect, does: no placement can explain more
+    // (it could only tie, and the data cannot place the effect), and an
+    // ambiguity stands.
     const CandidateScore& leader = result_->ranking.front();
-    if (chosen == nullptr && leader.ok && !IsBushingEffect(leader.model) &&
-        rules_.AtNoise(leader)) {
+    if (chosen != nullptr ? rules_.AtNoise(*chosen)
+                          : leader.ok && !IsBushingEffect(leader.model) &&
+                                rules_.AtNoise(leader)) {
       return chosen;
     }
     std::vector<CandidateScore> globals;

@@ -31,7 +31,8 @@ struct DiagnosisOptions {
   // thresholds, as for `kcrig estimate`.
   EstimatorOptions estimator;
   EffectFitOptions fit;
-  // The candidate effects (names of kEffectNames).
+  // The candidate effects (names of kEffectNames, placed ones, or
+  // model_parameter@NAME).
   std::vector<std::string> candidates = {kEffectNames.begin(),
                                          kEffectNames.end()};
   // Gap test: the nominal residual is noise unless the chi-square test or
@@ -64,7 +65,8 @@ struct DiagnosisOptions {
   // verdict when it scores lower than the effect in every bushing. With no
   // verdict, every bushing effect is tried in each single bushing and the
   // best extended; a placement clearly better than the other effects is the
-  // verdict.
+  // verdict. Not when the effect in every bushing (or, with no verdict, the
+  // best other candidate) leaves only noise: a placement could only tie.
   bool place_components = true;
   // Wrong "known" parameters: the model parameters (FreeableModelParameters)
   // whose freeing removes the most of the nominal fit's training

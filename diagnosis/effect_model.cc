@@ -18,33 +18,36 @@ namespace {
 
 // A model parameter freed (model_parameter@name), fitted about its
 // configured value: a coordinate within 50 mm (typical 5 mm), a rate, mass
-// or inertia within 0.1 .. 10 times (typical a tenth of it).
-EffectParameter FreedParameter(const std::string& name,
-                               const SuspensionParameters<double>& nominal) {
+// or inertia within 0.1 .. 10 times (typical a tenth of it). None for an
+// unknown name or a rate configured zero (a spring or damper taken out of
+// the rig: nothing to scale).
+std::vector<EffectParameter> FreedParameter(
+    const std::string& name, const SuspensionParameters<double>& nominal) {
   SuspensionParameters<double> copy = nominal;
   for (const NamedParameter<double>& p : ListParameters(&copy)) {
     if (p.name != name) continue;
     const double value = *p.value;
     if (p.unit == "m") {
-      return {std::string(kModelParameter),
-              name,
-              p.unit,
-              value,
-              0.005,
-              value - 0.05,
-              value + 0.05,
-              value,
-              {}};
+      return {{kModelParameter,
+               name,
+               p.unit,
+               value,
+               0.005,
+               value - 0.05,
+               value + 0.05,
+               value,
+               {}}};
     }
-    return {std::string(kModelParameter),
-            name,
-            p.unit,
-            value,
-            0.1 * value,
-            0.1 * value,
-            10 * value,
-            value,
-            {}};
+    if (!(value > 0)) return {};
+    return {{kModelParameter,
+             name,
+             p.unit,
+             value,
+             0.1 * value,
+             0.1 * value,
+             10 * value,
+             value,
+             {}}};
   }
   return {};
 }
@@ -56,7 +59,7 @@ EffectParameter FreedParameter(const std::string& name,
 std::vector<EffectParameter> ParametersOf(
     const std::string& effect, const std::string& target,
     const SuspensionParameters<double>& nominal) {
-  if (effect == kModelParameter) return {FreedParameter(target, nominal)};
+  if (effect == kModelParameter) return FreedParameter(target, nominal);
   if (effect == "bushing_damping") {
     // Starts at the model's own bushing damping: no change.
     double model_damping = 0;
@@ -300,6 +303,12 @@ Status ParsePlacedEffect(const std::string& effect, std::string* name,
           "model_parameter@k_spring");
     }
     *target = effect.substr(separator + 1);
+    if (target->empty()) {
+      return Status::Error("model_parameter@ needs the parameter it frees");
+    }
+    if (target->find('@') != std::string::npos) {
+      return Status::Error("model_parameter is not placed on components");
+    }
     const std::vector<std::string> freeable = FreeableModelParameters();
     if (std::find(freeable.begin(), freeable.end(), *target) ==
         freeable.end()) {
@@ -362,15 +371,15 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
     }
     const std::vector<EffectParameter> own =
         ParametersOf(m.effects_[e], m.targets_[e], nominal);
+    if (own.empty() && m.effects_[e] == kModelParameter) {
+      return Status::Error("'" + effects[e] + "': the configured " +
+                           m.targets_[e] +
+                           " is zero: a rate taken out is not freed");
+    }
     if (own.empty()) {
       return Status::Error("unknown effect '" + m.effects_[e] + "'");
     }
     for (const EffectParameter& p : own) {
-      if (!(p.scale > 0)) {
-        return Status::Error("'" + effects[e] + "': the configured " + p.name +
-                             " is " + std::to_string(p.base) +
-                             "; only a positive value is freed");
-      }
       if (p.name == "dead_time") m.max_dead_time_ = p.upper;
     }
     m.parameters_.insert(m.parameters_.end(), own.begin(), own.end());
@@ -426,15 +435,23 @@ Status ParseModelName(const std::string& name,
   return Status::Ok();
 }
 
+std::vector<std::string> EffectModel::EffectNames() const {
+  std::vector<std::string> names;
+  for (size_t e = 0; e < effects_.size(); ++e) {
+    names.push_back(effects_[e]);
+    if (!targets_[e].empty()) names.back() += "@" + targets_[e];
+    if (placements_[e] != kEveryBushing) {
+      names.back() += "@" + DescribeBushingSet(placements_[e]);
+    }
+  }
+  return names;
+}
+
 std::string EffectModel::Name() const {
   if (effects_.empty()) return "nominal";
   std::string name;
-  for (size_t e = 0; e < effects_.size(); ++e) {
-    name += (name.empty() ? "" : "+") + effects_[e];
-    if (!targets_[e].empty()) name += "@" + targets_[e];
-    if (placements_[e] != kEveryBushing) {
-      name += "@" + DescribeBushingSet(placements_[e]);
-    }
+  for (const std::string& effect : EffectNames()) {
+    name += (name.empty() ? "" : "+") + effect;
   }
   return name;
 }
@@ -563,14 +580,30 @@ std::vector<std::string> FreeableModelParameters() {
   return names;
 }
 
+void ApplyFreedParameters(const std::vector<std::string>& names,
+                          const std::vector<double>& values,
+                          SuspensionParameters<double>* model) {
+  const std::string prefix = kModelParameter + std::string(".");
+  for (size_t k = 0; k < names.size() && k < values.size(); ++k) {
+    if (names[k].rfind(prefix, 0) != 0) continue;
+    if (double* p = FindParameter(model, names[k].substr(prefix.size()))) {
+      *p = values[k];
+    }
+  }
+}
+
 Status ScreenModelParameters(const SuspensionParameters<double>& nominal,
                              const std::vector<double>& stiffness,
-                             const std::vector<std::string>& names,
+                             const std::vector<std::string>& candidates,
                              const std::vector<Experiment>& experiments,
                              double integrator_step, int num_threads,
                              std::vector<ParameterLead>* leads) {
   if (stiffness.size() != kNumBushings) {
     return Status::Error("screening needs the five bushing stiffnesses");
+  }
+  std::vector<std::string> names;
+  for (const std::string& name : candidates) {
+    if (!FreedParameter(name, nominal).empty()) names.push_back(name);
   }
   constexpr int kPerModel = kMaxEffectModelParameters - kNumBushings;
   const int groups =
@@ -582,7 +615,7 @@ Status ScreenModelParameters(const SuspensionParameters<double>& nominal,
     const size_t last = std::min(names.size(), first + kPerModel);
     std::vector<std::string> freed;
     for (size_t k = first; k < last; ++k) {
-      freed.push_back(kModelParameter + std::string("@") + names[k]);
+      freed.push_back(FreedModelName(names[k]));
     }
     // Stiffness bounds wide enough for any fit the screening is asked at.
     EffectModel model;
@@ -609,8 +642,8 @@ Status ScreenModelParameters(const SuspensionParameters<double>& nominal,
       column -= basis * (basis.transpose() * column);
       const double norm2 = column.squaredNorm();
       (*leads)[k].name = names[k];
-      (*leads)[k].chi2_drop =
-          norm2 > 0 ? std::pow(column.dot(residuals), 2) / norm2 : 0;
+      const double drop = std::pow(column.dot(residuals), 2) / norm2;
+      (*leads)[k].chi2_drop = std::isfinite(drop) ? drop : 0;
     }
   });
   for (const Status& s : status) KCRIG_RETURN_IF_ERROR(s);
@@ -692,7 +725,7 @@ Status FitAtStep(const EffectModel& model,
   for (int i = 0; i < n; ++i) {
     const EffectParameter& p = model.parameters()[i];
     ParameterEstimate estimate;
-    estimate.name = p.effect.empty() ? p.name : p.effect + "." + p.name;
+    estimate.name = p.FullName();
     estimate.unit = p.unit;
     estimate.nominal = p.scale;
     estimate.initial = model.ToPhysical(i, model.ToTheta(i, p.initial));

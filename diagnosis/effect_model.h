@@ -38,6 +38,18 @@ inline constexpr char kModelParameter[] = "model_parameter";
 // places on the bushings).
 std::vector<std::string> FreeableModelParameters();
 
+// "model_parameter@k_spring": the candidate that frees `parameter`.
+inline std::string FreedModelName(const std::string& parameter) {
+  return kModelParameter + std::string("@") + parameter;
+}
+
+// Sets each freed model parameter among `names` (est.json's and a fit's
+// parameter names, "model_parameter.k_spring") to its value in `model`:
+// the model a fit with freed parameters describes.
+void ApplyFreedParameters(const std::vector<std::string>& names,
+                          const std::vector<double>& values,
+                          SuspensionParameters<double>* model);
+
 struct EffectParameter {
   std::string effect;  // "" for a bushing stiffness
   std::string name;    // "c_O1", "force", "dead_time", ...
@@ -51,6 +63,12 @@ struct EffectParameter {
   // its configured stiffness). A model has as many starts as its longest
   // list allows; a shorter list repeats its last entry.
   std::vector<double> later_starts;
+
+  // As fits and est.json name it: "c_O1", "hysteresis.force",
+  // "model_parameter.k_spring".
+  std::string FullName() const {
+    return effect.empty() ? name : effect + "." + name;
+  }
 };
 
 // Most parameters of one candidate: five bushings plus two effects (the
@@ -83,6 +101,9 @@ class EffectModel {
   // "nominal", "hysteresis", "hysteresis+actuator_lag",
   // "hysteresis@bushing:V1".
   std::string Name() const;
+  // Each effect as a single candidate names it ("hysteresis@bushing:V1",
+  // "model_parameter@k_spring"); Name() joins them.
+  std::vector<std::string> EffectNames() const;
   // The effects' classes (names of kEffectNames, kModelParameter), where
   // each acts (every bushing unless placed; meaningful for the bushing
   // effects) and the parameter each frees ("" but for model_parameter).
@@ -198,7 +219,8 @@ struct ParameterLead {
   double chi2_drop = 0;
 };
 
-// Screens `names` (of FreeableModelParameters) at a fit of the nominal
+// Screens `candidates` (of FreeableModelParameters; a rate configured zero
+// is left out: it cannot be freed) at a fit of the nominal
 // model, `stiffness` (physical, the five bushings): the exact weighted
 // Jacobian of its residual on `experiments` by the stiffnesses and the
 // names (as many names per trajectory as one model frees, the trajectories
@@ -206,7 +228,7 @@ struct ParameterLead {
 // stiffnesses', is projected on the residual. Largest drop first.
 Status ScreenModelParameters(const SuspensionParameters<double>& nominal,
                              const std::vector<double>& stiffness,
-                             const std::vector<std::string>& names,
+                             const std::vector<std::string>& candidates,
                              const std::vector<Experiment>& experiments,
                              double integrator_step, int num_threads,
                              std::vector<ParameterLead>* leads);

@@ -633,18 +633,16 @@ Status KcModelOfEstimate(const SuspensionParameters<double>& nominal,
     bool found = false;
     for (int i = kNumBushings; i < effects.num_parameters() && !found; ++i) {
       const EffectParameter& p = effects.parameters()[i];
-      found = p.effect + "." + p.name == names[k];
+      found = p.FullName() == names[k];
       if (found) model->effect_values[i - kNumBushings] = values[k];
-      // A freed parameter is the model's own (the static compliance).
-      if (found && p.effect == kModelParameter) {
-        *FindParameter(&model->parameters, p.name) = values[k];
-      }
     }
     if (!found) {
       return Status::Error("\"" + names[k] + "\" is not a parameter of the " +
                            model->name + " model");
     }
   }
+  // A freed parameter is the model's own (its static compliance too).
+  ApplyFreedParameters(names, values, &model->parameters);
   if (covariance.rows() == static_cast<long>(names.size()) &&
       covariance.cols() == covariance.rows() && covariance.allFinite()) {
     model->uncertain = names;

@@ -88,14 +88,29 @@ Json TimeHistories(const Experiment& e, const std::vector<Vec6<double>>& model,
   return {{"t", t}, {"channels", channels}};
 }
 
+// The estimate of iteration `index` (its est.json: every parameter the fit
+// had, an adopted effect's included, and the step it was fitted at).
+Status ReadIterationEstimate(const fs::path& root, int index,
+                             EstimateFile* estimate) {
+  return ReadEstimateFile(
+      (fs::path(CampaignIterationDir(root.string(), index)) / "est.json")
+          .string(),
+      estimate);
+}
+
 // What the model of `it` predicts for `e`: the nominal model or the one
 // with its adopted effect, at its estimate (parameters it did not estimate
 // at their configured values) and the step it was fitted at.
-Status Predict(const KcrigConfig& config, const CampaignIteration& it,
-               const Experiment& e, std::vector<Vec6<double>>* sensed) {
+Status Predict(const KcrigConfig& config, const fs::path& root,
+               const CampaignIteration& it, const Experiment& e,
+               std::vector<Vec6<double>>* sensed) {
+  EstimateFile estimate;
+  KCRIG_RETURN_IF_ERROR(ReadIterationEstimate(root, it.index, &estimate));
   SuspensionParameters<double> base = config.model;
-  for (const ParameterEstimate& p : it.estimate.parameters) {
-    if (double* parameter = FindParameter(&base, p.name)) *parameter = p.value;
+  for (size_t k = 0; k < estimate.names.size(); ++k) {
+    if (double* p = FindParameter(&base, estimate.names[k])) {
+      *p = estimate.values[k];
+    }
   }
   EffectModel model;
   // The estimator's default stiffness bounds, as the diagnosis uses them.
@@ -104,16 +119,19 @@ Status Predict(const KcrigConfig& config, const CampaignIteration& it,
       base, it.model, bounds.lower_scale, bounds.upper_scale, &model));
   std::vector<double> values;
   for (const EffectParameter& p : model.parameters()) {
-    const std::string name =
-        p.effect.empty() ? p.name : p.effect + "." + p.name;
     values.push_back(p.initial);
-    for (const ParameterEstimate& estimated : it.estimate.parameters) {
-      if (estimated.name == name) values.back() = estimated.value;
+    for (size_t k = 0; k < estimate.names.size(); ++k) {
+      if (estimate.names[k] == p.FullName()) values.back() = estimate.values[k];
     }
   }
-  const double step =
-      it.model_step > 0 ? it.model_step : config.experiment.step;
-  return SimulateEffectModel(model, values, e, step, sensed);
+  // The log's samples at the step of the fit (a power-of-two fraction of
+  // the configured one).
+  const double step = estimate.integrator_step > 0 ? estimate.integrator_step
+                                                   : config.experiment.step;
+  const int refine =
+      std::max(1, static_cast<int>(std::lround(config.experiment.step / step)));
+  return SimulateEffectModel(model, values, RefinedExperiments({e}, refine)[0],
+                             config.experiment.step / refine, sensed);
 }
 
 // A number the page draws, or a gap.
@@ -264,7 +282,7 @@ Status SurfacesJson(const KcrigConfig& config, const fs::path& root,
         (fs::path(CampaignIterationDir(root.string(), it.index)) / "est.json")
             .string();
     EstimateFile estimate;
-    KCRIG_RETURN_IF_ERROR(ReadEstimateFile(est, &estimate));
+    KCRIG_RETURN_IF_ERROR(ReadIterationEstimate(root, it.index, &estimate));
     if (estimate.information.size() == 0) {
       return Status::Error(est +
                            ": information_matrix: missing (the prior the "
@@ -286,7 +304,11 @@ Status SurfacesJson(const KcrigConfig& config, const fs::path& root,
     step.objective.num_threads = options.num_threads;
     surface_options.points = {it.design.result.best};
     CriterionSurface surface;
-    const Status status = ComputeCriterionSurface(config, step, criteria,
+    // The model the design searched with: an adopted freed parameter is
+    // the model's own.
+    KcrigConfig design_config = config;
+    ApplyFreedParameters(estimate.names, estimate.values, &design_config.model);
+    const Status status = ComputeCriterionSurface(design_config, step, criteria,
                                                   surface_options, &surface);
     if (!status.ok()) return Status::Error(est + ": " + status.message());
     AddSurfaceJson(surface, criterion, name, it.design, out);
@@ -468,7 +490,8 @@ Status CampaignJson(const KcrigConfig& config, const fs::path& root,
     Experiment e;
     KCRIG_RETURN_IF_ERROR(LoadExperiment(log.string(), config, "", &e));
     std::vector<Vec6<double>> model;
-    const Status predicted = Predict(config, iterations.back(), e, &model);
+    const Status predicted =
+        Predict(config, root, iterations.back(), e, &model);
     if (!predicted.ok()) {
       return Status::Error(log.string() + ": " + predicted.message());
     }

@@ -101,20 +101,26 @@ void SetVerdictModel(const std::string& model, DiagnosisResult* result) {
 std::string DescribeFreedParameters(const CandidateScore& chosen) {
   const std::string prefix = kModelParameter + std::string(".");
   std::string text;
-  char line[200];
+  char line[240];
   for (const ParameterEstimate& p : chosen.fit.result.parameters) {
     if (p.name.rfind(prefix, 0) != 0) continue;
     const std::string name = p.name.substr(prefix.size());
     // A freed parameter's fit starts at its configured value.
     const double configured = p.initial;
     const double interval = 1.96 * p.standard_error;
+    const char* bound = p.at_bound ? " (at the bound of its range)" : "";
     const size_t dot = name.find('.');
     if (dot == std::string::npos) {
+      // Enough digits that the value is not rounded by more than its
+      // interval.
+      const int digits = std::clamp(
+          2 + static_cast<int>(std::ceil(
+                  std::log10(std::abs(p.value) / std::max(interval, 1e-300)))),
+          3, 10);
       std::snprintf(line, sizeof(line),
-                    "%s is %.4g +- %.2g %s, not the "
-                    "configured %.4g; ",
-                    name.c_str(), p.value, interval, p.unit.c_str(),
-                    configured);
+                    "%s is %.*g +- %.2g %s%s, not the configured %.4g; ",
+                    name.c_str(), digits, p.value, interval, p.unit.c_str(),
+                    bound, configured);
     } else {
       const char axis = name[dot + 1];
       const bool more = p.value > configured;
@@ -123,11 +129,11 @@ std::string DescribeFreedParameters(const CandidateScore& chosen) {
           : axis == 'y' ? (more ? "further left" : "further right")
                         : (more ? "higher" : "lower");
       std::snprintf(line, sizeof(line),
-                    "hard point %s sits %.1f +- %.1f mm %s than configured "
+                    "hard point %s sits %.1f +- %.1f mm %s than configured%s "
                     "(%s %.4f m, not %.4f); ",
                     name.substr(0, dot).c_str(),
                     1e3 * std::abs(p.value - configured), 1e3 * interval, where,
-                    name.c_str(), p.value, configured);
+                    bound, name.c_str(), p.value, configured);
     }
     text += line;
   }

@@ -289,8 +289,9 @@ TEST_F(EffectModelTest, WrongKnownParametersAreFreedAndRecovered) {
   EXPECT_EQ(ComponentOfParameter("d_V1"), "bushing:V1");
   EXPECT_EQ(ComponentOfParameter("O1.w"), "");
   for (const char* bad :
-       {"model_parameter", "model_parameter@c_O1", "model_parameter@d_O1",
-        "model_parameter@O1.w",
+       {"model_parameter", "model_parameter@", "model_parameter@c_O1",
+        "model_parameter@d_O1", "model_parameter@O1.w",
+        "model_parameter@k_spring@bushing:V1",
         "model_parameter@k_spring+model_parameter@k_spring"}) {
     const Status status =
         EffectModel::CreateNamed(config_.model, bad, 0.1, 10, &model);
@@ -316,12 +317,31 @@ TEST_F(EffectModelTest, WrongKnownParametersAreFreedAndRecovered) {
       config_.model, nominal_fit.values, FreeableModelParameters(), logs,
       config_.experiment.step, 2, &leads);
   ASSERT_TRUE(screened.ok()) << screened.message();
-  ASSERT_EQ(leads.size(), FreeableModelParameters().size());
+  for (const ParameterLead& lead : leads) {
+    EXPECT_TRUE(std::isfinite(lead.chi2_drop) && lead.chi2_drop >= 0)
+        << lead.name;
+  }
   for (int k = 0; k < 3; ++k) {
     std::printf("  lead %s: chi2 drop %.1f\n", leads[k].name.c_str(),
                 leads[k].chi2_drop);
   }
   EXPECT_EQ(leads[0].name, "k_spring");
+
+  // A damper taken out of the rig (rate zero) is not freed, and the
+  // screening leaves it out rather than failing.
+  SuspensionParameters<double> no_damper = config_.model;
+  no_damper.spring.damping = 0;
+  const Status refused = EffectModel::CreateNamed(
+      no_damper, "model_parameter@d_damper", 0.1, 10, &model);
+  EXPECT_FALSE(refused.ok());
+  EXPECT_EQ(refused.message().find('\n'), std::string::npos);
+  std::vector<ParameterLead> without;
+  ASSERT_TRUE(ScreenModelParameters(no_damper, nominal_fit.values,
+                                    FreeableModelParameters(), logs,
+                                    config_.experiment.step, 2, &without)
+                  .ok());
+  EXPECT_EQ(without.size(), leads.size() - 1);
+  for (const ParameterLead& lead : without) EXPECT_NE(lead.name, "d_damper");
 
   ASSERT_TRUE(EffectModel::CreateNamed(
                   config_.model, "model_parameter@k_spring", 0.1, 10, &model)

@@ -99,5 +99,51 @@ TEST(VerdictTest, StatesTheChosenModelTheAmbiguityOrUnexplained) {
   EXPECT_NE(none.reason.find("no candidate closes 80 %"), std::string::npos);
 }
 
+// A freed parameter in words: the value to the digits its interval needs,
+// a hard point's offset with its direction in the rig frame (ISO 8855: x
+// forward, y left, z up), a value on its bound said so; the components.
+TEST(VerdictTest, FreedParametersAreStatedAgainstTheirConfiguredValues) {
+  auto freed = [](const char* name, double value, double configured,
+                  double standard_error, bool at_bound) {
+    ParameterEstimate p;
+    p.name = name;
+    p.unit = std::string(name).find('.', 16) != std::string::npos ? "m" : "N/m";
+    p.value = value;
+    p.initial = configured;
+    p.standard_error = standard_error;
+    p.at_bound = at_bound;
+    return p;
+  };
+  CandidateScore s;
+  s.fit.result.parameters = {
+      freed("model_parameter.k_spring", 140370, 1.1e5, 13.8, false),
+      freed("model_parameter.O1.z", 0.121, 0.117, 1e-4, false),
+      freed("model_parameter.N2.y", 0.300, 0.305, 1e-4, false),
+      freed("model_parameter.Q.x", 0.05, 0.10, 1e-4, true)};
+  const std::string text = DescribeFreedParameters(s);
+  EXPECT_NE(text.find("k_spring is 140370 +- 27 N/m, not the configured "
+                      "1.1e+05"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("hard point O1 sits 4.0 +- 0.2 mm higher"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("hard point N2 sits 5.0 +- 0.2 mm further right"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("further back than configured (at the bound"),
+            std::string::npos)
+      << text;
+
+  DiagnosisResult result;
+  result.nominal = Scored("nominal", 9.0, 0, 0);
+  result.ranking = {
+      Scored("model_parameter@O1.z+model_parameter@k_spring", 1.0, 1.0, 0)};
+  StateVerdict(&result.ranking[0], HoldoutRules(), &result);
+  EXPECT_EQ(result.verdict, "model_parameter");
+  EXPECT_EQ(result.components,
+            (std::vector<std::string>{"hardpoint:O1", "strut:spring"}));
+}
+
 }  // namespace
 }  // namespace kcrig
