@@ -106,6 +106,18 @@ TEST_F(CampaignChecksCliTest, CampaignAdoptsAWrongKnownParameter) {
   const double half =
       0.5 * (k["ci95"][1].get<double>() - k["ci95"][0].get<double>());
   EXPECT_LT(std::abs(k["value"].get<double>() - 1.4e5), 1.5 * half + 1) << k;
+  // The K&C sheet of the last run against the adopted est.json: the model
+  // with the freed rate, agreeing with the rig on every channel.
+  const std::string last_dir =
+      "campaign/iteration_" + std::to_string(doc["iterations"].size() - 1);
+  const CliResult kc =
+      RunKcrig("kc --log " + Path(last_dir + "/run.csv") + " --estimate " +
+               Path(last_dir + "/est.json") + " --out " + Path("kc.json"));
+  ASSERT_EQ(kc.exit_code, 0) << kc.output;
+  const nlohmann::json sheet =
+      nlohmann::json::parse(std::ifstream(Path("kc.json")));
+  EXPECT_EQ(sheet["model"], "model_parameter@k_spring");
+  EXPECT_EQ(sheet["differing_channels"], nlohmann::json::array()) << kc.output;
 }
 
 // Three unmodelled effects at once are beyond every candidate (one effect,
