@@ -129,7 +129,7 @@ std::string DescribeFreedParameters(const CandidateScore& chosen) {
           : axis == 'y' ? (more ? "further left" : "further right")
                         : (more ? "higher" : "lower");
       std::snprintf(line, sizeof(line),
-                    "hard point %s sits %.1f +- %.1f mm %s than configured%s "
+                    "hard point %s sits %.2f +- %.2g mm %s than configured%s "
                     "(%s %.4f m, not %.4f); ",
                     name.substr(0, dot).c_str(),
                     1e3 * std::abs(p.value - configured), 1e3 * interval, where,

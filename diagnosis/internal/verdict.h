@@ -53,7 +53,7 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
 
 // The model parameters `chosen` frees, in words against their configured
 // values: "k_spring is 1.402e+05 +- 3.8e+03 N/m, not the configured
-// 1.1e+05; ", "hard point O1 sits 4.0 +- 0.3 mm higher than configured
+// 1.1e+05; ", "hard point O1 sits 4.00 +- 0.3 mm higher than configured
 // (O1.z 0.2540 m, not 0.2500); " (+- the 95 % interval); "" for none.
 std::string DescribeFreedParameters(const CandidateScore& chosen);
 

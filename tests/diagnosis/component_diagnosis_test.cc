@@ -116,6 +116,11 @@ TEST_F(WrongParameterTest, AHardPointIsNamedOrItsLinkIsAmbiguous) {
     EXPECT_NE(std::find(pair.begin(), pair.end(), "model_parameter@N1.z"),
               pair.end())
         << r.reason;
+    // What each alternative says of its hard point.
+    EXPECT_NE(r.reason.find("hard point O1 sits"), std::string::npos)
+        << r.reason;
+    EXPECT_NE(r.reason.find("hard point N1 sits"), std::string::npos)
+        << r.reason;
   }
 }
 

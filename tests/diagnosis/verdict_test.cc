@@ -125,10 +125,10 @@ TEST(VerdictTest, FreedParametersAreStatedAgainstTheirConfiguredValues) {
                       "1.1e+05"),
             std::string::npos)
       << text;
-  EXPECT_NE(text.find("hard point O1 sits 4.0 +- 0.2 mm higher"),
+  EXPECT_NE(text.find("hard point O1 sits 4.00 +- 0.2 mm higher"),
             std::string::npos)
       << text;
-  EXPECT_NE(text.find("hard point N2 sits 5.0 +- 0.2 mm further right"),
+  EXPECT_NE(text.find("hard point N2 sits 5.00 +- 0.2 mm further right"),
             std::string::npos)
       << text;
   EXPECT_NE(text.find("further back than configured (at the bound"),
