@@ -87,21 +87,6 @@ class DiagnosisRun {
     chosen = PlaceOnComponents(chosen);
     if (progress_.aborted()) return Interrupted("diagnosis");
     StateVerdict(chosen, rules_, result_);
-    if (chosen != nullptr) {
-      result_->reason = DescribeFreedParameters(*chosen) + result_->reason;
-    }
-    // Two alternatives that free parameters: what each says of them.
-    std::string alternatives;
-    for (const CandidateScore& s : result_->ranking) {
-      if (!result_->ambiguous_a.empty() && (s.model == result_->ambiguous_a ||
-                                            s.model == result_->ambiguous_b)) {
-        alternatives += DescribeFreedParameters(s);
-      }
-    }
-    if (!alternatives.empty()) {
-      result_->reason +=
-          "; either " + alternatives.substr(0, alternatives.size() - 2);
-    }
     if (result_->gap_source == "prediction") {
       result_->reason = "fits the training logs, mispredicts the hold-out (" +
                         result_->prediction.reason +

@@ -154,7 +154,7 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   result->confidence == "high"
                       ? "; what is left is noise"
                       : "; some structure is left beyond the noise");
-    result->reason = text;
+    result->reason = DescribeFreedParameters(*chosen) + text;
     return;
   }
   result->verdict = "unexplained";
@@ -163,6 +163,7 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
   const CandidateScore& best = result->ranking.front();
   const CandidateScore* second =
       result->ranking.size() > 1 ? &result->ranking[1] : nullptr;
+  std::string alternatives;
   if (best.gap_closed >= rules.min_gap_closed && second != nullptr &&
       second->gap_closed >= rules.min_gap_closed) {
     result->ambiguous_a = best.model;
@@ -173,6 +174,9 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   "needed",
                   best.model.c_str(), second->model.c_str(),
                   100 * best.gap_closed, 100 * second->gap_closed);
+    // Two alternatives that free parameters: what each says of them.
+    alternatives =
+        DescribeFreedParameters(best) + DescribeFreedParameters(*second);
   } else if (best.gap_closed >= rules.min_gap_closed && second != nullptr) {
     std::snprintf(text, sizeof(text),
                   "%s closes %.0f %% of the gap but is not clearly better "
@@ -187,6 +191,10 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   100 * best.gap_closed);
   }
   result->reason = text;
+  if (!alternatives.empty()) {
+    result->reason +=
+        "; either " + alternatives.substr(0, alternatives.size() - 2);
+  }
 }
 
 }  // namespace kcrig

@@ -47,7 +47,9 @@ VerdictRules MakeVerdictRules(const DiagnosisOptions& options, bool holdout,
 void RankCandidates(std::vector<CandidateScore>* list);
 
 // Sets verdict, confidence, reason and the ambiguous pair of `result` from
-// the chosen candidate (nullptr: none qualified) and the ranking.
+// the chosen candidate (nullptr: none qualified) and the ranking; the
+// reason says what the chosen candidate's freed parameters, or each of an
+// ambiguous pair's, would mean (DescribeFreedParameters).
 void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   DiagnosisResult* result);
 
