@@ -12,7 +12,7 @@ packages=(
   mbpoll socat python3-pymodbus python3-serial python3-serial-asyncio rt-tests
   qemu-system-x86 busybox-static cpio python3-can python3-canmatrix
   clang-14 libclang-rt-14-dev
-  python3-plotly chromium fonts-dejavu-core python3-numpy python3-scipy
+  python3-plotly chromium fonts-dejavu-core python3-numpy python3-scipy python3-yaml
 )
 
 missing=()
