@@ -1,0 +1,303 @@
+#!/usr/bin/python3
+"""Blind diagnosis on the independent generator (tests/peers/independent_rig.py).
+
+Usage: blind_independent_tier.py KCRIG CONFIG_DIR WORK_DIR CASES SEED [JOBS]
+
+Each case draws one truth from the seed: a clean plant, an effect in a form
+other than kcrig's candidates placed on one component, a wrong "known"
+parameter, or an effect outside every class (dry friction in the strut,
+free play in a link, a stiffness drifting during the log). The generator
+writes two training logs (85 deg / -0.45 m, 20 deg / -0.1 m) and a hold-out
+(50 deg / -0.3 m) with noise; the truth goes to a file kcrig never sees.
+`kcrig diagnose` judges the logs; this script compares its verdict with the
+truth and prints the confusion matrix, the component and parameter hits and
+the issue's figures beside their goals.
+
+It fails (exit 1) when kcrig is confidently wrong: a high-confidence verdict
+naming a class that is not the truth's (for an effect outside every class:
+any high-confidence class), a clean plant diagnosed as anything but `none`,
+or a diagnosis that errs. The goals' rates are printed, not asserted: a CI
+tier of a few cases cannot measure a 90 % rate (the full tier's are in the
+notes).
+"""
+import concurrent.futures
+import json
+import math
+import pathlib
+import random
+import subprocess
+import sys
+
+HERE = pathlib.Path(__file__).resolve().parent
+GENERATOR = HERE.parent / "peers" / "independent_rig.py"
+RAMP = ["--duration", "2", "--hold", "0.3", "--return", "1.7"]
+DESIGNS = {"train_a": ("85", "-0.45"), "train_b": ("20", "-0.1"),
+           "holdout": ("50", "-0.3")}
+BUSHINGS = ["O1", "O2", "V1", "V2", "P"]
+HARD_POINTS = ["O1", "O2", "V1", "V2", "P", "N1", "N2", "U1", "U2", "Q"]
+# kind -> the class kcrig should name (None: outside every class).
+KINDS = {
+    "clean": "none",
+    "maxwell": "bushing_damping",
+    "dahl_one": "hysteresis",
+    "bouc_wen": "hysteresis",
+    "stiffening": "progressive_stiffness",
+    "actuator2": "actuator_lag",
+    "fixture": "rig_compliance",
+    "sensor_gain": "sensor_offset",
+    "k_spring": "model_parameter",
+    "hard_point": "model_parameter",
+    "friction": None,
+    "free_play": None,
+    "drift": None,
+}
+
+
+def log_uniform(rng, low, high):
+    return math.exp(rng.uniform(math.log(low), math.log(high)))
+
+
+def draw(kind, rng):
+    """Generator arguments and the truth's component for one case."""
+    bushing = rng.choice(BUSHINGS)
+    at = f"at=bushing:{bushing}"
+    if kind == "clean":
+        return [], None
+    if kind == "maxwell":
+        k2 = log_uniform(rng, 2e6, 2e7)
+        tau = log_uniform(rng, 0.02, 0.2)
+        return ["--effect", f"maxwell:{at},k2={k2:.4g},c2={k2 * tau:.4g}"], \
+            f"bushing:{bushing}"
+    if kind == "dahl_one":
+        force = log_uniform(rng, 150, 1000)
+        return ["--effect", f"dahl_one:{at},force={force:.4g}"], \
+            f"bushing:{bushing}"
+    if kind == "bouc_wen":
+        force = log_uniform(rng, 150, 1000)
+        n = rng.uniform(1.0, 2.0)
+        return ["--effect", f"bouc_wen:{at},force={force:.4g},n={n:.3g}"], \
+            f"bushing:{bushing}"
+    if kind == "stiffening":
+        c2 = log_uniform(rng, 2e10, 2e11)
+        c3 = log_uniform(rng, 5e11, 5e12)
+        return ["--effect", f"stiffening:{at},c2={c2:.4g},c3={c3:.4g}"], \
+            f"bushing:{bushing}"
+    if kind == "actuator2":
+        return ["--effect",
+                f"actuator2:wn={log_uniform(rng, 20, 80):.4g},"
+                f"zeta={rng.uniform(0.5, 0.9):.3g},"
+                f"delay={rng.uniform(0.0, 0.01):.3g}"], "actuator"
+    if kind == "fixture":
+        return ["--effect", f"fixture:k={log_uniform(rng, 5e6, 5e7):.4g},"
+                f"k_rot={log_uniform(rng, 5e4, 5e5):.4g}"], "fixture"
+    if kind == "sensor_gain":
+        channel = rng.choice(["x", "y", "z", "toe", "camber", "caster"])
+        gain = 1 + rng.choice([-1, 1]) * rng.uniform(0.02, 0.1)
+        return ["--effect", f"sensor_gain:channel={channel},gain={gain:.4g},"
+                f"coupling={rng.uniform(0.01, 0.1):.3g}"], f"sensor:{channel}"
+    if kind == "k_spring":
+        factor = 1 + rng.choice([-1, 1]) * rng.uniform(0.05, 0.3)
+        return ["--set", f"k_spring={1.1e5 * factor:.6g}"], "k_spring"
+    if kind == "hard_point":
+        point, axis = rng.choice(HARD_POINTS), rng.choice("xyz")
+        return ["--set-offset", f"{point}.{axis}",
+                f"{rng.choice([-1, 1]) * rng.uniform(1e-3, 6e-3):.6g}"], \
+            f"{point}.{axis}"
+    if kind == "friction":
+        return ["--effect",
+                f"friction:force={log_uniform(rng, 10, 100):.4g}"], "strut"
+    if kind == "free_play":
+        return ["--effect", f"free_play:{at},"
+                f"gap={log_uniform(rng, 3e-5, 3e-4):.4g}"], \
+            f"bushing:{bushing}"
+    if kind == "drift":
+        return ["--effect", "drift:fraction="
+                f"{rng.choice([-1, 1]) * rng.uniform(0.05, 0.2):.3g}"], None
+    raise ValueError(kind)
+
+
+def hard_point_assignment(config, name, offset):
+    """NAME=VALUE from the configured coordinate and an offset."""
+    import yaml
+    doc = yaml.safe_load((config / "model.yaml").read_text())
+    point, axis = name.split(".")
+    k = "xyz".index(axis)
+    if point in BUSHINGS:
+        value = doc["bushings"][point]["chassis"][k]
+    else:
+        carrier = dict(zip(["N1", "N2", "U1", "U2", "Q"], BUSHINGS))
+        value = doc["bushings"][carrier[point]]["carrier"][k]
+    return f"{name}={value + offset:.6g}"
+
+
+def run(command):
+    result = subprocess.run(command, capture_output=True, text=True)
+    return result.returncode, result.stdout, result.stderr
+
+
+def run_case(index, kind, arguments, kcrig, config, work):
+    case = work / f"case_{index:03d}"
+    case.mkdir(parents=True, exist_ok=True)
+    if arguments[:1] == ["--set-offset"]:
+        arguments = ["--set", hard_point_assignment(config, arguments[1],
+                                                    float(arguments[2]))]
+    logs = {}
+    for seed_offset, (name, (phi, z)) in enumerate(DESIGNS.items()):
+        path = case / f"{name}.csv"
+        command = ["/usr/bin/python3", str(GENERATOR), "--config",
+                   str(config), "--phi", phi, "--z", z, *RAMP, *arguments,
+                   "--noise", "--seed", str(1000 * index + seed_offset),
+                   "--out", str(path)]
+        if name == "holdout":
+            command += ["--truth", str(case / "truth.json")]
+        else:
+            command += ["--noise-free-copy", str(case / f"{name}_clean.csv")]
+        code, _, error = run(command)
+        if code != 0:
+            return {"index": index, "kind": kind, "error": error.strip()}
+        logs[name] = path
+    code, _, error = run([kcrig, "diagnose", "--config", str(config),
+                          "--log", str(logs["train_a"]), "--log",
+                          str(logs["train_b"]), "--holdout",
+                          str(logs["holdout"]), "--quiet", "--out",
+                          str(case / "diag.json")])
+    if code != 0:
+        return {"index": index, "kind": kind, "error": error.strip()}
+    diag = json.loads((case / "diag.json").read_text())
+    size = effect_size(kcrig, config, case)
+    if size is None:
+        return {"index": index, "kind": kind, "error": "size: estimate failed"}
+    closed = (diag.get("quantification") or {}).get("gap_closed")
+    return {"index": index, "kind": kind, "arguments": arguments,
+            "size_sigma": size, "verdict": diag["verdict"],
+            "model": diag.get("model", ""), "confidence": diag["confidence"],
+            "components": diag.get("components", []), "gap_closed": closed,
+            "reason": diag.get("reason", "")}
+
+
+def effect_size(kcrig, config, case):
+    """The size of the effect "in the residual", as the other blind tiers
+    define it: sigma_hat (RMS in noise units) of the nominal fit, bushings
+    fitted, on the training logs without noise."""
+    code, _, _ = run([kcrig, "estimate", "--config", str(config), "--log",
+                      str(case / "train_a_clean.csv"), "--log",
+                      str(case / "train_b_clean.csv"), "--out",
+                      str(case / "size_est.json")])
+    if code != 0:
+        return None
+    return json.loads((case / "size_est.json").read_text())["sigma_hat"]
+
+
+def verdict_class(result):
+    verdict = result["verdict"]
+    if verdict in ("none", "unexplained"):
+        return verdict
+    return "pair" if "+" in verdict else verdict
+
+
+def confidently_wrong(result):
+    expected = KINDS[result["kind"]]
+    got = verdict_class(result)
+    if result["kind"] == "clean":
+        return got != "none"
+    if result["confidence"] != "high" or got in ("none", "unexplained"):
+        return False
+    return expected is None or got != expected
+
+
+def component_hit(result, component):
+    if component is None:
+        return None
+    if result["kind"] in ("k_spring", "hard_point"):
+        return f"model_parameter@{component}" in result["model"]
+    return component in result["components"]
+
+
+def rate(hits, goal):
+    n = len(hits)
+    if n == 0:
+        return "no cases"
+    value = sum(hits) / n
+    return (f"{sum(hits)}/{n} = {100 * value:.0f} % (goal {100 * goal:.0f} "
+            f"%: {'met' if value >= goal else 'missed'})")
+
+
+def summarise(results, components):
+    classes = ["none", "bushing_damping", "hysteresis",
+               "progressive_stiffness", "actuator_lag", "rig_compliance",
+               "sensor_offset", "model_parameter", "pair", "unexplained"]
+    print("class confusion (rows: truth; columns: verdict)")
+    print(" " * 22 + " ".join(f"{c[:6]:>6s}" for c in classes))
+    for kind in KINDS:
+        rows = [r for r in results if r["kind"] == kind and "error" not in r]
+        if not rows:
+            continue
+        counts = [sum(verdict_class(r) == c for r in rows) for c in classes]
+        print(f"{kind:>22s}" + " ".join(f"{n:6d}" for n in counts))
+    large = [r for r in results if "error" not in r and
+             KINDS[r["kind"]] not in (None, "none") and r["size_sigma"] >= 3]
+    print("effects >= 3x noise, right class: " +
+          rate([verdict_class(r) == KINDS[r["kind"]] for r in large], 0.9))
+    placed = [r for r in large if components[r["index"]] is not None and
+              r["kind"] not in ("k_spring", "hard_point")]
+    print("effects >= 3x noise, right component: " +
+          rate([bool(component_hit(r, components[r["index"]]))
+                for r in placed], 0.8))
+    wrong_parameter = [r for r in large
+                       if r["kind"] in ("k_spring", "hard_point")]
+    print("wrong parameters >= 3x noise, right parameter named: " +
+          rate([bool(component_hit(r, components[r["index"]]))
+                for r in wrong_parameter], 0.8))
+    clean = [r for r in results if r["kind"] == "clean" and "error" not in r]
+    print("clean: none " + rate([r["verdict"] == "none" for r in clean],
+                                0.95))
+    outside = [r for r in results if "error" not in r and
+               KINDS[r["kind"]] is None]
+    print("outside every class: no high-confidence class " +
+          rate([not confidently_wrong(r) for r in outside], 1.0))
+    correct = [r for r in results if "error" not in r and
+               KINDS[r["kind"]] not in (None, "none") and
+               verdict_class(r) == KINDS[r["kind"]]]
+    print("correct verdicts closing >= 80 % of the held-out gap: " +
+          rate([(r["gap_closed"] or 0) >= 0.8 for r in correct], 1.0))
+
+
+def main():
+    kcrig, config, work = sys.argv[1], pathlib.Path(sys.argv[2]), \
+        pathlib.Path(sys.argv[3])
+    cases, seed = int(sys.argv[4]), int(sys.argv[5])
+    jobs = int(sys.argv[6]) if len(sys.argv) > 6 else 2
+    rng = random.Random(seed)
+    kinds = list(KINDS)
+    draws = []
+    for index in range(cases):
+        kind = kinds[index % len(kinds)]
+        draws.append((index, kind, *draw(kind, rng)))
+    components = {index: component for index, _, _, component in draws}
+    with concurrent.futures.ThreadPoolExecutor(jobs) as pool:
+        futures = [pool.submit(run_case, index, kind, arguments, kcrig,
+                               config, work)
+                   for index, kind, arguments, _ in draws]
+        results = [f.result() for f in futures]
+    (work / "results.json").write_text(json.dumps(results, indent=2) + "\n")
+    print("case kind size/sigma verdict confidence components closed")
+    for r in results:
+        if "error" in r:
+            print(f"{r['index']:3d} {r['kind']:>12s} ERROR {r['error']}")
+            continue
+        closed = r["gap_closed"]
+        print(f"{r['index']:3d} {r['kind']:>12s} {r['size_sigma']:7.2f} "
+              f"{r['model'] or r['verdict']:40s} {r['confidence']:6s} "
+              f"{','.join(r['components']):24s} "
+              + (f"{100 * closed:.0f} %" if closed is not None else "-")
+              + f"  [truth {components[r['index']]}]")
+    summarise(results, components)
+    failures = [r for r in results if "error" in r or confidently_wrong(r)]
+    if failures:
+        sys.exit("FAIL: confidently wrong or failed on cases " +
+                 ", ".join(str(r["index"]) for r in failures))
+    print("PASS: no confident wrong answer")
+
+
+if __name__ == "__main__":
+    main()
