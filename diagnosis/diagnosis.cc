@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "base/parallel_for.h"
+#include "diagnosis/internal/discrepancy.h"
 #include "diagnosis/internal/localisation.h"
 #include "diagnosis/internal/residual_statistics.h"
 #include "diagnosis/internal/verdict.h"
@@ -87,6 +88,7 @@ class DiagnosisRun {
     chosen = PlaceOnComponents(chosen);
     if (progress_.aborted()) return Interrupted("diagnosis");
     StateVerdict(chosen, rules_, result_);
+    KCRIG_RETURN_IF_ERROR(CharacteriseWhenUnexplained());
     if (result_->gap_source == "prediction") {
       result_->reason = "fits the training logs, mispredicts the hold-out (" +
                         result_->prediction.reason +
@@ -489,6 +491,21 @@ class DiagnosisRun {
                           ? (result_->nominal.score - s->score) / nominal_gap_
                           : 0;
     }
+  }
+
+  // Stage 7: with no verdict, what the missing force looks like
+  // (internal/discrepancy.h), in the reason's last sentence.
+  Status CharacteriseWhenUnexplained() {
+    if (result_->verdict != "unexplained" ||
+        options_.discrepancy.max_terms <= 0) {
+      return Status::Ok();
+    }
+    KCRIG_RETURN_IF_ERROR(Progress("characterising the discrepancy", 0.95));
+    KCRIG_RETURN_IF_ERROR(CharacteriseDiscrepancy(
+        nominal_model_, result_->nominal.fit.values, training_, holdout_, step_,
+        options_.discrepancy, &result_->discrepancy));
+    result_->reason += ". " + result_->discrepancy.text;
+    return Status::Ok();
   }
 
   // Stage 3b: wrong "known" parameters proposed by screening

@@ -26,6 +26,21 @@
 
 namespace kcrig {
 
+// The characterisation of a gap no candidate explains
+// (internal/discrepancy.h).
+struct DiscrepancyOptions {
+  // At most this many terms; 0: not characterised.
+  int max_terms = 4;
+  // A term must lower the training RSS by the BIC's ln(m) and this much
+  // more (strong evidence), and with two or more fitted logs their
+  // cross-validated RSS by this much.
+  double min_bic_difference = 10;
+  // The terms describe the missing force only when they close at least
+  // this fraction of the gap on the validation logs; else the text says
+  // that nothing in the links or the strut predicts it.
+  double min_gap_closed = 0.5;
+};
+
 struct DiagnosisOptions {
   // Bounds of the bushing stiffnesses (x nominal) and the uncertainty
   // thresholds, as for `kcrig estimate`.
@@ -75,6 +90,8 @@ struct DiagnosisOptions {
   // min_bic_difference, join the candidates as model_parameter@<name>.
   // 0: none.
   int model_parameter_pool = 3;
+  // With no verdict, what the missing force looks like.
+  DiscrepancyOptions discrepancy;
   // A stiffness estimated from single logs drifts when two logs disagree by
   // more than this many combined standard errors.
   double drift_z = 4;
@@ -134,6 +151,36 @@ struct StiffnessDrift {
   std::vector<double> standard_errors;  // [N/m]
   double max_z = 0;                     // largest pairwise disagreement
   bool drifts = false;
+};
+
+// One term of the discrepancy characterisation: a force in one element as
+// a coefficient times a named function of its elongation d, rate v or time.
+struct DiscrepancyTerm {
+  std::string component;  // "bushing:V1", "strut:spring", "strut:damper"
+  std::string term;       // "d^2", "d^3", "sign(d)", "v", "sign(v)", "t*d", "d"
+  double coefficient = 0;  // SI: N per the term's unit
+  std::string unit;        // of the coefficient: "N/m^2", "N", "N s/m", ...
+  double force_rms = 0;    // RMS of the term's force over the training logs [N]
+  std::string words;       // "a force of about 60 N opposing ..."
+};
+
+// What the missing force looks like when no candidate explains the gap: a
+// sparse combination of physically named terms per element, chosen by
+// forward selection with the BIC on the training logs (the bushing
+// stiffnesses refitted beside them) and validated on data not fitted.
+struct Discrepancy {
+  std::vector<DiscrepancyTerm> terms;  // largest force first
+  // "holdout", "last training log" (fitted to the others), or "none".
+  std::string validated_on;
+  // Fraction of the nominal gap the terms close on the validation logs
+  // (NaN when not validated) and on the training logs.
+  double gap_closed = 0;
+  double training_gap_closed = 0;
+  // The terms close at least DiscrepancyOptions::min_gap_closed of the
+  // gap on the validation logs: only then does the text present them as
+  // the missing force.
+  bool predictive = false;
+  std::string text;  // the dominant terms in one sentence
 };
 
 struct CandidateScore {
@@ -210,6 +257,9 @@ struct DiagnosisResult {
   // Two candidates the data cannot tell apart (both empty otherwise): the
   // caller may design an experiment that discriminates them.
   std::string ambiguous_a, ambiguous_b;
+  // With `unexplained` and a gap: the characterisation of the missing force
+  // (empty terms when none is significant).
+  Discrepancy discrepancy;
   double seconds = 0;
 };
 

@@ -283,6 +283,24 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
         {"effect_parameters", effect},
         {"stiffness", stiffness}};
   }
+  if (!r.discrepancy.validated_on.empty()) {
+    Json terms = Json::array();
+    for (const DiscrepancyTerm& t : r.discrepancy.terms) {
+      terms.push_back({{"component", t.component},
+                       {"term", t.term},
+                       {"coefficient", Number(t.coefficient)},
+                       {"unit", t.unit},
+                       {"force_rms_n", Number(t.force_rms)},
+                       {"words", t.words}});
+    }
+    doc["discrepancy"] = {
+        {"terms", terms},
+        {"validated_on", r.discrepancy.validated_on},
+        {"gap_closed", Number(r.discrepancy.gap_closed)},
+        {"training_gap_closed", Number(r.discrepancy.training_gap_closed)},
+        {"predictive", r.discrepancy.predictive},
+        {"text", r.discrepancy.text}};
+  }
   if (!r.ambiguous_a.empty()) {
     doc["ambiguous"] = {r.ambiguous_a, r.ambiguous_b};
   }

@@ -478,6 +478,9 @@ void EffectModel::Build(const T* theta, SuspensionParameters<T>* parameters,
     }
   }
 }
+template void EffectModel::Build<double>(const double*,
+                                         SuspensionParameters<double>*,
+                                         BasicPlantEffects<double>*) const;
 
 Status SimulateEffectModel(const EffectModel& model,
                            const std::vector<double>& values,

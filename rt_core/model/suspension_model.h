@@ -243,6 +243,22 @@ class SuspensionModel {
     return deflections;
   }
 
+  // Each element's elongation l - l0 [m] and generalized direction
+  // a = [u; b x u_b] (a column per element: dl/dt = -a^T z, and an axial
+  // force m in it adds m a to Q) at pose y; the five bushings in
+  // BushingIndex order, then the spring-damper.
+  void ElementGeometry(const Vec6<T>& y, Vec6<T>* elongations,
+                       Mat6<T>* directions) const {
+    const Mat3<T> rot = CardanAngles<T>(y.template tail<3>()).Rotation();
+    const Mat3<T> rot_t = rot.transpose();
+    for (int i = 0; i < kNumElements; ++i) {
+      const ElementState s =
+          StateOf(i, y.template head<3>(), rot, rot_t, Vec6<T>::Zero());
+      (*elongations)(i) = s.length - free_length_[i];
+      directions->col(i) = s.a;
+    }
+  }
+
   // Axial force of each element (the five bushings in BushingIndex order,
   // then the spring-damper), positive in tension [N].
   Vec6<T> ElementForces(const Vec6<T>& y, const Vec6<T>& z) const {

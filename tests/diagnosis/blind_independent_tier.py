@@ -172,7 +172,8 @@ def run_case(index, kind, arguments, kcrig, config, work):
             "size_sigma": size, "verdict": diag["verdict"],
             "model": diag.get("model", ""), "confidence": diag["confidence"],
             "components": diag.get("components", []), "gap_closed": closed,
-            "reason": diag.get("reason", "")}
+            "reason": diag.get("reason", ""),
+            "discrepancy": diag.get("discrepancy")}
 
 
 def effect_size(kcrig, config, case):
@@ -255,6 +256,16 @@ def summarise(results, components):
                KINDS[r["kind"]] is None]
     print("outside every class: no high-confidence class " +
           rate([not confidently_wrong(r) for r in outside], 1.0))
+    characterised = [r for r in outside if r["size_sigma"] >= 3]
+    print("outside every class, >= 3x noise: the discrepancy closes >= 50 % "
+          "of the held-out gap " +
+          rate([bool(r["discrepancy"]) and
+                (r["discrepancy"]["gap_closed"] or 0) >= 0.5
+                for r in characterised], 0.7))
+    for r in characterised:
+        d = r["discrepancy"]
+        print(f"  case {r['index']} ({r['kind']}): " +
+              (d["text"] if d else "not characterised"))
     correct = [r for r in results if "error" not in r and
                KINDS[r["kind"]] not in (None, "none") and
                verdict_class(r) == KINDS[r["kind"]]]

@@ -120,6 +120,35 @@ TEST_F(DiagnosisTest, OneLogIsScoredByInformationCriteria) {
 // A callback that asks to stop after the first candidate fit ends the
 // diagnosis there, the other candidate's fit stopped within an iteration:
 // the interrupted status, no verdict, nothing reported after.
+// An effect the candidates cannot fit (here: progressive stiffness in one
+// bushing, with only actuator lag offered) is `unexplained`, and the
+// characterisation names the force: a cube of bushing V1's extension, of
+// about the true coefficient, predicting the hold-out.
+TEST_F(DiagnosisTest, AnUnexplainedGapIsCharacterisedAsANamedForce) {
+  const char* effect = "progressive_stiffness:c3=3e12,at=bushing:V1";
+  DiagnosisOptions options;
+  options.candidates = {"actuator_lag"};
+  options.model_parameter_pool = 0;
+  options.place_components = false;
+  DiagnosisResult r;
+  const Status status = Diagnose(
+      config_.model, {Log(effect, 80, -0.4, 1), Log(effect, 20, -0.1, 2)},
+      {Log(effect, 50, -0.3, 3)}, options, config_.experiment.step, &r);
+  ASSERT_TRUE(status.ok()) << status.message();
+  ASSERT_EQ(r.verdict, "unexplained") << r.reason;
+  const Discrepancy& d = r.discrepancy;
+  EXPECT_EQ(d.validated_on, "holdout");
+  ASSERT_FALSE(d.terms.empty()) << r.reason;
+  EXPECT_EQ(d.terms[0].component, "bushing:V1");
+  EXPECT_EQ(d.terms[0].term, "d^3");
+  EXPECT_NEAR(d.terms[0].coefficient, 3e12, 0.15e12);
+  EXPECT_TRUE(d.predictive);
+  EXPECT_GT(d.gap_closed, 0.9);
+  EXPECT_NE(r.reason.find("progressive stiffening in bushing V1"),
+            std::string::npos)
+      << r.reason;
+}
+
 TEST_F(DiagnosisTest, AnAbortingCallbackInterruptsIt) {
   DiagnosisOptions options;
   options.candidates = {"bushing_damping", "rig_compliance"};
