@@ -494,9 +494,10 @@ class DiagnosisRun {
   }
 
   // Stage 7: with no verdict, what the missing force looks like
-  // (internal/discrepancy.h), in the reason's last sentence.
+  // (internal/discrepancy.h), in the reason's last sentence. Not when two
+  // candidates explain the gap equally well: it is explained, twice.
   Status CharacteriseWhenUnexplained() {
-    if (result_->verdict != "unexplained" ||
+    if (result_->verdict != "unexplained" || !result_->ambiguous_a.empty() ||
         options_.discrepancy.max_terms <= 0) {
       return Status::Ok();
     }
