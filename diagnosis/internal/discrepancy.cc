@@ -467,6 +467,95 @@ std::string Sentence(const Discrepancy& d) {
   return text + "; it closes " + closed + " of " + where;
 }
 
+// The candidate columns (each element's terms and every bushing's), the
+// bushings' own d as nuisance, evaluated on `fitted` and normalised.
+struct Design {
+  std::vector<Column> columns;
+  std::vector<int> nuisance, candidates;
+  Eigen::MatrixXd x;
+  Eigen::VectorXd norms;
+};
+
+Design MakeDesign(const std::vector<const Trace*>& fitted, const Widths& w) {
+  Design d;
+  for (int e = 0; e <= kEveryBushingColumn; ++e) {
+    for (int kind = 0; kind < kNumKinds; ++kind) {
+      // Every bushing's d: a common stiffness scale, within the nuisance.
+      if (e == kEveryBushingColumn && kind == kElongation) continue;
+      const bool stiffness = kind == kElongation && e < kStrut;
+      (stiffness ? d.nuisance : d.candidates)
+          .push_back(static_cast<int>(d.columns.size()));
+      d.columns.push_back({e, static_cast<Kind>(kind)});
+    }
+  }
+  long rows = 0;
+  for (const Trace* t : fitted) rows += 6L * t->residual.size();
+  d.x.resize(rows, static_cast<Eigen::Index>(d.columns.size()));
+  d.norms.resize(static_cast<Eigen::Index>(d.columns.size()));
+  for (size_t c = 0; c < d.columns.size(); ++c) {
+    d.x.col(c) = ColumnValues(d.columns[c], fitted, w);
+    d.norms(c) =
+        std::max(d.x.col(c).norm(), std::numeric_limits<double>::min());
+    d.x.col(c) /= d.norms(c);
+  }
+  return d;
+}
+
+// The fitted and the scored logs; returns what the scores are validated on.
+std::string SplitForValidation(const std::vector<Trace>& traces,
+                               size_t num_training,
+                               std::vector<const Trace*>* fitted,
+                               std::vector<const Trace*>* scored) {
+  for (size_t l = 0; l < traces.size(); ++l) {
+    (l < num_training ? fitted : scored)->push_back(&traces[l]);
+  }
+  if (!scored->empty()) return "holdout";
+  if (fitted->size() < 2) return "none";
+  scored->push_back(fitted->back());
+  fitted->pop_back();
+  return "last training log";
+}
+
+// Mean squared weighted residual of `set` less the chosen columns' force.
+double ScoreAfter(const std::vector<const Trace*>& set, const Design& d,
+                  const std::vector<int>& chosen,
+                  const Eigen::VectorXd& coefficients, const Widths& w) {
+  Eigen::VectorXd r = Residuals(set);
+  for (size_t a = 0; a < chosen.size(); ++a) {
+    r += ColumnValues(d.columns[chosen[a]], set, w) *
+         (coefficients(a) / d.norms(chosen[a]));
+  }
+  return Score(r, ObservedRows(set));
+}
+
+DiscrepancyTerm Describe(const Column& c, double coefficient,
+                         const std::vector<const Trace*>& fitted,
+                         const Widths& w) {
+  DiscrepancyTerm t;
+  t.component = ComponentOf(c);
+  t.term = kKinds[c.kind].name;
+  t.unit = c.element == kEveryBushingColumn && c.kind == kDrift
+               ? "-"  // a fraction of each stiffness over the log
+               : kKinds[c.kind].unit;
+  t.coefficient = coefficient;
+  double sum = 0;
+  long n = 0;
+  for (const Trace* trace : fitted) {
+    for (size_t j = 0; j < trace->elongation.size(); ++j) {
+      for (const auto& [element, weight] : ElementsOf(c, w)) {
+        sum += std::pow(weight * TermValue(c.kind, element, *trace, j, w), 2);
+        ++n;
+      }
+    }
+  }
+  t.force_rms = std::abs(coefficient) * std::sqrt(sum / std::max(n, 1L));
+  t.words = Words(c, t,
+                  c.element == kEveryBushingColumn
+                      ? w.stiffness.head<kNumBushings>().mean()
+                      : w.stiffness(c.element));
+  return t;
+}
+
 }  // namespace
 
 Status CharacteriseDiscrepancy(const EffectModel& model,
@@ -488,96 +577,39 @@ Status CharacteriseDiscrepancy(const EffectModel& model,
         TraceLog(model, values, suspension, e, integrator_step, &traces[l]));
   }
   std::vector<const Trace*> fitted, scored;
-  for (size_t l = 0; l < training.size(); ++l) fitted.push_back(&traces[l]);
-  for (size_t l = training.size(); l < traces.size(); ++l) {
-    scored.push_back(&traces[l]);
-  }
-  discrepancy->validated_on = "holdout";
-  if (scored.empty()) {
-    discrepancy->validated_on =
-        fitted.size() > 1 ? "last training log" : "none";
-    if (fitted.size() > 1) {
-      scored.push_back(fitted.back());
-      fitted.pop_back();
-    }
-  }
+  discrepancy->validated_on =
+      SplitForValidation(traces, training.size(), &fitted, &scored);
 
+  // Select on the fitted logs; the model is r = -X b (r: sensed - measured).
   const Widths widths = WidthsOf(fitted, parameters);
-  std::vector<Column> columns;
-  std::vector<int> nuisance, candidates;
-  for (int e = 0; e <= kEveryBushingColumn; ++e) {
-    for (int kind = 0; kind < kNumKinds; ++kind) {
-      // Every bushing's d: a common stiffness scale, within the nuisance.
-      if (e == kEveryBushingColumn && kind == kElongation) continue;
-      const bool stiffness = kind == kElongation && e < kStrut;
-      (stiffness ? nuisance : candidates)
-          .push_back(static_cast<int>(columns.size()));
-      columns.push_back({e, static_cast<Kind>(kind)});
-    }
-  }
+  const Design design = MakeDesign(fitted, widths);
   const Eigen::VectorXd residual = Residuals(fitted);
-  Eigen::MatrixXd x(residual.size(), static_cast<Eigen::Index>(columns.size()));
-  Eigen::VectorXd norms(static_cast<Eigen::Index>(columns.size()));
-  for (size_t c = 0; c < columns.size(); ++c) {
-    x.col(c) = ColumnValues(columns[c], fitted, widths);
-    norms(c) = std::max(x.col(c).norm(), std::numeric_limits<double>::min());
-    x.col(c) /= norms(c);
-  }
-  // The model is r = -X b: the residual is sensed - measured.
   std::vector<long> rows_per_fold;
-  for (const Trace* t : fitted)
+  for (const Trace* t : fitted) {
     rows_per_fold.push_back(6L * t->residual.size());
-  const SubsetRegression regression(x, -residual, rows_per_fold);
+  }
+  const SubsetRegression regression(design.x, -residual, rows_per_fold);
   const double price =
       std::log(static_cast<double>(std::max(ObservedRows(fitted), 2L))) +
       options.min_bic_difference;
   const std::vector<int> chosen =
-      SelectColumns(regression, nuisance, candidates, options.max_terms, price,
-                    options.min_bic_difference);
+      SelectColumns(regression, design.nuisance, design.candidates,
+                    options.max_terms, price, options.min_bic_difference);
   const Eigen::VectorXd coefficients = regression.Coefficients(chosen);
 
-  // Scores before and after, on the fitted and the validation logs.
-  auto score_after = [&](const std::vector<const Trace*>& set) {
-    Eigen::VectorXd r = Residuals(set);
-    for (size_t a = 0; a < chosen.size(); ++a) {
-      r += ColumnValues(columns[chosen[a]], set, widths) *
-           (coefficients(a) / norms(chosen[a]));
-    }
-    return Score(r, ObservedRows(set));
-  };
+  // Score on the fitted and the validation logs; describe the terms.
   discrepancy->training_gap_closed =
-      GapClosed(Score(residual, ObservedRows(fitted)), score_after(fitted));
+      GapClosed(Score(residual, ObservedRows(fitted)),
+                ScoreAfter(fitted, design, chosen, coefficients, widths));
   discrepancy->gap_closed =
-      scored.empty() ? std::numeric_limits<double>::quiet_NaN()
-                     : GapClosed(Score(Residuals(scored), ObservedRows(scored)),
-                                 score_after(scored));
-
-  for (size_t a = nuisance.size(); a < chosen.size(); ++a) {
-    const Column& c = columns[chosen[a]];
-    DiscrepancyTerm t;
-    t.component = ComponentOf(c);
-    t.term = kKinds[c.kind].name;
-    t.unit = c.element == kEveryBushingColumn && c.kind == kDrift
-                 ? "-"  // a fraction of each stiffness over the log
-                 : kKinds[c.kind].unit;
-    t.coefficient = coefficients(a) / norms(chosen[a]);
-    double sum = 0;
-    long n = 0;
-    for (const Trace* trace : fitted) {
-      for (size_t j = 0; j < trace->elongation.size(); ++j) {
-        for (const auto& [element, weight] : ElementsOf(c, widths)) {
-          sum += std::pow(
-              weight * TermValue(c.kind, element, *trace, j, widths), 2);
-          ++n;
-        }
-      }
-    }
-    t.force_rms = std::abs(t.coefficient) * std::sqrt(sum / std::max(n, 1L));
-    t.words = Words(c, t,
-                    c.element == kEveryBushingColumn
-                        ? widths.stiffness.head<kNumBushings>().mean()
-                        : widths.stiffness(c.element));
-    discrepancy->terms.push_back(t);
+      scored.empty()
+          ? std::numeric_limits<double>::quiet_NaN()
+          : GapClosed(Score(Residuals(scored), ObservedRows(scored)),
+                      ScoreAfter(scored, design, chosen, coefficients, widths));
+  for (size_t a = design.nuisance.size(); a < chosen.size(); ++a) {
+    discrepancy->terms.push_back(
+        Describe(design.columns[chosen[a]],
+                 coefficients(a) / design.norms(chosen[a]), fitted, widths));
   }
   std::sort(discrepancy->terms.begin(), discrepancy->terms.end(),
             [](const DiscrepancyTerm& a, const DiscrepancyTerm& b) {
