@@ -405,7 +405,7 @@ std::string Words(const Column& c, const DiscrepancyTerm& t, double stiffness) {
                     : ": less damping than modelled, or a lag?");
     case kElongation:
       return "a force proportional to the extension of " + where + " (" +
-             about + "): its rate " + Number("%+.0f", 100 * k / stiffness) +
+             about + "): its rate " + Number("%+.1f", 100 * k / stiffness) +
              " % off the configured?";
     case kSquare:
       return "a force growing with the square of the extension of " + where +
@@ -462,7 +462,11 @@ std::string Sentence(const Discrepancy& d) {
     return text + "; the sensors, the fixture or the load path?";
   }
   std::string text = "the missing force looks like " + d.terms[0].words;
-  if (d.terms.size() > 1) text += "; besides, " + d.terms[1].words;
+  // A second term a fifth of the first's force or more is worth reading.
+  if (d.terms.size() > 1 &&
+      d.terms[1].force_rms >= 0.2 * d.terms[0].force_rms) {
+    text += "; besides, " + d.terms[1].words;
+  }
   if (d.validated_on == "none") return text + " (not validated: one log)";
   return text + "; it closes " + closed + " of " + where;
 }

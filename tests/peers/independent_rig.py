@@ -10,7 +10,7 @@ another integrator:
   - each link and the strut is an axial element between its chassis and
     carrier point, free length at the design position, force
     k (l - l0) + d dl/dt along the link (positive in tension);
-  - SciPy's adaptive Runge-Kutta (DOP853, rtol 1e-10) integrates it phase by
+  - SciPy's adaptive Runge-Kutta (DOP853, rtol 1e-8) integrates it phase by
     phase of the ramp (kcrig: semi-implicit Euler at a fixed step);
   - the start is the static equilibrium under the first sample's force
     (scipy.optimize.root), the outputs the wheel centre and the Cardan
@@ -352,11 +352,11 @@ def simulate(plant, rate):
                                           b + effect["delay"] < end})
     for start, stop in zip(breaks[:-1], breaks[1:]):
         inside = (times >= start - 1e-12) & (times <= stop + 1e-12)
-        wanted = np.clip(np.unique(np.append(times[inside], stop)), start,
-                         stop)
+        wanted = np.unique(np.clip(np.append(times[inside], stop), start,
+                                   stop))
         solution = solve_ivp(plant.rate, (start, stop), x, method="DOP853",
-                             t_eval=wanted, rtol=1e-10, atol=1e-12,
-                             max_step=2e-3)
+                             t_eval=wanted, rtol=1e-8, atol=1e-11,
+                             max_step=1e-2)
         if not solution.success:
             raise RuntimeError(solution.message)
         for k, t in enumerate(solution.t):
