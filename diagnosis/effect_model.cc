@@ -798,14 +798,20 @@ Status WeightedResiduals(const EffectModel& model,
   std::vector<Vec6<double>> sensed;
   const Status status = SimulateEffectModel(model, values, e, step, &sensed);
   if (!status.ok()) return status;
-  weighted->resize(sensed.size());
+  *weighted = WeightedResidualsOf(e, sensed);
+  return Status::Ok();
+}
+
+std::vector<Vec6<double>> WeightedResidualsOf(
+    const Experiment& e, const std::vector<Vec6<double>>& sensed) {
+  std::vector<Vec6<double>> weighted(sensed.size());
   for (size_t j = 0; j < sensed.size(); ++j) {
-    (*weighted)[j] =
+    weighted[j] =
         Observed(e, j)
             ? Vec6<double>((sensed[j] - e.measured[j]).cwiseQuotient(e.sigma))
             : Vec6<double>::Zero();
   }
-  return Status::Ok();
+  return weighted;
 }
 
 Status DiscretisationError(const EffectModel& model,

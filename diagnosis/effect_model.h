@@ -238,6 +238,9 @@ Status ScreenModelParameters(const SuspensionParameters<double>& nominal,
 Status WeightedResiduals(const EffectModel& model,
                          const std::vector<double>& values, const Experiment& e,
                          double step, std::vector<Vec6<double>>* weighted);
+// The same weighting of readings `sensed` already simulated on `e`.
+std::vector<Vec6<double>> WeightedResidualsOf(
+    const Experiment& e, const std::vector<Vec6<double>>& sensed);
 
 // The model's own discretisation error at `values` on each experiment,
 // weighted as WeightedResiduals: Richardson's estimate 2 (y_h - y_h/2) of

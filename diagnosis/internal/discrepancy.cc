@@ -86,8 +86,7 @@ Status TraceLog(const EffectModel& model, const std::vector<double>& values,
                 double step, Trace* trace) {
   std::vector<Vec6<double>> pose;  // the nominal model senses its pose
   KCRIG_RETURN_IF_ERROR(SimulateEffectModel(model, values, e, step, &pose));
-  KCRIG_RETURN_IF_ERROR(
-      WeightedResiduals(model, values, e, step, &trace->residual));
+  trace->residual = WeightedResidualsOf(e, pose);
   const size_t n = pose.size();
   const std::vector<Vec6<double>> measured_pose =
       SmoothedMeasuredPose(e, pose, trace->residual);
