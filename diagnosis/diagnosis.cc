@@ -502,9 +502,16 @@ class DiagnosisRun {
       return Status::Ok();
     }
     KCRIG_RETURN_IF_ERROR(Progress("characterising the discrepancy", 0.95));
-    KCRIG_RETURN_IF_ERROR(CharacteriseDiscrepancy(
+    // Evidence, not a precondition: a characterisation that fails leaves
+    // the verdict standing and says why.
+    const Status status = CharacteriseDiscrepancy(
         nominal_model_, result_->nominal.fit.values, training_, holdout_, step_,
-        options_.discrepancy, &result_->discrepancy));
+        options_.discrepancy, &result_->discrepancy);
+    if (!status.ok()) {
+      result_->discrepancy = Discrepancy();
+      result_->discrepancy.text =
+          "the missing force could not be characterised: " + status.message();
+    }
     result_->reason += ". " + result_->discrepancy.text;
     return Status::Ok();
   }

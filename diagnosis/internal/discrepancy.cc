@@ -440,8 +440,14 @@ double Score(const Eigen::VectorXd& residual, long observed_rows) {
   return observed_rows > 0 ? residual.squaredNorm() / observed_rows : 0;
 }
 
-double GapClosed(double before, double after) {
-  return before > 1 ? (before - after) / (before - 1) : 0;
+// The fraction of the gap closed on `rows` observed rows; NaN when the gap
+// is within five standard deviations of a score at the noise floor
+// (sqrt(2 / rows)): a fraction of noise says nothing.
+double GapClosed(double before, double after, long rows) {
+  const double floor =
+      5 * std::sqrt(2.0 / static_cast<double>(std::max(rows, 1L)));
+  return before - 1 > floor ? (before - after) / (before - 1)
+                            : std::numeric_limits<double>::quiet_NaN();
 }
 
 std::string Sentence(const Discrepancy& d) {
@@ -454,7 +460,9 @@ std::string Sentence(const Discrepancy& d) {
     std::string text =
         "no sparse force in the links or the strut (their extension, rate "
         "and time) explains the gap";
-    if (!d.terms.empty()) {
+    if (!d.terms.empty() && std::isnan(d.gap_closed)) {
+      text += " that the validation logs show beyond their noise";
+    } else if (!d.terms.empty()) {
       text += ": the best terms (" + d.terms[0].component + " " +
               d.terms[0].term + ", ...) close " + closed + " of " + where;
     }
@@ -603,12 +611,14 @@ Status CharacteriseDiscrepancy(const EffectModel& model,
   // Score on the fitted and the validation logs; describe the terms.
   discrepancy->training_gap_closed =
       GapClosed(Score(residual, ObservedRows(fitted)),
-                ScoreAfter(fitted, design, chosen, coefficients, widths));
+                ScoreAfter(fitted, design, chosen, coefficients, widths),
+                ObservedRows(fitted));
   discrepancy->gap_closed =
       scored.empty()
           ? std::numeric_limits<double>::quiet_NaN()
           : GapClosed(Score(Residuals(scored), ObservedRows(scored)),
-                      ScoreAfter(scored, design, chosen, coefficients, widths));
+                      ScoreAfter(scored, design, chosen, coefficients, widths),
+                      ObservedRows(scored));
   for (size_t a = design.nuisance.size(); a < chosen.size(); ++a) {
     discrepancy->terms.push_back(
         Describe(design.columns[chosen[a]],

@@ -12,11 +12,14 @@
 //   d (the strut only: the bushings' own d is their stiffness, refitted
 //   with every selection), d^2, d^3, sign(d), v, sign(v), t*d,
 // sign(x) a tanh over a twentieth of x's RMS. Forward selection adds the
-// term that lowers the residual sum of squares most while it lowers it by
-// more than the BIC's price ln(m) + min_bic_difference and, with two or
-// more logs, predicts each log fitted to the others better, up to
-// max_terms; the chosen terms are then scored on logs they were not
-// fitted to.
+// term that best predicts each fitted log from the others (blocked
+// cross-validation; with one log, the term that lowers the residual sum
+// of squares most) while it lowers that sum by more than the BIC's price
+// ln(m) + min_bic_difference and, with two or more logs, the
+// cross-validated one by min_bic_difference, up to max_terms; the chosen
+// terms are then scored on logs they were not fitted to (a gap closed
+// there only when the gap exceeds five standard deviations of a score at
+// the noise floor).
 #ifndef KCRIG_DIAGNOSIS_INTERNAL_DISCREPANCY_H_
 #define KCRIG_DIAGNOSIS_INTERNAL_DISCREPANCY_H_
 

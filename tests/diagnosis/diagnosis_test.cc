@@ -117,9 +117,6 @@ TEST_F(DiagnosisTest, OneLogIsScoredByInformationCriteria) {
   EXPECT_EQ(r.verdict, "rig_compliance") << r.reason;
 }
 
-// A callback that asks to stop after the first candidate fit ends the
-// diagnosis there, the other candidate's fit stopped within an iteration:
-// the interrupted status, no verdict, nothing reported after.
 // An effect the candidates cannot fit (here: progressive stiffness in one
 // bushing, with only actuator lag offered) is `unexplained`, and the
 // characterisation names the force: a cube of bushing V1's extension, of
@@ -149,6 +146,9 @@ TEST_F(DiagnosisTest, AnUnexplainedGapIsCharacterisedAsANamedForce) {
       << r.reason;
 }
 
+// A callback that asks to stop after the first candidate fit ends the
+// diagnosis there, the other candidate's fit stopped within an iteration:
+// the interrupted status, no verdict, nothing reported after.
 TEST_F(DiagnosisTest, AnAbortingCallbackInterruptsIt) {
   DiagnosisOptions options;
   options.candidates = {"bushing_damping", "rig_compliance"};
