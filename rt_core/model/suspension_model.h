@@ -105,6 +105,16 @@ class SuspensionModel {
     Mat6<T> damping;
     Eigen::Matrix<T, 6, 3> inertia;
   };
+  // dQ/d of what Q is linear in besides: the effect hooks of each bushing
+  // (SetProgressiveStiffness, SetExtraBushingForce) and the load.
+  struct HookAndLoadJacobian {
+    Eigen::Matrix<T, 6, kNumBushings> cubic_stiffness;
+    Eigen::Matrix<T, 6, kNumBushings> extra_force;
+    Eigen::Matrix<T, 6, kNumBushings> extra_stiffness;
+    Eigen::Matrix<T, 6, kNumBushings> extra_reference;
+    Eigen::Matrix<T, 6, 3> load_force;
+    Eigen::Matrix<T, 6, 3> load_point;
+  };
 
   // Q(y, z) under `load`; with `with_jacobians` also dQ/dy and dQ/dz.
   //
@@ -118,12 +128,14 @@ class SuspensionModel {
   //   H = [ -W/l       R W_b B/l           ]   W = I - u u^T, B = [b]x,
   //       [ (.)^T      B W_b B/l + B[u_b]x ]   W_b = I - u_b u_b^T.
   //
-  // With `parameter_jacobian`, also dQ/dp for the parameters Q is linear in
-  // (see LinearParameterJacobian), from the same element states.
+  // With `parameter_jacobian` (and `hook_jacobian`), also dQ/dp for the
+  // parameters (and the hooks and load) Q is linear in, from the same
+  // element states.
   KCRIG_INLINE_CALLEES void Evaluate(
       const RigLoad<T>& load, const Vec6<T>& y, const Vec6<T>& z,
       bool with_jacobians, GeneralizedForce<T>* out,
-      LinearParameterJacobian* parameter_jacobian = nullptr) const {
+      LinearParameterJacobian* parameter_jacobian = nullptr,
+      HookAndLoadJacobian* hook_jacobian = nullptr) const {
     const Vec3<T> r = y.template head<3>();
     const Vec3<T> angles = y.template tail<3>();
     const Vec3<T> v = z.template head<3>();
@@ -144,6 +156,11 @@ class SuspensionModel {
       dq_dq.template block<3, 3>(3, 3) =
           SkewTimes<T>(load.point, Skew<T>(load_body));
     }
+    if (hook_jacobian != nullptr) {
+      hook_jacobian->load_force << Mat3<T>::Identity(),
+          Skew<T>(load.point) * rot_t;
+      hook_jacobian->load_point << Mat3<T>::Zero(), -Skew<T>(load_body);
+    }
 
     for (int i = 0; i < kNumElements; ++i) {
       const AxialElement<T>& e = Element(i);
@@ -159,6 +176,15 @@ class SuspensionModel {
       if (parameter_jacobian != nullptr) {
         parameter_jacobian->stiffness.col(i) = (length - free_length_[i]) * a;
         parameter_jacobian->damping.col(i) = -a.dot(z) * a;
+      }
+      if (hook_jacobian != nullptr && i < kNumBushings) {
+        const T deflection = length - free_length_[i];
+        hook_jacobian->cubic_stiffness.col(i) =
+            (deflection * deflection * deflection) * a;
+        hook_jacobian->extra_force.col(i) = a;
+        hook_jacobian->extra_stiffness.col(i) =
+            (deflection - extra_.reference[i]) * a;
+        hook_jacobian->extra_reference.col(i) = -extra_.stiffness[i] * a;
       }
       if (!with_jacobians) continue;
 

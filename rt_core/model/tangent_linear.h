@@ -12,15 +12,15 @@
 // parameters and G^-1(y)). W is factored once in double and solves all N
 // directions; the state then moves as in the step, in J arithmetic. The
 // right-hand side comes one of two ways:
-//  - when only parameters in which Q or M is linear carry tangents
-//    (stiffness, damping, mass, inertia: the estimator's usual case) and the
-//    load and the effect hooks carry none: one evaluation of Q's Jacobians in
+//  - when only what Q or M is linear in carries tangents (stiffness,
+//    damping, mass, inertia, the effect hooks and the load: the estimator's
+//    and the diagnosis' usual case): one evaluation of Q's Jacobians in
 //    Dual<double> along w gives D(dQ/dy)[w], D(dQ/dz)[w] and, with the
-//    parameter Jacobian, D(dQ/dp)[w]; by the symmetry of second
-//    derivatives d(DQ[w]) = D(dQ/dx)[w] dx + D(dQ/dp)[w] dp, a product per
-//    direction (cost independent of N);
-//  - otherwise (hard points, load or hook tangents) one evaluation of Q in
-//    Dual<J> scalars gives dQ and d(DQ[w]) for all N directions at once.
+//    Jacobians of those linear inputs, D(dQ/dp)[w]; by the symmetry of
+//    second derivatives d(DQ[w]) = D(dQ/dx)[w] dx + D(dQ/dp)[w] dp, a
+//    product per input (cost nearly independent of N);
+//  - otherwise (hard points) one evaluation of Q in Dual<J> scalars gives
+//    dQ and d(DQ[w]) for all N directions at once.
 //
 // J is a Jet of N directions (value .a, derivatives .v, e.g. ceres::Jet):
 // the same type the Jet reference uses, so the two are interchangeable.
@@ -51,14 +51,13 @@ class TangentLinearModel {
         second_(Lift(parameters)),
         directional_(Mapped<Dual<double>>(
             parameters, [](const J& x) { return Dual<double>(x.a); })) {
-    linear_tangents_only_ = true;
     for (int i = 0; i <= kNumBushings; ++i) {
       const AxialElement<J>& e =
           i < kNumBushings ? parameters.bushings[i] : parameters.spring;
       for (int k = 0; k < 3; ++k) {
-        linear_tangents_only_ = linear_tangents_only_ &&
-                                !Carries(e.carrier_point(k)) &&
-                                !Carries(e.chassis_point(k));
+        hard_point_tangents_ = hard_point_tangents_ ||
+                               Carries(e.carrier_point(k)) ||
+                               Carries(e.chassis_point(k));
       }
       stiffness_tangents_.row(i) = e.stiffness.v.transpose();
       damping_tangents_.row(i) = e.damping.v.transpose();
@@ -86,6 +85,7 @@ class TangentLinearModel {
       second[i] = Second(cubic_stiffness[i], J(0.0));
       directional[i] = Dual<double>(value[i]);
       cubic_tangents_ = cubic_tangents_ || Carries(cubic_stiffness[i]);
+      hook_tangents_.cubic_stiffness.row(i) = cubic_stiffness[i].v.transpose();
     }
     values_.SetProgressiveStiffness(value);
     jets_.SetProgressiveStiffness(cubic_stiffness);
@@ -111,6 +111,9 @@ class TangentLinearModel {
       extra_tangents_ = extra_tangents_ || Carries(extra.force[i]) ||
                         Carries(extra.stiffness[i]) ||
                         Carries(extra.reference[i]);
+      hook_tangents_.extra_force.row(i) = extra.force[i].v.transpose();
+      hook_tangents_.extra_stiffness.row(i) = extra.stiffness[i].v.transpose();
+      hook_tangents_.extra_reference.row(i) = extra.reference[i].v.transpose();
     }
     values_.SetExtraBushingForce(value);
     jets_.SetExtraBushingForce(extra);
@@ -160,7 +163,7 @@ class TangentLinearModel {
   };
   // h dQ - dM dz + d(DQ[w]) for every direction (see the top of the file).
   Tangent6 RightHandSideByDirectionalJacobians(
-      const StepPoint& point, const RigLoad<double>& load,
+      const StepPoint& point, const RigLoad<J>& load_jet,
       const GeneralizedForce<double>& g) const;
   Tangent6 RightHandSideByDuals(const StepPoint& point,
                                 const RigLoad<J>& load) const;
@@ -241,12 +244,19 @@ class TangentLinearModel {
   SuspensionModel<J> jets_;
   SuspensionModel<Second> second_;
   SuspensionModel<Dual<double>> directional_;
-  // Whether only stiffness, damping, mass and inertia carry tangents (then
-  // the right-hand side comes from directional Jacobians), and those
-  // tangents: row i the element's (bushings, then the spring-damper).
-  bool linear_tangents_only_ = false;
+  // Whether a hard point carries a tangent (then the right-hand side comes
+  // from Dual<J>, otherwise from directional Jacobians), whether the hooks
+  // do, and the tangents of what Q and M are linear in: row i the element's
+  // (bushings, then the spring-damper), the hooks' row i the bushing's.
+  bool hard_point_tangents_ = false;
   bool cubic_tangents_ = false;
   bool extra_tangents_ = false;
+  struct HookTangents {
+    Eigen::Matrix<double, kNumBushings, kDirections> cubic_stiffness;
+    Eigen::Matrix<double, kNumBushings, kDirections> extra_force;
+    Eigen::Matrix<double, kNumBushings, kDirections> extra_stiffness;
+    Eigen::Matrix<double, kNumBushings, kDirections> extra_reference;
+  } hook_tangents_;
   Eigen::Matrix<double, kNumBushings + 1, kDirections> stiffness_tangents_;
   Eigen::Matrix<double, kNumBushings + 1, kDirections> damping_tangents_;
   Eigen::Matrix<double, 1, kDirections> mass_tangents_;
@@ -292,11 +302,9 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
     point.w(k + 3) = point.w_rotation(k).a;
   }
 
-  const bool directional = linear_tangents_only_ && !cubic_tangents_ &&
-                           !extra_tangents_ && !HasTangents(load_next);
-  Tangent6 d_dz = directional
-                      ? RightHandSideByDirectionalJacobians(point, load, g)
-                      : RightHandSideByDuals(point, load_next);
+  Tangent6 d_dz = hard_point_tangents_ ? RightHandSideByDuals(point, load_next)
+                                       : RightHandSideByDirectionalJacobians(
+                                             point, load_next, g);
   // Column by column: Eigen's fixed-size vector solve is unrolled, its
   // matrix solve takes the blocked general path (a tenth of the step).
   for (int j = 0; j < kDirections; ++j) {
@@ -315,9 +323,10 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
 template <typename J>
 typename TangentLinearModel<J>::Tangent6
 TangentLinearModel<J>::RightHandSideByDirectionalJacobians(
-    const StepPoint& point, const RigLoad<double>& load,
+    const StepPoint& point, const RigLoad<J>& load_jet,
     const GeneralizedForce<double>& g) const {
   using D = Dual<double>;
+  const bool load_tangents = HasTangents(load_jet);
   Vec6<D> y_dual;
   Vec6<D> z_dual;
   for (int k = 0; k < 6; ++k) {
@@ -326,12 +335,15 @@ TangentLinearModel<J>::RightHandSideByDirectionalJacobians(
   }
   RigLoad<D> load_dual;
   for (int k = 0; k < 3; ++k) {
-    load_dual.force(k) = D(load.force(k));
-    load_dual.point(k) = D(load.point(k));
+    load_dual.force(k) = D(load_jet.force(k).a);
+    load_dual.point(k) = D(load_jet.point(k).a);
   }
   GeneralizedForce<D> g_dual;
   typename SuspensionModel<D>::LinearParameterJacobian p_dual;
-  directional_.Evaluate(load_dual, y_dual, z_dual, true, &g_dual, &p_dual);
+  typename SuspensionModel<D>::HookAndLoadJacobian hook_dual;
+  const bool hooks = cubic_tangents_ || extra_tangents_ || load_tangents;
+  directional_.Evaluate(load_dual, y_dual, z_dual, true, &g_dual, &p_dual,
+                        hooks ? &hook_dual : nullptr);
 
   // h dQ + d(DQ[w]) = (h A + A') dx per Jacobian A and its derivative A'
   // along w: one product per Jacobian instead of two.
@@ -356,6 +368,33 @@ TangentLinearModel<J>::RightHandSideByDirectionalJacobians(
       combined(p_dual.damping).eval().lazyProduct(damping_tangents_);
   rhs.noalias() +=
       combined(p_dual.inertia).eval().lazyProduct(inertia_tangents_);
+  if (cubic_tangents_) {
+    rhs.noalias() += combined(hook_dual.cubic_stiffness)
+                         .eval()
+                         .lazyProduct(hook_tangents_.cubic_stiffness);
+  }
+  if (extra_tangents_) {
+    rhs.noalias() += combined(hook_dual.extra_force)
+                         .eval()
+                         .lazyProduct(hook_tangents_.extra_force);
+    rhs.noalias() += combined(hook_dual.extra_stiffness)
+                         .eval()
+                         .lazyProduct(hook_tangents_.extra_stiffness);
+    rhs.noalias() += combined(hook_dual.extra_reference)
+                         .eval()
+                         .lazyProduct(hook_tangents_.extra_reference);
+  }
+  if (load_tangents) {
+    Eigen::Matrix<double, 3, kDirections> force_tangents, point_tangents;
+    for (int k = 0; k < 3; ++k) {
+      force_tangents.row(k) = load_jet.force(k).v.transpose();
+      point_tangents.row(k) = load_jet.point(k).v.transpose();
+    }
+    rhs.noalias() +=
+        combined(hook_dual.load_force).eval().lazyProduct(force_tangents);
+    rhs.noalias() +=
+        combined(hook_dual.load_point).eval().lazyProduct(point_tangents);
+  }
   return rhs;
 }
 

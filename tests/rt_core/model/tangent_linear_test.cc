@@ -132,6 +132,15 @@ TEST(TangentLinearTest, StiffnessDampingSpringAndMassesMatchTheJets) {
   }
 }
 
+// The load's tangents (amplitude, direction, acting point) with linear
+// parameters only: the directional-Jacobian path.
+TEST(TangentLinearTest, TheLoadAndLinearParametersMatchTheJets) {
+  for (unsigned seed : {10u, 11u}) {
+    ExpectTrajectoriesAgree({"c_O1", "d_V1", "k_spring", "mass", "Jxx"},
+                            /*load_tangent=*/true, seed);
+  }
+}
+
 TEST(TangentLinearTest, HardPointsAndTheLoadMatchTheJets) {
   for (unsigned seed : {4u, 5u, 6u}) {
     ExpectTrajectoriesAgree(
@@ -158,7 +167,7 @@ TEST(TangentLinearTest, TinyHardPointAndLoadTangentsAreNotDropped) {
 }
 
 // Single steps from random states with random state tangents; with
-// `load_tangent` the load carries one direction too.
+// `load_tangent` the load's force and acting point carry a direction each.
 void ExpectStepsAgree(const std::vector<std::string>& names, bool load_tangent,
                       unsigned seed) {
   const KcrigConfig config = SourceConfig();
@@ -186,6 +195,9 @@ void ExpectStepsAgree(const std::vector<std::string>& names, bool load_tangent,
       }
     }
     load.point(2) = Jet8(0.1 * normal(random));
+    if (load_tangent) {
+      load.point(2).v[(trial + 3) % kDirections] = 0.01 * normal(random);
+    }
 
     ModelState<Jet8> reference = state, tangent_linear = state;
     SemiImplicitEulerStep(SuspensionModel<Jet8>(p), load, 1e-3, &reference);
@@ -210,6 +222,13 @@ TEST(TangentLinearTest, OneStepWithLinearParametersMatchesTheJets) {
   ExpectStepsAgree(
       {"c_O2", "d_O2", "c_V1", "k_spring", "d_damper", "Jzz", "mass", "Jxx"},
       /*load_tangent=*/false, 7);
+}
+
+// The load's tangents with linear parameters: the directional path too.
+TEST(TangentLinearTest, OneStepWithLinearParametersAndLoadMatchesTheJets) {
+  ExpectStepsAgree(
+      {"c_O2", "d_O2", "c_V1", "k_spring", "d_damper", "Jzz", "mass", "Jxx"},
+      /*load_tangent=*/true, 9);
 }
 
 // Hard points and a load tangent: the Dual<Jet> path.
