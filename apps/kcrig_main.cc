@@ -20,11 +20,15 @@
 #include "apps/screen_command.h"
 #include "apps/simulate_command.h"
 #include "apps/timing_check_command.h"
+#include "apps/validate_command.h"
+#include "cluster/ranks.h"
 
 int main(int argc, char** argv) {
   // Over a file-size limit (ulimit -f) a write then fails (EFBIG) and is
   // handled as a full disk, instead of the signal killing the process.
   std::signal(SIGXFSZ, SIG_IGN);
+  // Joins MPI under mpirun (kcrig validate spreads its cases), until exit.
+  const kcrig::Ranks ranks(&argc, &argv);
   CLI::App app{
       "kcrig: real-time HIL controller and offline tools for a hydraulic "
       "kinematics-and-compliance suspension rig"};
@@ -43,6 +47,7 @@ int main(int argc, char** argv) {
   kcrig::AddCanLogCommand(&app, &run);
   kcrig::AddExportCommand(&app, &run);
   kcrig::AddReportCommand(&app, &run);
+  kcrig::AddValidateCommand(&app, &run);
   kcrig::RequireDecimalNumbers(&app);
   // CLI11 would call an unknown subcommand an "extra argument"; say it plainly.
   const auto is_subcommand = [&app](const std::string& name) {

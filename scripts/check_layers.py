@@ -16,6 +16,7 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 MAY_INCLUDE = {
     "base": [],
+    "cluster": ["base"],
     "rt_core/model": ["base"],
     "rt_core/runtime": ["base", "rt_core/model"],
     "io_drivers": ["base", "rt_core/model", "rt_core/runtime"],
@@ -30,11 +31,13 @@ MAY_INCLUDE = {
                  "diagnosis"],
     "designer": ["base", "rt_core/model", "records", "estimator",
                  "diagnosis"],
+    "validation": ["base", "rt_core/model", "records", "estimator",
+                   "diagnosis", "emulator"],
     "report": ["base", "rt_core/model", "records", "estimator", "diagnosis",
                "kc_sheet", "designer"],
     "apps": ["base", "rt_core/model", "rt_core/runtime", "io_drivers",
              "records", "hil", "emulator", "estimator", "diagnosis",
-             "kc_sheet", "designer", "report"],
+             "kc_sheet", "designer", "validation", "cluster", "report"],
 }
 # records decodes logs with the DBC codec, never with a transport.
 ONLY = {("records", "io_drivers"): {"can_frame.h", "dbc.h",

@@ -1,0 +1,127 @@
+#include "apps/validate_command.h"
+
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "apps/cli_util.h"
+#include "apps/progress.h"
+#include "cluster/ranks.h"
+#include "validation/validation.h"
+
+namespace kcrig {
+namespace {
+
+struct ValidateArgs {
+  std::string config_dir;
+  int cases = 40;
+  std::string effects;
+  std::uint64_t seed = 1;
+  std::optional<int> threads;
+  bool quiet = false;
+  std::string out;
+};
+
+// Every rank checks what it was given alike; the root alone its output.
+Status Prepare(const ValidateArgs& args, const Ranks& ranks,
+               KcrigConfig* config, ValidationOptions* options) {
+  Status status = LoadConfig(args.config_dir, config);
+  if (!status.ok()) return status;
+  if (args.cases < 1) return Status::Error("--cases: must be >= 1");
+  options->cases = args.cases;
+  options->seed = args.seed;
+  if (!args.effects.empty()) options->classes = SplitList(args.effects);
+  BlindCase probe;
+  status = DrawBlindCase(0, args.seed, config->model, options->classes, &probe);
+  if (!status.ok()) return Status::Error("--effects: " + status.message());
+  // One process: both cores on each case; under MPI a core per rank.
+  options->diagnosis.num_threads =
+      args.threads.value_or(ranks.size() > 1 ? 1 : 2);
+  if (options->diagnosis.num_threads < 1) {
+    return Status::Error("--threads: must be >= 1");
+  }
+  return ranks.is_root() ? CheckOutput("--out", args.out, {}) : Status::Ok();
+}
+
+int RunValidate(const ValidateArgs& args) {
+  const Ranks& ranks = WorldRanks();
+  const StopSignal stop;
+  auto fail = [&ranks](const Status& status) {
+    if (ranks.is_root()) {
+      std::fprintf(stderr, "kcrig validate: %s\n", status.message().c_str());
+    }
+    return 1;
+  };
+  KcrigConfig config;
+  ValidationOptions options;
+  Status status = ranks.Broadcast(Prepare(args, ranks, &config, &options));
+  if (!status.ok()) return fail(status);
+
+  std::map<int, std::string> mine;
+  {
+    ProgressLine line(args.quiet || !ranks.is_root());
+    int done = 0;
+    const int own =
+        (options.cases - ranks.rank() + ranks.size() - 1) / ranks.size();
+    options.diagnosis.callback = stop.Callback([&](const IterationSummary& s) {
+      line.Show("kcrig validate: case " + std::to_string(done + 1) + "/" +
+                    std::to_string(own) + " " + s.stage,
+                (done + s.fraction) / own);
+    });
+    for (int i = 0; i < options.cases && status.ok(); ++i) {
+      if (!ranks.Owns(i)) continue;
+      status = RunValidationCase(config, options, i, &mine[i]);
+      if (!status.ok()) {
+        status = Status::Error("case " + std::to_string(i) + ": " +
+                               status.message());
+      }
+      ++done;
+    }
+    line.Clear();
+  }
+  std::vector<std::string> outcomes;
+  status = ranks.Gather(options.cases, status, mine, &outcomes);
+  if (stop.received()) return ranks.is_root() ? stop.Exit("validate") : 1;
+  if (!status.ok()) return fail(status);
+  if (!ranks.is_root()) return 0;
+  const std::string json = ValidationToJson(config, options, outcomes);
+  if (!args.out.empty()) {
+    status = WriteFilesAtomically({{args.out, json}});
+    if (!status.ok()) return fail(status);
+  }
+  std::fputs(ValidationSummary(json).c_str(), stdout);
+  std::printf("  %d cases on %d rank%s", options.cases, ranks.size(),
+              ranks.size() > 1 ? "s" : "");
+  if (!args.out.empty()) std::printf(", wrote %s", args.out.c_str());
+  std::printf("\n");
+  return 0;
+}
+
+}  // namespace
+
+void AddValidateCommand(CLI::App* app, std::function<int()>* run) {
+  auto args = std::make_shared<ValidateArgs>();
+  CLI::App* cmd = app->add_subcommand(
+      "validate",
+      "How well kcrig diagnoses this configuration: blind cases simulated, "
+      "diagnosed and scored against their truth (spread over MPI ranks "
+      "under mpirun)");
+  cmd->add_option("--config", args->config_dir,
+                  "Config directory (default: installed or source config/)");
+  cmd->add_option("--cases", args->cases, "Blind cases to draw (default 40)");
+  cmd->add_option("--effects", args->effects,
+                  "Comma-separated truths to cycle through (default: the six "
+                  "library effects, none, model_parameter)");
+  cmd->add_option("--seed", args->seed, "Seed of the cases (default 1)");
+  cmd->add_option_function<int>(
+      "--threads", [args](const int& n) { args->threads = n; },
+      "Candidates fitted side by side per rank (default 2, 1 under MPI)");
+  cmd->add_flag("--quiet", args->quiet, "No progress line on a terminal");
+  cmd->add_option("--out", args->out, "validate.json to write");
+  cmd->callback([args, run] { *run = [args] { return RunValidate(*args); }; });
+}
+
+}  // namespace kcrig

@@ -1,0 +1,152 @@
+#include "validation/blind_case.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "rt_core/model/channels.h"
+
+namespace kcrig {
+namespace {
+
+double LogUniform(double low, double high, double u) {
+  return low * std::pow(high / low, u);
+}
+
+// The --effect text of a library effect of magnitude m (0..1).
+std::string EffectText(const std::string& truth, double m, std::mt19937_64* rng,
+                       std::uniform_real_distribution<double>* u) {
+  char text[240];
+  auto draw = [&] { return (*u)(*rng); };
+  if (truth == "bushing_damping") {
+    std::snprintf(text, sizeof(text), "bushing_damping:d=%.6g",
+                  LogUniform(5e4, 3e6, m));
+  } else if (truth == "hysteresis") {
+    std::snprintf(text, sizeof(text), "hysteresis:force=%.6g,sigma=%.6g",
+                  LogUniform(20, 1000, m), LogUniform(1e7, 1e8, draw()));
+  } else if (truth == "progressive_stiffness") {
+    std::snprintf(text, sizeof(text), "progressive_stiffness:c3=%.6g",
+                  LogUniform(1e11, 1e13, m));
+  } else if (truth == "actuator_lag") {
+    std::snprintf(text, sizeof(text), "actuator_lag:tau=%.6g,dead_time=%.6g",
+                  LogUniform(1e-3, 0.05, m), 0.01 * m * draw());
+  } else if (truth == "rig_compliance") {
+    std::snprintf(text, sizeof(text), "rig_compliance:k=%.6g",
+                  LogUniform(1e8, 2e6, m));
+  } else if (truth == "sensor_offset") {
+    const double f = LogUniform(0.2, 10, m);
+    const double x = f * 1e-4 * (2 * draw() - 1);
+    const double y = f * 1e-4 * (2 * draw() - 1);
+    const double z = f * 1e-4 * (2 * draw() - 1);
+    const double toe = f * 2e-4 * (2 * draw() - 1);
+    const double camber = f * 2e-4 * (2 * draw() - 1);
+    const double caster = f * 2e-4 * (2 * draw() - 1);
+    const double scale = 1 + 0.01 * f * (2 * draw() - 1);
+    std::snprintf(text, sizeof(text),
+                  "sensor_offset:x=%.6g,y=%.6g,z=%.6g,toe=%.6g,camber=%.6g,"
+                  "caster=%.6g,scale=%.6g",
+                  x, y, z, toe, camber, caster, scale);
+  } else {
+    return "";
+  }
+  return text;
+}
+
+// A wrong "known" parameter of magnitude m: two in three cases a chassis or
+// carrier point off by 1 .. 10 mm along one axis, else the spring rate off
+// by 2 .. 30 %.
+void DrawWrongParameter(const SuspensionParameters<double>& model, double m,
+                        std::mt19937_64* rng, BlindCase* c) {
+  static const char* kPoints[] = {"O1", "O2", "V1", "V2", "P",
+                                  "N1", "N2", "U1", "U2", "Q"};
+  if ((*rng)() % 3 != 0) {
+    c->parameter =
+        std::string(kPoints[(*rng)() % 10]) + "." + "xyz"[(*rng)() % 3];
+    const double error = ((*rng)() % 2 ? 1 : -1) * LogUniform(1e-3, 1e-2, m);
+    c->parameter_value = *FindParameter(model, c->parameter) + error;
+  } else {
+    c->parameter = "k_spring";
+    const double error = ((*rng)() % 2 ? 1 : -1) * LogUniform(0.02, 0.3, m);
+    c->parameter_value = model.spring.stiffness * (1 + error);
+  }
+  c->sets.push_back({c->parameter, c->parameter_value});
+}
+
+}  // namespace
+
+RampExcitation<double> BlindDesign::Ramp(double fmax) const {
+  return {phi_deg * kDegree, z_a, fmax, duration, hold, return_duration};
+}
+
+std::string BlindDesign::Arguments() const {
+  char text[200];
+  std::snprintf(text, sizeof(text),
+                "--phi %.3f --z %.4f --duration %.3f --hold %.3f "
+                "--return %.3f",
+                phi_deg, z_a, duration, hold, return_duration);
+  return text;
+}
+
+std::string BlindCase::Arguments() const {
+  std::string out = effect.empty() ? "" : "--effect " + effect;
+  for (const auto& [name, value] : sets) {
+    char text[120];
+    std::snprintf(text, sizeof(text), " --set %s=%.9g", name.c_str(), value);
+    out += text;
+  }
+  return out;
+}
+
+Status DrawBlindCase(int index, std::uint64_t seed,
+                     const SuspensionParameters<double>& model,
+                     const std::vector<std::string>& classes,
+                     BlindCase* blind_case) {
+  const std::vector<std::string>& cycle =
+      classes.empty() ? BlindCaseClasses() : classes;
+  for (const std::string& name : cycle) {
+    const std::vector<std::string>& known = BlindCaseClasses();
+    if (std::find(known.begin(), known.end(), name) == known.end()) {
+      return Status::Error("unknown class '" + name + "'");
+    }
+  }
+  BlindCase c;
+  std::mt19937_64 rng(seed * 1000003 + index);
+  std::uniform_real_distribution<double> u(0, 1);
+  c.index = index;
+  c.truth = cycle[index % cycle.size()];
+  c.magnitude = u(rng);
+  c.noise_seed = seed * 1000 + index * 7;
+  for (BlindDesign& d : c.designs) {
+    d.phi_deg = 90 * u(rng);
+    d.z_a = -0.5 * u(rng);
+    d.duration = 1 + 1.5 * u(rng);
+    d.hold = 0.3 * u(rng);
+    d.return_duration = 0.6 + 1.2 * u(rng);
+  }
+  for (int i = 0; i < kNumBushings; ++i) {
+    c.sets.push_back({"c_" + std::string(kBushingChassisNames[i]),
+                      model.bushings[i].stiffness * (0.9 + 0.2 * u(rng))});
+  }
+  c.effect = EffectText(c.truth, c.magnitude, &rng, &u);
+  if (c.truth == "model_parameter") {
+    DrawWrongParameter(model, c.magnitude, &rng, &c);
+  }
+  if (!c.effect.empty()) {
+    const Status status = ParseEffect(c.effect, &c.effects);
+    if (!status.ok()) return status;
+  }
+  *blind_case = std::move(c);
+  return Status::Ok();
+}
+
+SuspensionParameters<double> BlindCasePlant(
+    const BlindCase& blind_case, const SuspensionParameters<double>& model) {
+  SuspensionParameters<double> plant = model;
+  for (const auto& [name, value] : blind_case.sets) {
+    if (double* p = FindParameter(&plant, name)) *p = value;
+  }
+  return plant;
+}
+
+}  // namespace kcrig

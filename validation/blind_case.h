@@ -1,0 +1,74 @@
+// The blind cases of `kcrig validate` (and of the blind diagnosis tests): a
+// seeded generator draws the truth of each case — one of the six library
+// effects, none, or a wrong "known" parameter (a hard point off along one
+// axis, or the spring rate) — its magnitude from small to large, the rig's
+// true bushings (+-10 % off the configured ones, as a real rig's are), the
+// designs of two training logs and one hold-out log, and the noise seeds.
+// The same (index, seed) gives the same case on any machine and rank.
+#ifndef KCRIG_VALIDATION_BLIND_CASE_H_
+#define KCRIG_VALIDATION_BLIND_CASE_H_
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "base/status.h"
+#include "rt_core/model/excitation.h"
+#include "rt_core/model/plant_effects.h"
+#include "rt_core/model/suspension_parameters.h"
+
+namespace kcrig {
+
+// The truths a case is drawn from, in the order cases cycle through them.
+inline const std::vector<std::string>& BlindCaseClasses() {
+  static const std::vector<std::string> classes = {"bushing_damping",
+                                                   "hysteresis",
+                                                   "progressive_stiffness",
+                                                   "actuator_lag",
+                                                   "rig_compliance",
+                                                   "sensor_offset",
+                                                   "none",
+                                                   "model_parameter"};
+  return classes;
+}
+
+struct BlindDesign {
+  double phi_deg = 0, z_a = 0, duration = 0, hold = 0, return_duration = 0;
+  RampExcitation<double> Ramp(double fmax) const;
+  // As `kcrig simulate` takes it: --phi .. --return ...
+  std::string Arguments() const;
+};
+
+struct BlindCase {
+  int index = 0;
+  std::string truth;     // one of BlindCaseClasses()
+  std::string effect;    // the --effect text of a library effect, or ""
+  double magnitude = 0;  // 0..1, small to large (log scale in a range)
+  PlantEffects effects;  // parsed from `effect`
+  // The plant's parameters that differ from the configuration: the true
+  // bushings, and a wrong "known" parameter.
+  std::vector<std::pair<std::string, double>> sets;
+  std::string parameter;         // model_parameter: the one that is off...
+  double parameter_value = 0;    // ...and its true value
+  BlindDesign designs[3];        // two training logs, one hold-out
+  std::uint64_t noise_seed = 0;  // of log k: noise_seed + k
+  // The truth as `kcrig simulate` options (--effect ... --set ...).
+  std::string Arguments() const;
+};
+
+// Case `index` of the series `seed` for the configured `model`. `classes`
+// (of BlindCaseClasses(); empty: all) are cycled through instead. Errors on
+// an unknown class.
+Status DrawBlindCase(int index, std::uint64_t seed,
+                     const SuspensionParameters<double>& model,
+                     const std::vector<std::string>& classes,
+                     BlindCase* blind_case);
+
+// The configured model with the case's parameters set: the rig's plant.
+SuspensionParameters<double> BlindCasePlant(
+    const BlindCase& blind_case, const SuspensionParameters<double>& model);
+
+}  // namespace kcrig
+
+#endif  // KCRIG_VALIDATION_BLIND_CASE_H_

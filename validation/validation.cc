@@ -1,0 +1,344 @@
+#include "validation/validation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+
+#include "diagnosis/diagnosis_io.h"
+#include "diagnosis/effect_model.h"
+#include "emulator/simulated_run.h"
+#include "nlohmann/json.hpp"
+
+namespace kcrig {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+// Effect sizes of the power curve's bins [noise units].
+constexpr double kSizeBins[] = {0, 1, 2, 3, 5, 10, 30};
+// Effects beyond this size are the ones the acceptance figures count.
+constexpr double kLargeEffect = 3;
+
+// One log of the case as the rig would record it, or without noise; the
+// truth is not in what the diagnosis gets.
+Status SimulateLog(const KcrigConfig& config, const ValidationOptions& options,
+                   const BlindCase& c, int k, bool noise,
+                   Experiment* experiment) {
+  SimulatedRunOptions run;
+  run.rate = config.experiment.rate;
+  run.step = options.plant_step;
+  run.noise = noise;
+  run.seed = c.noise_seed + k;
+  run.effects = c.effects;
+  run.geometry = GeometryFingerprint(config.model);
+  RunLog log;
+  Status status = SimulateRun(BlindCasePlant(c, config.model),
+                              c.designs[k].Ramp(config.experiment.fmax),
+                              config.experiment, run, &log);
+  if (!status.ok()) return status;
+  log.metadata.synthetic = false;
+  log.metadata.truth_parameters.clear();
+  log.metadata.truth_effects.clear();
+  return MakeExperiment(
+      "case " + std::to_string(c.index) + " log " + std::to_string(k), log,
+      config.experiment.step, experiment);
+}
+
+// The effect's size in noise units (0 for a clean case).
+Status EffectSize(const KcrigConfig& config, const ValidationOptions& options,
+                  const BlindCase& c, double* size) {
+  *size = 0;
+  if (c.truth == "none") return Status::Ok();
+  std::vector<Experiment> clean(2);
+  for (int k = 0; k < 2; ++k) {
+    const Status status = SimulateLog(config, options, c, k, false, &clean[k]);
+    if (!status.ok()) return status;
+  }
+  return NominalFitSigmaHat(config, clean, size);
+}
+
+Json Designs(const BlindCase& c) {
+  Json out = Json::array();
+  for (const BlindDesign& d : c.designs) out.push_back(d.Arguments());
+  return out;
+}
+
+// diag.json's field `name`, or `otherwise` when it is absent or null.
+Json Field(const Json& diag, const char* name, Json otherwise) {
+  return diag.contains(name) && !diag[name].is_null() ? diag[name] : otherwise;
+}
+
+// The diagnosis (diag.json's fields) against the case's truth.
+Json Score(const BlindCase& c, double size, const Json& diag) {
+  const std::string verdict = diag["verdict"];
+  const std::string model = Field(diag, "model", "");
+  const std::string confidence = Field(diag, "confidence", "");
+  const Json ambiguous = Field(diag, "ambiguous", Json::array());
+  const Json quantification = Field(diag, "quantification", Json::object());
+  const std::string truth_model =
+      c.parameter.empty() ? c.truth : "model_parameter@" + c.parameter;
+  const bool correct =
+      verdict == c.truth && (c.parameter.empty() || model == truth_model);
+  Json out;
+  out["index"] = c.index;
+  out["truth"] = c.truth;
+  out["truth_options"] = c.Arguments();
+  out["magnitude"] = c.magnitude;
+  out["designs"] = Designs(c);
+  out["size_sigma"] = size;
+  out["verdict"] = verdict;
+  out["column"] = verdict.find('+') != std::string::npos ? "pair" : verdict;
+  out["model"] = model;
+  out["confidence"] = confidence;
+  out["components"] = Field(diag, "components", Json::array());
+  out["ambiguous"] = ambiguous;
+  out["gap_closed"] = Field(quantification, "gap_closed", nullptr);
+  out["correct"] = correct;
+  out["confident_wrong"] = !correct && confidence == "high";
+  out["named_in_ambiguity"] =
+      verdict == "unexplained" && std::find(ambiguous.begin(), ambiguous.end(),
+                                            truth_model) != ambiguous.end();
+  out["value_in_interval"] = nullptr;
+  if (!c.parameter.empty() && correct) {
+    for (const Json& p :
+         Field(quantification, "effect_parameters", Json::array())) {
+      if (p["name"] != "model_parameter." + c.parameter) continue;
+      out["value_in_interval"] = p["ci95"][0] <= c.parameter_value &&
+                                 c.parameter_value <= p["ci95"][1];
+    }
+  }
+  return out;
+}
+
+struct Tally {
+  int hits = 0, total = 0;
+  Json ToJson(const char* hits_name) const {
+    Json out;
+    out[hits_name] = hits;
+    out["total"] = total;
+    out["rate"] = total > 0 ? Json(double(hits) / total) : Json(nullptr);
+    return out;
+  }
+};
+
+bool Flag(const Json& c, const char* name) {
+  return c[name].is_boolean() && c[name].get<bool>();
+}
+
+Json Figures(const std::vector<Json>& cases) {
+  Tally large, clean, parameters, in_interval, closed;
+  int ambiguous = 0, confident_wrong = 0;
+  for (const Json& c : cases) {
+    const bool correct = Flag(c, "correct");
+    const bool parameter = c["truth"] == "model_parameter";
+    const bool beyond = c["size_sigma"].get<double>() > kLargeEffect;
+    confident_wrong += Flag(c, "confident_wrong");
+    if (c["truth"] == "none") {
+      ++clean.total;
+      clean.hits += c["verdict"] == "none";
+      continue;
+    }
+    if (correct) {
+      ++closed.total;
+      closed.hits +=
+          c["gap_closed"].is_number() && c["gap_closed"].get<double>() >= 0.8;
+    }
+    if (!beyond) continue;
+    Tally& tally = parameter ? parameters : large;
+    ++tally.total;
+    tally.hits += correct;
+    if (!parameter) continue;
+    ambiguous += Flag(c, "named_in_ambiguity");
+    if (c["value_in_interval"].is_boolean()) {
+      ++in_interval.total;
+      in_interval.hits += Flag(c, "value_in_interval");
+    }
+  }
+  Json out;
+  out["library_effects_beyond_3_sigma"] = large.ToJson("correct");
+  out["clean"] = clean.ToJson("none");
+  out["false_alarm_rate"] = clean.total > 0
+                                ? Json(1.0 - double(clean.hits) / clean.total)
+                                : Json(nullptr);
+  out["wrong_parameters_beyond_3_sigma"] = parameters.ToJson("named");
+  out["wrong_parameters_beyond_3_sigma"]["one_of_an_ambiguous_pair"] =
+      ambiguous;
+  out["true_value_in_95_interval"] = in_interval.ToJson("inside");
+  out["gap_closed_80_percent_when_correct"] = closed.ToJson("closed");
+  out["confident_wrong"] = confident_wrong;
+  return out;
+}
+
+Json Confusion(const std::vector<Json>& cases) {
+  Json out = Json::object();
+  for (const std::string& truth : BlindCaseClasses()) {
+    for (const Json& c : cases) {
+      if (c["truth"] != truth) continue;
+      const std::string column = c["column"];
+      if (!out.contains(truth)) out[truth] = Json::object();
+      out[truth][column] = out[truth].value(column, 0) + 1;
+    }
+  }
+  return out;
+}
+
+// Per effect class: the detection rate in each size bin and the smallest
+// size detected.
+Json Power(const std::vector<Json>& cases) {
+  Json out = Json::object();
+  constexpr int kBins = sizeof(kSizeBins) / sizeof(kSizeBins[0]);
+  for (const std::string& truth : BlindCaseClasses()) {
+    if (truth == "none") continue;
+    Json bins = Json::array();
+    double smallest = std::numeric_limits<double>::infinity();
+    int any = 0;
+    for (int b = 0; b < kBins; ++b) {
+      const double from = kSizeBins[b];
+      const double to = b + 1 < kBins ? kSizeBins[b + 1]
+                                      : std::numeric_limits<double>::infinity();
+      int n = 0, detected = 0;
+      for (const Json& c : cases) {
+        const double size = c["size_sigma"];
+        if (c["truth"] != truth || size < from || size >= to) continue;
+        ++n;
+        detected += Flag(c, "correct");
+        if (Flag(c, "correct")) smallest = std::min(smallest, size);
+      }
+      any += n;
+      bins.push_back({{"from_sigma", from},
+                      {"to_sigma", std::isinf(to) ? Json(nullptr) : Json(to)},
+                      {"cases", n},
+                      {"detected", detected}});
+    }
+    if (any == 0) continue;
+    out[truth] = {{"bins", bins},
+                  {"smallest_detected_sigma",
+                   std::isinf(smallest) ? Json(nullptr) : Json(smallest)}};
+  }
+  return out;
+}
+
+}  // namespace
+
+Status NominalFitSigmaHat(const KcrigConfig& config,
+                          const std::vector<Experiment>& experiments,
+                          double* sigma_hat) {
+  EffectModel nominal;
+  Status status = EffectModel::Create(config.model, {}, 0.1, 10, &nominal);
+  if (!status.ok()) return status;
+  EffectFit fit;
+  status = FitEffectModel(nominal, experiments, {}, EffectFitOptions(),
+                          config.experiment.step, &fit);
+  if (!status.ok()) return status;
+  *sigma_hat = fit.result.sigma_hat;
+  return Status::Ok();
+}
+
+Status RunValidationCase(const KcrigConfig& config,
+                         const ValidationOptions& options, int index,
+                         std::string* outcome) {
+  BlindCase c;
+  Status status =
+      DrawBlindCase(index, options.seed, config.model, options.classes, &c);
+  if (!status.ok()) return status;
+  std::vector<Experiment> logs(3);
+  for (int k = 0; k < 3; ++k) {
+    status = SimulateLog(config, options, c, k, true, &logs[k]);
+    if (!status.ok()) return status;
+  }
+  DiagnosisResult result;
+  status = Diagnose(config.model, {logs[0], logs[1]}, {logs[2]},
+                    options.diagnosis, config.experiment.step, &result);
+  if (!status.ok()) return status;
+  const Json diag = Json::parse(
+      DiagnosisToJson(result, {"train_a", "train_b"}, {"holdout"}, ""));
+  // Only now is the truth looked at.
+  double size = 0;
+  status = EffectSize(config, options, c, &size);
+  if (!status.ok()) return status;
+  *outcome = Score(c, size, diag).dump();
+  return Status::Ok();
+}
+
+std::string ValidationToJson(const KcrigConfig& config,
+                             const ValidationOptions& options,
+                             const std::vector<std::string>& outcomes) {
+  std::vector<Json> cases;
+  for (const std::string& text : outcomes) cases.push_back(Json::parse(text));
+  Json doc;
+  doc["config"] = config.directory;
+  doc["seed"] = options.seed;
+  doc["cases"] = options.cases;
+  doc["classes"] =
+      options.classes.empty() ? BlindCaseClasses() : options.classes;
+  doc["plant_step"] = {{"value", options.plant_step}, {"unit", "s"}};
+  doc["figures"] = Figures(cases);
+  doc["confusion"] = Confusion(cases);
+  doc["power"] = Power(cases);
+  doc["case_results"] = cases;
+  return doc.dump(2) + "\n";
+}
+
+std::string ValidationSummary(const std::string& validation_json) {
+  const Json doc = Json::parse(validation_json);
+  std::string out = "confusion matrix (rows: truth, columns: verdict)\n";
+  char line[320];
+  static const char* kColumns[] = {"none",          "bushing_damping",
+                                   "hysteresis",    "progressive_stiffness",
+                                   "actuator_lag",  "rig_compliance",
+                                   "sensor_offset", "model_parameter",
+                                   "pair",          "unexplained"};
+  std::snprintf(line, sizeof(line), "%22s", "");
+  out += line;
+  for (const char* column : kColumns) {
+    std::snprintf(line, sizeof(line), " %6.6s", column);
+    out += line;
+  }
+  out += "\n";
+  for (const auto& [truth, row] : doc["confusion"].items()) {
+    std::snprintf(line, sizeof(line), "%22s", truth.c_str());
+    out += line;
+    for (const char* column : kColumns) {
+      std::snprintf(line, sizeof(line), " %6d", row.value(column, 0));
+      out += line;
+    }
+    out += "\n";
+  }
+  out += "detection rate by effect size (noise units; detected/cases)\n";
+  for (const auto& [truth, power] : doc["power"].items()) {
+    std::snprintf(line, sizeof(line), "%22s", truth.c_str());
+    out += line;
+    for (const Json& bin : power["bins"]) {
+      if (bin["cases"] == 0) continue;
+      const std::string to =
+          bin["to_sigma"].is_null() ? "" : bin["to_sigma"].dump();
+      std::snprintf(line, sizeof(line), "  [%s,%s) %d/%d",
+                    bin["from_sigma"].dump().c_str(), to.c_str(),
+                    bin["detected"].get<int>(), bin["cases"].get<int>());
+      out += line;
+    }
+    out += "\n";
+  }
+  const Json& f = doc["figures"];
+  auto tally = [](const Json& t, const char* hits) {
+    return std::to_string(t[hits].get<int>()) + "/" +
+           std::to_string(t["total"].get<int>());
+  };
+  out +=
+      "library effects > 3x noise correct: " +
+      tally(f["library_effects_beyond_3_sigma"], "correct") +
+      "; clean called none: " + tally(f["clean"], "none") +
+      "; wrong parameters > 3x noise named: " +
+      tally(f["wrong_parameters_beyond_3_sigma"], "named") + " (+" +
+      f["wrong_parameters_beyond_3_sigma"]["one_of_an_ambiguous_pair"].dump() +
+      " one of an ambiguous pair), true value in the 95 % interval " +
+      tally(f["true_value_in_95_interval"], "inside") +
+      "; correct with >= 80 % of the gap closed: " +
+      tally(f["gap_closed_80_percent_when_correct"], "closed") +
+      "; confident wrong answers: " + f["confident_wrong"].dump() + "\n";
+  return out;
+}
+
+}  // namespace kcrig
