@@ -9,6 +9,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "cluster/ranks.h"
 #include "designer/design_io.h"
 #include "designer/design_step.h"
 #include "estimator/estimate_io.h"
@@ -106,6 +107,9 @@ int RunDesign(const DesignArgs& args) {
   if (args.augment) step.prior_information = estimate.information;
   step.criterion = criterion;
   step.optimizer_options = optimizer_options;
+  // Under mpirun the batches spread over the ranks, a core each.
+  step.objective.batches = &WorldBatches();
+  if (WorldRanks().size() > 1) step.objective.num_threads = 1;
 
   const DesignBounds bounds{config.experiment.phi_bounds,
                             config.experiment.z_a_bounds};
@@ -135,7 +139,7 @@ int RunDesign(const DesignArgs& args) {
   }
   progress.Clear();
 
-  if (!args.out.empty()) {
+  if (!args.out.empty() && WorldRanks().is_root()) {
     status =
         WriteFilesAtomically({{args.out, DesignRunsToJson(criterion, runs)}});
     if (!status.ok()) return fail(status);

@@ -9,6 +9,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "cluster/ranks.h"
 #include "designer/discrimination.h"
 #include "diagnosis/diagnosis.h"
 #include "diagnosis/diagnosis_io.h"
@@ -25,7 +26,7 @@ struct DiagnoseArgs {
   std::string candidates;
   bool no_pairs = false;
   std::optional<int> free_parameters;
-  int threads = 2;
+  std::optional<int> threads;
   bool quiet = false;
   std::string out;
 };
@@ -71,8 +72,12 @@ int RunDiagnose(const DiagnoseArgs& args) {
   // Candidates given by hand are all that is fitted unless asked otherwise.
   options.model_parameter_pool = args.free_parameters.value_or(
       args.candidates.empty() ? options.model_parameter_pool : 0);
-  if (args.threads < 1) return fail(Status::Error("--threads: must be >= 1"));
-  options.num_threads = args.threads;
+  if (args.threads && *args.threads < 1) {
+    return fail(Status::Error("--threads: must be >= 1"));
+  }
+  // Under mpirun the candidate fits spread over the ranks, a core each.
+  options.batches = &WorldBatches();
+  options.num_threads = args.threads.value_or(WorldRanks().size() > 1 ? 1 : 2);
 
   std::vector<Experiment> training, holdout;
   status = LoadLogs(args.logs, config, &training);
@@ -106,7 +111,7 @@ int RunDiagnose(const DiagnoseArgs& args) {
     }
   }
   if (stop.received()) return stop.Exit("diagnose");
-  if (!args.out.empty()) {
+  if (!args.out.empty() && WorldRanks().is_root()) {
     status = WriteFilesAtomically(
         {{args.out,
           DiagnosisToJson(result, args.logs, args.holdout, design_json)}});
@@ -159,8 +164,10 @@ void AddDiagnoseCommand(CLI::App* app, std::function<int()>* run) {
          "Most model parameters the screening frees as candidates "
          "(model_parameter@NAME; default 3, 0 with --candidates; 0: none)")
       ->check(CLI::Range(0, freeable));
-  cmd->add_option("--threads", args->threads,
-                  "Candidates fitted side by side (default 2)");
+  cmd->add_option_function<int>(
+      "--threads", [args](const int& n) { args->threads = n; },
+      "Candidates fitted side by side per process (default 2; 1 under MPI, "
+      "where the fits spread over the ranks)");
   cmd->add_flag("--quiet", args->quiet, "No progress line on a terminal");
   cmd->add_option("--out", args->out, "diag.json to write");
   cmd->callback([args, run] { *run = [args] { return RunDiagnose(*args); }; });

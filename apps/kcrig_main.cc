@@ -62,6 +62,26 @@ int main(int argc, char** argv) {
                  argv[1]);
     return 2;
   }
+  // Under mpirun only the batch commands spread (every rank runs the
+  // command, the batches are shared out); rank 0 alone prints and writes.
+  if (ranks.size() > 1) {
+    const std::string command = argc > 1 ? argv[1] : "";
+    if (command != "validate" && command != "design" && command != "diagnose") {
+      if (ranks.is_root()) {
+        std::fprintf(
+            stderr,
+            "kcrig %s: runs in one process (only validate, "
+            "design and diagnose spread over MPI ranks): start it without "
+            "mpirun\n",
+            command.c_str());
+      }
+      return 1;
+    }
+    if (!ranks.is_root()) {
+      (void)std::freopen("/dev/null", "w", stdout);
+      (void)std::freopen("/dev/null", "w", stderr);
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

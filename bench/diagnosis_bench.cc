@@ -7,9 +7,12 @@
 // = the issue's 4 s logs, and 4 s + 4 s (the paper's 4 s ramp and back) as a
 // longer case; one thread and two show what the parallel fits buy.
 // Run: build/bin/diagnosis_bench --benchmark_format=json
+#include <unistd.h>
+
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "benchmark/benchmark.h"
@@ -84,6 +87,40 @@ BENCHMARK(BM_FullDiagnosis)
     ->Args({2, 2})
     ->Args({1, 2})
     ->Args({2, 4})
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Iterations(1);
+
+// Issue #22: `kcrig validate` (six blind cases: hysteresis, bushing damping
+// and rig compliance twice each, one candidate fit at a time per process)
+// on 1 and on 2 MPI ranks, whole processes under mpirun; the ratio of the
+// two is the scaling (goal: 2 ranks >= 1.7x faster). Per-case cost =
+// wall time x ranks / cases.
+void BM_ValidateOnRanks(benchmark::State& state) {
+  const int ranks = static_cast<int>(state.range(0));
+  const std::string out = "/tmp/kcrig_validate_bench_" + std::to_string(ranks) +
+                          "_" + std::to_string(getpid()) + ".json";
+  const std::string command =
+      "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun "
+      "--oversubscribe -np " +
+      std::to_string(ranks) +
+      " " KCRIG_BINARY
+      " validate --quiet --threads 1 --cases 6 --seed 5 --effects "
+      "hysteresis,bushing_damping,rig_compliance --out " +
+      out + " > /dev/null 2>&1";
+  for (auto _ : state) {
+    if (std::system(command.c_str()) != 0) {
+      state.SkipWithError("kcrig validate failed under mpirun");
+      return;
+    }
+  }
+  std::remove(out.c_str());
+  state.counters["cases"] = 6;
+}
+BENCHMARK(BM_ValidateOnRanks)
+    ->ArgName("ranks")
+    ->Arg(1)
+    ->Arg(2)
     ->Unit(benchmark::kSecond)
     ->UseRealTime()
     ->Iterations(1);

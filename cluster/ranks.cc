@@ -1,6 +1,8 @@
 #include "cluster/ranks.h"
 
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 
 #include "nlohmann/json.hpp"
@@ -140,6 +142,73 @@ Status Ranks::Gather(int num_items, const Status& local,
   }
 #endif
   return Merge(num_items, payloads, all);
+}
+
+// Jobs of the batch on rank r: r, r + N, ...; their results gathered by
+// every rank (MPI_Allgatherv of each rank's packed results).
+class RankBatchRunner final : public BatchRunner {
+ public:
+  void Run(int count, int threads,
+           const std::function<void(int, std::string*)>& work,
+           std::vector<std::string>* results) const override {
+    const Ranks& ranks = WorldRanks();
+    std::vector<int> own;
+    for (int j = ranks.rank(); j < count; j += ranks.size()) own.push_back(j);
+    std::vector<std::string> mine(own.size());
+    ParallelFor(static_cast<int>(own.size()), threads,
+                [&](int k) { work(own[k], &mine[k]); });
+    results->assign(count, std::string());
+    std::string packed;
+    for (const std::string& result : mine) {
+      const std::uint64_t length = result.size();
+      packed.append(reinterpret_cast<const char*>(&length), sizeof(length));
+      packed += result;
+    }
+    std::string all;
+    std::vector<int> lengths, offsets;
+    AllGather(packed, &all, &lengths, &offsets);
+    for (int rank = 0; rank < ranks.size(); ++rank) {
+      size_t at = offsets[rank];
+      for (int j = rank; j < count; j += ranks.size()) {
+        std::uint64_t length = 0;
+        std::memcpy(&length, all.data() + at, sizeof(length));
+        at += sizeof(length);
+        (*results)[j] = all.substr(at, length);
+        at += length;
+      }
+    }
+  }
+
+ private:
+  // Every rank's `mine`, concatenated in rank order, on every rank.
+  static void AllGather(const std::string& mine, std::string* all,
+                        std::vector<int>* lengths, std::vector<int>* offsets) {
+    const int size = WorldRanks().size();
+    lengths->assign(size, 0);
+    offsets->assign(size, 0);
+#ifdef KCRIG_WITH_MPI
+    int length = static_cast<int>(mine.size());
+    MPI_Allgather(&length, 1, MPI_INT, lengths->data(), 1, MPI_INT,
+                  MPI_COMM_WORLD);
+    long total = 0;
+    for (int r = 0; r < size; ++r) {
+      (*offsets)[r] = static_cast<int>(total);
+      total += (*lengths)[r];
+    }
+    all->resize(total);
+    MPI_Allgatherv(mine.data(), length, MPI_CHAR, all->data(), lengths->data(),
+                   offsets->data(), MPI_CHAR, MPI_COMM_WORLD);
+#else
+    (*lengths)[0] = static_cast<int>(mine.size());
+    *all = mine;
+#endif
+  }
+};
+
+const BatchRunner& WorldBatches() {
+  static const RankBatchRunner spread;
+  return WorldRanks().size() > 1 ? static_cast<const BatchRunner&>(spread)
+                                 : BatchesOr(nullptr);
 }
 
 const Ranks& WorldRanks() {

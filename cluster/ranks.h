@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "base/batch_runner.h"
 #include "base/status.h"
 
 namespace kcrig {
@@ -52,6 +53,11 @@ class Ranks {
 
 // The process's ranks: main's Ranks, or rank 0 of 1 when there is none.
 const Ranks& WorldRanks();
+
+// Batches spread over WorldRanks(): job j runs on rank j mod N (on up to
+// `threads` threads there) and every rank receives every result. One rank:
+// the local threads alone.
+const BatchRunner& WorldBatches();
 
 // Whether this kcrig was built with MPI.
 bool BuiltWithMpi();

@@ -1,10 +1,10 @@
 #include "designer/design_objective.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cstdio>
+#include <cstring>
 #include <limits>
-#include <thread>
+#include <string>
 #include <utility>
 
 #include "rt_core/model/channels.h"
@@ -43,17 +43,24 @@ Eigen::Vector2d DesignObjective::ToUnit(const Design& design) const {
   return kcrig::ToUnit(bounds_, design);
 }
 
-DesignEvaluation DesignObjective::EvaluateOne(
+Eigen::MatrixXd DesignObjective::InformationAt(
     const Eigen::Vector2d& unit) const {
+  Eigen::MatrixXd information;
+  // A diverged simulation carries no information (criteria.h penalty).
+  if (!evaluator_->Information(ToDesign(unit), &information).ok()) {
+    const int n = evaluator_->num_parameters();
+    information = Eigen::MatrixXd::Constant(
+        n, n, std::numeric_limits<double>::quiet_NaN());
+  }
+  return information;
+}
+
+DesignEvaluation DesignObjective::Evaluated(
+    const Eigen::Vector2d& unit, const Eigen::MatrixXd& information) const {
   DesignEvaluation e;
   e.unit = unit;
   e.design = ToDesign(unit);
-  const int n = evaluator_->num_parameters();
-  // A diverged simulation carries no information (criteria.h penalty).
-  if (!evaluator_->Information(e.design, &e.information).ok()) {
-    e.information = Eigen::MatrixXd::Constant(
-        n, n, std::numeric_limits<double>::quiet_NaN());
-  }
+  e.information = information;
   const CriterionValue value = EvaluateCriterion(criterion_, e.information);
   e.value = value.value;
   e.singular = value.singular;
@@ -81,17 +88,27 @@ std::vector<DesignEvaluation> DesignObjective::Evaluate(
     results[count].unit = u;
   }
 
-  std::atomic<size_t> next{0};
-  auto worker = [&] {
-    for (size_t k = next++; k < to_run.size(); k = next++) {
-      results[to_run[k]] = EvaluateOne(results[to_run[k]].unit);
-    }
-  };
-  const int threads = std::min<int>(options_.num_threads, to_run.size());
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
+  // The trajectories run in the batch; their information matrices (raw
+  // doubles) come back to every rank, the criterion is evaluated here.
+  std::vector<std::string> information;
+  BatchesOr(options_.batches)
+      .Run(
+          static_cast<int>(to_run.size()), options_.num_threads,
+          [&](int k, std::string* bytes) {
+            const Eigen::MatrixXd matrix =
+                InformationAt(results[to_run[k]].unit);
+            bytes->assign(reinterpret_cast<const char*>(matrix.data()),
+                          matrix.size() * sizeof(double));
+          },
+          &information);
+  const int n = evaluator_->num_parameters();
+  for (size_t k = 0; k < to_run.size(); ++k) {
+    Eigen::MatrixXd matrix(n, n);
+    std::memcpy(
+        matrix.data(), information[k].data(),
+        std::min(information[k].size(), matrix.size() * sizeof(double)));
+    results[to_run[k]] = Evaluated(results[to_run[k]].unit, matrix);
+  }
 
   for (int index : to_run) {
     results[index].batch = batches_;

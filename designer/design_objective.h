@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "Eigen/Core"
+#include "base/batch_runner.h"
 #include "base/iteration_callback.h"
 #include "designer/criteria.h"
 #include "designer/information.h"
@@ -28,8 +29,11 @@ struct DesignEvaluation {
 struct ObjectiveOptions {
   // Most criterion evaluations (trajectory + sensitivities each); > 0.
   int budget = 100;
-  // A batch of designs runs on this many threads, one design per thread.
+  // A batch of designs runs on this many threads, one design per thread,
+  // in this process or, with `batches`, spread over a cluster job's ranks
+  // (cluster/ranks.h; every rank then runs the same search). Optional.
   int num_threads = 2;
+  const BatchRunner* batches = nullptr;
   // Asked after every batch with the evaluations spent of the budget and
   // the stage "24/100 evaluations, best D -77.1058 at 16.0 deg, -0.500 m,
   // 0.7 s (at most 2 s left)"; kAbort ends the search as if the budget
@@ -76,7 +80,11 @@ class DesignObjective {
   bool interrupted() const { return interrupted_; }
 
  private:
-  DesignEvaluation EvaluateOne(const Eigen::Vector2d& unit) const;
+  // The information at a design (the trajectory: what a batch spreads),
+  // and the evaluation it gives.
+  Eigen::MatrixXd InformationAt(const Eigen::Vector2d& unit) const;
+  DesignEvaluation Evaluated(const Eigen::Vector2d& unit,
+                             const Eigen::MatrixXd& information) const;
   // Reports the progress after a batch; false: stop.
   bool ReportBatch() const;
 

@@ -8,8 +8,9 @@
 #include <functional>
 #include <limits>
 
-#include "base/parallel_for.h"
+#include "base/batch_runner.h"
 #include "diagnosis/internal/discrepancy.h"
+#include "diagnosis/internal/fit_codec.h"
 #include "diagnosis/internal/localisation.h"
 #include "diagnosis/internal/residual_statistics.h"
 #include "diagnosis/internal/verdict.h"
@@ -153,6 +154,31 @@ class DiagnosisRun {
 
   // The fraction done is a rough guide from typical stage costs: the fits
   // of the single effects take about half of a diagnosis, pairs a quarter.
+  const BatchRunner& Batches() const { return BatchesOr(options_.batches); }
+
+  // `count` fits as one batch (spread over the ranks with
+  // options_.batches: each rank then has every fit, bit for bit).
+  void RunFits(int count, const std::function<Status(int, EffectFit*)>& fit,
+               std::vector<EffectFit>* fits,
+               std::vector<Status>* status) const {
+    std::vector<std::string> outcomes;
+    Batches().Run(
+        count, options_.num_threads,
+        [&](int k, std::string* outcome) {
+          EffectFit one;
+          const Status s = fit(k, &one);
+          *outcome = EncodeFit(s, one);
+        },
+        &outcomes);
+    fits->assign(count, EffectFit());
+    status->assign(count, Status::Ok());
+    for (int k = 0; k < count; ++k) {
+      if (!DecodeFit(outcomes[k], &(*status)[k], &(*fits)[k])) {
+        (*status)[k] = Status::Error("a fit's result arrived corrupt");
+      }
+    }
+  }
+
   Status Progress(const std::string& text, double fraction) {
     return progress_.Report({text, fraction}) ? Status::Ok()
                                               : Interrupted("diagnosis");
@@ -241,17 +267,18 @@ class DiagnosisRun {
   // between experiments. A log whose own fit fails leaves the drift table
   // empty (it is evidence, not a precondition of the diagnosis).
   void EstimateDrift() {
-    std::vector<EffectFit> per_log(training_.size() > 1 ? training_.size() : 0);
-    std::vector<Status> per_log_status(per_log.size());
-    ParallelFor(static_cast<int>(per_log.size()), options_.num_threads,
-                [&](int l) {
-                  per_log_status[l] =
-                      progress_.aborted()
-                          ? Interrupted("diagnosis")
-                          : FitEffectModel(nominal_model_, {training_[l]},
-                                           result_->nominal.fit.values,
-                                           fit_options_, step_, &per_log[l]);
-                });
+    std::vector<EffectFit> per_log;
+    std::vector<Status> per_log_status;
+    RunFits(
+        training_.size() > 1 ? static_cast<int>(training_.size()) : 0,
+        [&](int l, EffectFit* fit) {
+          return progress_.aborted()
+                     ? Interrupted("diagnosis")
+                     : FitEffectModel(nominal_model_, {training_[l]},
+                                      result_->nominal.fit.values, fit_options_,
+                                      step_, fit);
+        },
+        &per_log, &per_log_status);
     const bool available =
         std::all_of(per_log_status.begin(), per_log_status.end(),
                     [](const Status& s) { return s.ok(); });
@@ -324,21 +351,36 @@ class DiagnosisRun {
     const int folds = holdout_.empty() && training_.size() > 1
                           ? static_cast<int>(training_.size())
                           : 0;
-    std::vector<std::vector<Vec6<double>>> fold_residuals(count * folds);
-    std::vector<Status> fold_status(count * folds);
-    ParallelFor(count * folds, options_.num_threads, [&](int job) {
-      const int i = job / folds, l = job % folds;
-      std::vector<Experiment> rest;
-      for (int o = 0; o < folds; ++o) {
-        if (o != l) rest.push_back(training_[o]);
+    std::vector<std::vector<Vec6<double>>> fold_residuals;
+    std::vector<Status> fold_status;
+    std::vector<std::string> outcomes;
+    Batches().Run(
+        count * folds, options_.num_threads,
+        [&](int job, std::string* outcome) {
+          const int i = job / folds, l = job % folds;
+          std::vector<Experiment> rest;
+          for (int o = 0; o < folds; ++o) {
+            if (o != l) rest.push_back(training_[o]);
+          }
+          std::vector<double> fold;
+          std::vector<Vec6<double>> residuals;
+          Status status = RefitOneStep(*models[i], scores[i]->fit.values, rest,
+                                       step_, &fold);
+          if (status.ok()) {
+            status = WeightedResiduals(*models[i], fold, training_[l], step_,
+                                       &residuals);
+          }
+          *outcome = EncodeResiduals(status, residuals);
+        },
+        &outcomes);
+    fold_residuals.resize(outcomes.size());
+    fold_status.resize(outcomes.size());
+    for (size_t job = 0; job < outcomes.size(); ++job) {
+      if (!DecodeResiduals(outcomes[job], &fold_status[job],
+                           &fold_residuals[job])) {
+        fold_status[job] = Status::Error("a fold's result arrived corrupt");
       }
-      std::vector<double> fold;
-      fold_status[job] =
-          RefitOneStep(*models[i], scores[i]->fit.values, rest, step_, &fold);
-      if (!fold_status[job].ok()) return;
-      fold_status[job] = WeightedResiduals(*models[i], fold, training_[l],
-                                           step_, &fold_residuals[job]);
-    });
+    }
     for (int i = 0; i < count; ++i) {
       std::vector<Status> own_folds(fold_status.begin() + i * folds,
                                     fold_status.begin() + (i + 1) * folds);
@@ -437,23 +479,26 @@ class DiagnosisRun {
           todo.resize(options_.retry_pool);
         }
       }
-      std::vector<EffectFit> fits(todo.size());
-      std::vector<Status> status_of(todo.size());
-      ParallelFor(
-          static_cast<int>(todo.size()), options_.num_threads, [&](int k) {
+      std::vector<EffectFit> fits;
+      std::vector<Status> status_of;
+      RunFits(
+          static_cast<int>(todo.size()),
+          [&](int k, EffectFit* fit) {
             const int i = todo[k];
-            status_of[k] =
+            const Status status =
                 progress_.aborted()
                     ? Interrupted("diagnosis")
                     : FitEffectModel(*models[i], training_, starts[i][round],
-                                     fit_options_, step_, &fits[k]);
+                                     fit_options_, step_, fit);
             const int finished = ++done;
             Progress("candidate fits " + std::to_string(finished) + " (" +
                          models[i]->Name() + ")",
                      from + (to - from) * 0.9 *
                                 std::min(1.0, static_cast<double>(finished) /
                                                   count));
-          });
+            return status;
+          },
+          &fits, &status_of);
       for (size_t k = 0; k < todo.size(); ++k) {
         const int i = todo[k];
         if (!status_of[k].ok()) {

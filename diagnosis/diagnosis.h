@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "base/batch_runner.h"
 #include "base/iteration_callback.h"
 #include "base/status.h"
 #include "diagnosis/effect_model.h"
@@ -102,8 +103,11 @@ struct DiagnosisOptions {
   // more starts than the others, hysteresis, gets them even when it fits
   // worse: its landscape, not its model, is then the likelier cause).
   int retry_pool = 2;
-  // Candidates are fitted on this many threads.
+  // Candidates are fitted on this many threads, in this process or, with
+  // `batches`, spread over a cluster job's ranks (cluster/ranks.h: every
+  // rank then runs the same diagnosis and gets every fit). Optional.
   int num_threads = 2;
+  const BatchRunner* batches = nullptr;
   // Every log needs at least this many observed samples.
   int min_samples = 500;
   // Asked with a short line at each stage and after each candidate fit,

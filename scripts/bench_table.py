@@ -433,6 +433,17 @@ def rows(d):
         else d.why_not("diagnosis_bench", long_name),
         note=verdict_note(long_logs))
 
+    one_rank = d.get("diagnosis_bench", "BM_ValidateOnRanks/ranks:1")
+    two_ranks = d.get("diagnosis_bench", "BM_ValidateOnRanks/ranks:2")
+    row("kcrig validate, six blind cases, under mpirun",
+        "%s on 2 ranks" % duration(two_ranks.seconds) if two_ranks
+        else d.why_not("diagnosis_bench", "BM_ValidateOnRanks/ranks:2"),
+        "same on 1 rank",
+        duration(one_rank.seconds) if one_rank
+        else d.why_not("diagnosis_bench", "BM_ValidateOnRanks/ranks:1"),
+        ratio(two_ranks and two_ranks.seconds, one_rank and one_rank.seconds),
+        "goal: 2 ranks ≥ 1.7× faster (ratio ≤ 0.59)")
+
     # rt_bench
     def percentiles(b, prefix="", tail=True):
         parts = ["p50 %s" % micros(b.counter(prefix + "p50_us")),

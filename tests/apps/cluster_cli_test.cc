@@ -1,0 +1,195 @@
+// Issue #22: `kcrig validate`, `design` and `diagnose` through the real CLI,
+// alone and under mpirun. The same cases give byte-identical validate.json
+// on 1, 2 and 3 ranks (and without mpirun), the same design and the same
+// logs the same design.json and diag.json but for their timings; a killed
+// rank ends the job naming it and writes nothing; the other commands refuse
+// several ranks; bad input to validate is one line naming the option.
+#include <signal.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "gtest/gtest.h"
+#include "nlohmann/json.hpp"
+#include "tests/support/cli_runner.h"
+#include "tests/support/temp_dir_test.h"
+
+namespace kcrig {
+namespace {
+
+// mpirun as the CI's root too, oversubscribed on two cores.
+const std::string kMpirun =
+    "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 "
+    "mpirun --oversubscribe ";
+// Cheap cases: two clean ones and a rig compliance.
+const std::string kCases =
+    " validate --quiet --cases 3 --effects none,rig_compliance --seed 3";
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+class ClusterCliTest : public TempDirTest {};
+
+TEST_F(ClusterCliTest, ResultsAreIdenticalOnOneTwoAndThreeRanks) {
+  const CliResult alone = RunKcrig(kCases + " --out " + Path("alone.json"));
+  ASSERT_EQ(alone.exit_code, 0) << alone.output;
+  EXPECT_NE(alone.output.find("3 cases on 1 rank"), std::string::npos);
+  const std::string expected = ReadFile(Path("alone.json"));
+  const nlohmann::json doc = nlohmann::json::parse(expected);
+  ASSERT_EQ(doc["case_results"].size(), 3u);
+  EXPECT_EQ(doc["figures"]["clean"]["total"], 2);
+  for (int ranks : {1, 2, 3}) {
+    const std::string out = Path("np" + std::to_string(ranks) + ".json");
+    const CliResult run =
+        RunCommand(kMpirun + "-np " + std::to_string(ranks) + " " +
+                   KCRIG_BINARY + kCases + " --out " + out);
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    EXPECT_NE(run.output.find("3 cases on " + std::to_string(ranks) + " rank"),
+              std::string::npos)
+        << run.output;
+    EXPECT_EQ(ReadFile(out), expected) << ranks << " ranks";
+  }
+}
+
+// design.json without its timings ("seconds"): the results.
+nlohmann::json WithoutTimings(nlohmann::json doc) {
+  if (doc.is_object()) {
+    doc.erase("seconds");
+    for (auto& [key, value] : doc.items()) value = WithoutTimings(value);
+  } else if (doc.is_array()) {
+    for (nlohmann::json& value : doc) value = WithoutTimings(value);
+  }
+  return doc;
+}
+
+TEST_F(ClusterCliTest, DesignBatchesGiveTheSameDesignOnOneTwoAndThreeRanks) {
+  const std::string design =
+      " design --quiet --optimizer grid,kriging --grid 4x3 --budget 13";
+  const CliResult alone = RunKcrig(design + " --out " + Path("alone.json"));
+  ASSERT_EQ(alone.exit_code, 0) << alone.output;
+  const nlohmann::json expected =
+      WithoutTimings(nlohmann::json::parse(ReadFile(Path("alone.json"))));
+  const size_t at = alone.output.find("  optimal design:");
+  ASSERT_NE(at, std::string::npos) << alone.output;
+  const std::string optimum =
+      alone.output.substr(at, alone.output.find('\n', at) - at);
+  for (int ranks : {1, 2, 3}) {
+    const std::string out = Path("np" + std::to_string(ranks) + ".json");
+    const CliResult run =
+        RunCommand(kMpirun + "-np " + std::to_string(ranks) + " " +
+                   KCRIG_BINARY + design + " --out " + out);
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    // Rank 0 alone prints: the same lines as alone (wall times aside).
+    EXPECT_EQ(CountLines(run.output), CountLines(alone.output)) << run.output;
+    EXPECT_NE(run.output.find(optimum), std::string::npos) << run.output;
+    EXPECT_EQ(WithoutTimings(nlohmann::json::parse(ReadFile(out))), expected)
+        << ranks << " ranks";
+  }
+}
+
+TEST_F(ClusterCliTest, CandidateFitsGiveTheSameDiagnosisOnOneTwoAndThreeRanks) {
+  for (const char* log : {"a", "b"}) {
+    const CliResult sim = RunKcrig(
+        std::string("simulate --noise --seed ") + (log[0] == 'a' ? "1" : "2") +
+        " --phi " + (log[0] == 'a' ? "80" : "25") +
+        " --z -0.3 --duration 1 --return 1 --effect hysteresis:force=200 "
+        "--out " +
+        Path(std::string(log) + ".csv"));
+    ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  }
+  const std::string diagnose =
+      " diagnose --quiet --log " + Path("a.csv") + " --log " + Path("b.csv") +
+      " --candidates hysteresis,bushing_damping,rig_compliance --no-pairs";
+  const CliResult alone = RunKcrig(diagnose + " --out " + Path("alone.json"));
+  ASSERT_EQ(alone.exit_code, 0) << alone.output;
+  const nlohmann::json expected =
+      WithoutTimings(nlohmann::json::parse(ReadFile(Path("alone.json"))));
+  EXPECT_EQ(expected["verdict"], "hysteresis") << alone.output;
+  for (int ranks : {1, 2, 3}) {
+    const std::string out = Path("np" + std::to_string(ranks) + ".json");
+    const CliResult run =
+        RunCommand(kMpirun + "-np " + std::to_string(ranks) + " " +
+                   KCRIG_BINARY + diagnose + " --out " + out);
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    EXPECT_EQ(CountLines(run.output), CountLines(alone.output)) << run.output;
+    EXPECT_EQ(WithoutTimings(nlohmann::json::parse(ReadFile(out))), expected)
+        << ranks << " ranks";
+  }
+}
+
+TEST_F(ClusterCliTest, OtherCommandsRefuseSeveralRanks) {
+  const CliResult run = RunCommand(kMpirun + "-np 2 " + KCRIG_BINARY +
+                                   " simulate --out " + Path("run.csv"));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.output.find("kcrig simulate: runs in one process"),
+            std::string::npos)
+      << run.output;
+  EXPECT_FALSE(std::filesystem::exists(Path("run.csv")));
+}
+
+// The rank's process id, found by its MPI rank in its environment.
+pid_t FindRank(int rank) {
+  const std::string wanted =
+      "OMPI_COMM_WORLD_RANK=" + std::to_string(rank) + '\0';
+  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
+    const std::string environment = ReadFile(entry.path() / "environ");
+    const std::string command = ReadFile(entry.path() / "cmdline");
+    if (command.find("validate") == std::string::npos) continue;
+    if (command.find(KCRIG_BINARY) != 0) continue;
+    if (environment.find(wanted) != std::string::npos) {
+      return static_cast<pid_t>(std::stoi(entry.path().filename()));
+    }
+  }
+  return 0;
+}
+
+TEST_F(ClusterCliTest, AKilledRankEndsTheJobAndNothingIsWritten) {
+  const std::string out = Path("killed.json");
+  std::thread killer([] {
+    for (int attempt = 0; attempt < 200; ++attempt) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      if (const pid_t pid = FindRank(1); pid > 0) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));
+        kill(pid, SIGKILL);
+        return;
+      }
+    }
+  });
+  const CliResult run =
+      RunCommand(kMpirun + "-np 2 " + KCRIG_BINARY +
+                 " validate --quiet --cases 8 --effects rig_compliance "
+                 "--out " +
+                 out);
+  killer.join();
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("rank 1"), std::string::npos) << run.output;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+TEST_F(ClusterCliTest, BadInputIsOneLineNamingTheOption) {
+  const std::string out = Path("bad.json");
+  for (const std::string& arguments :
+       {std::string("--effects hysteresis,bogus"), std::string("--cases 0"),
+        std::string("--threads 0")}) {
+    const CliResult run =
+        RunKcrig("validate --quiet " + arguments + " --out " + out);
+    EXPECT_EQ(run.exit_code, 1) << arguments << ": " << run.output;
+    EXPECT_EQ(CountLines(run.output), 1) << run.output;
+    EXPECT_NE(run.output.find(arguments.substr(0, arguments.find(' '))),
+              std::string::npos)
+        << run.output;
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
+}
+
+}  // namespace
+}  // namespace kcrig
