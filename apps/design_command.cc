@@ -49,67 +49,84 @@ Status ParseGrid(const std::string& text, OptimizerOptions* options) {
   return Status::Ok();
 }
 
+// What every rank reads and checks alike before the search.
+struct DesignInputs {
+  KcrigConfig config;
+  Criterion criterion;
+  OptimizerOptions optimizer_options;
+  std::vector<std::string> optimizers;
+  EstimateFile estimate;
+  DesignStepOptions step;
+};
+
+Status Prepare(const DesignArgs& args, DesignInputs* in) {
+  Status status = LoadConfig(args.config_dir, &in->config);
+  if (!status.ok()) return status;
+  status = CheckOutput("--out", args.out, {args.estimate});
+  if (!status.ok()) return status;
+  status = ParseCriterion(args.criterion, &in->criterion);
+  if (!status.ok()) return status;
+  status = ParseGrid(args.grid, &in->optimizer_options);
+  if (!status.ok()) return status;
+  if (args.kriging_trend == "constant") {
+    in->optimizer_options.kriging_regression = KrigingRegression::kConstant;
+  } else if (args.kriging_trend == "linear") {
+    in->optimizer_options.kriging_regression = KrigingRegression::kLinear;
+  } else if (args.kriging_trend != "quadratic") {
+    return Status::Error("--kriging-trend " + args.kriging_trend +
+                         ": expected constant, linear or quadratic");
+  }
+  in->optimizer_options.kriging_expected_improvement =
+      !args.no_expected_improvement;
+  in->optimizers = SplitList(args.optimizers);
+  if (in->optimizers.empty()) {
+    return Status::Error("--optimizer: give at least one optimizer");
+  }
+
+  // The parameters and their current values: an estimate, or the config.
+  if (!args.estimate.empty()) {
+    status = ReadEstimateFile(args.estimate, &in->estimate);
+    if (!status.ok()) return status;
+    if (args.augment && in->estimate.information.size() == 0) {
+      return Status::Error(args.estimate +
+                           ": --augment needs an information_matrix "
+                           "(written by kcrig estimate)");
+    }
+  } else {
+    if (args.augment) {
+      return Status::Error("--augment: needs --estimate est.json");
+    }
+    in->estimate.names = EstimatorOptions().parameters;
+    std::vector<int> indices;
+    status = ResolveParameters(in->config.model, in->estimate.names, &indices);
+    if (!status.ok()) return status;
+    in->estimate.values = ParameterValues(in->config.model, indices);
+  }
+  in->step.names = in->estimate.names;
+  in->step.values = in->estimate.values;
+  if (args.augment) in->step.prior_information = in->estimate.information;
+  in->step.criterion = in->criterion;
+  in->step.optimizer_options = in->optimizer_options;
+  // Under mpirun the batches spread over the ranks, a core each.
+  in->step.objective.batches = &WorldBatches();
+  if (WorldRanks().size() > 1) in->step.objective.num_threads = 1;
+  return Status::Ok();
+}
+
 int RunDesign(const DesignArgs& args) {
   const StopSignal stop;
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig design: %s\n", status.message().c_str());
     return 1;
   };
-  KcrigConfig config;
-  Status status = LoadConfig(args.config_dir, &config);
+  DesignInputs in;
+  Status status = WorldRanks().Agree(Prepare(args, &in));
   if (!status.ok()) return fail(status);
-  status = CheckOutput("--out", args.out, {args.estimate});
-  if (!status.ok()) return fail(status);
-  Criterion criterion;
-  status = ParseCriterion(args.criterion, &criterion);
-  if (!status.ok()) return fail(status);
-  OptimizerOptions optimizer_options;
-  status = ParseGrid(args.grid, &optimizer_options);
-  if (!status.ok()) return fail(status);
-  if (args.kriging_trend == "constant") {
-    optimizer_options.kriging_regression = KrigingRegression::kConstant;
-  } else if (args.kriging_trend == "linear") {
-    optimizer_options.kriging_regression = KrigingRegression::kLinear;
-  } else if (args.kriging_trend != "quadratic") {
-    return fail(Status::Error("--kriging-trend " + args.kriging_trend +
-                              ": expected constant, linear or quadratic"));
-  }
-  optimizer_options.kriging_expected_improvement =
-      !args.no_expected_improvement;
-  const std::vector<std::string> optimizers = SplitList(args.optimizers);
-  if (optimizers.empty()) {
-    return fail(Status::Error("--optimizer: give at least one optimizer"));
-  }
-
-  // The parameters and their current values: an estimate, or the config.
-  EstimateFile estimate;
-  if (!args.estimate.empty()) {
-    status = ReadEstimateFile(args.estimate, &estimate);
-    if (!status.ok()) return fail(status);
-    if (args.augment && estimate.information.size() == 0) {
-      return fail(Status::Error(args.estimate +
-                                ": --augment needs an information_matrix "
-                                "(written by kcrig estimate)"));
-    }
-  } else {
-    if (args.augment) {
-      return fail(Status::Error("--augment: needs --estimate est.json"));
-    }
-    estimate.names = EstimatorOptions().parameters;
-    std::vector<int> indices;
-    status = ResolveParameters(config.model, estimate.names, &indices);
-    if (!status.ok()) return fail(status);
-    estimate.values = ParameterValues(config.model, indices);
-  }
-  DesignStepOptions step;
-  step.names = estimate.names;
-  step.values = estimate.values;
-  if (args.augment) step.prior_information = estimate.information;
-  step.criterion = criterion;
-  step.optimizer_options = optimizer_options;
-  // Under mpirun the batches spread over the ranks, a core each.
-  step.objective.batches = &WorldBatches();
-  if (WorldRanks().size() > 1) step.objective.num_threads = 1;
+  const KcrigConfig& config = in.config;
+  const Criterion criterion = in.criterion;
+  const OptimizerOptions& optimizer_options = in.optimizer_options;
+  const EstimateFile& estimate = in.estimate;
+  DesignStepOptions& step = in.step;
 
   const DesignBounds bounds{config.experiment.phi_bounds,
                             config.experiment.z_a_bounds};
@@ -118,7 +135,7 @@ int RunDesign(const DesignArgs& args) {
                      args.start_z.value_or(config.experiment.z_a)};
   ProgressLine progress(args.quiet);
   std::vector<DesignRun> runs;
-  for (const std::string& optimizer : optimizers) {
+  for (const std::string& optimizer : in.optimizers) {
     const int grid_points =
         optimizer_options.grid_phi_points * optimizer_options.grid_z_points + 1;
     step.optimizer = optimizer;

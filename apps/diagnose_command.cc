@@ -31,59 +31,70 @@ struct DiagnoseArgs {
   std::string out;
 };
 
+// What every rank reads and checks alike before the diagnosis.
+struct DiagnoseInputs {
+  KcrigConfig config;
+  DiagnosisOptions options;
+  std::vector<Experiment> training, holdout;
+};
+
+Status Prepare(const DiagnoseArgs& args, DiagnoseInputs* in) {
+  Status status = LoadConfig(args.config_dir, &in->config);
+  if (!status.ok()) return status;
+  std::vector<std::string> inputs = args.logs;
+  inputs.insert(inputs.end(), args.holdout.begin(), args.holdout.end());
+  status = CheckOutput("--out", args.out, inputs);
+  if (!status.ok()) return status;
+  if (!args.candidates.empty()) {
+    in->options.candidates = SplitList(args.candidates);
+    for (const std::string& name : in->options.candidates) {
+      std::vector<std::string> effects;
+      std::vector<BushingSet> places;
+      const Status placed = ParseModelName(name, &effects, &places);
+      if (!placed.ok() || effects.size() != 1) {
+        return Status::Error(
+            "--candidates: '" + name + "': " +
+            (placed.ok() ? "one effect per candidate" : placed.message()));
+      }
+      if (std::find(kEffectNames.begin(), kEffectNames.end(), effects[0]) ==
+              kEffectNames.end() &&
+          effects[0] != kModelParameter) {
+        return Status::Error("--candidates: unknown effect '" + effects[0] +
+                             "' (one of bushing_damping, hysteresis, "
+                             "progressive_stiffness, actuator_lag, "
+                             "rig_compliance, sensor_offset, "
+                             "model_parameter@NAME)");
+      }
+    }
+  }
+  in->options.consider_pairs = !args.no_pairs;
+  // Candidates given by hand are all that is fitted unless asked otherwise.
+  in->options.model_parameter_pool = args.free_parameters.value_or(
+      args.candidates.empty() ? in->options.model_parameter_pool : 0);
+  if (args.threads && *args.threads < 1) {
+    return Status::Error("--threads: must be >= 1");
+  }
+  // Under mpirun the candidate fits spread over the ranks, a core each.
+  in->options.batches = &WorldBatches();
+  in->options.num_threads =
+      args.threads.value_or(WorldRanks().size() > 1 ? 1 : 2);
+
+  status = LoadLogs(args.logs, in->config, &in->training);
+  if (!status.ok()) return status;
+  return LoadLogs(args.holdout, in->config, &in->holdout);
+}
+
 int RunDiagnose(const DiagnoseArgs& args) {
   const StopSignal stop;
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig diagnose: %s\n", status.message().c_str());
     return 1;
   };
-  KcrigConfig config;
-  Status status = LoadConfig(args.config_dir, &config);
+  DiagnoseInputs in;
+  Status status = WorldRanks().Agree(Prepare(args, &in));
   if (!status.ok()) return fail(status);
-  std::vector<std::string> inputs = args.logs;
-  inputs.insert(inputs.end(), args.holdout.begin(), args.holdout.end());
-  status = CheckOutput("--out", args.out, inputs);
-  if (!status.ok()) return fail(status);
-  DiagnosisOptions options;
-  if (!args.candidates.empty()) {
-    options.candidates = SplitList(args.candidates);
-    for (const std::string& name : options.candidates) {
-      std::vector<std::string> effects;
-      std::vector<BushingSet> places;
-      const Status placed = ParseModelName(name, &effects, &places);
-      if (!placed.ok() || effects.size() != 1) {
-        return fail(Status::Error(
-            "--candidates: '" + name + "': " +
-            (placed.ok() ? "one effect per candidate" : placed.message())));
-      }
-      if (std::find(kEffectNames.begin(), kEffectNames.end(), effects[0]) ==
-              kEffectNames.end() &&
-          effects[0] != kModelParameter) {
-        return fail(Status::Error("--candidates: unknown effect '" +
-                                  effects[0] +
-                                  "' (one of bushing_damping, hysteresis, "
-                                  "progressive_stiffness, actuator_lag, "
-                                  "rig_compliance, sensor_offset, "
-                                  "model_parameter@NAME)"));
-      }
-    }
-  }
-  options.consider_pairs = !args.no_pairs;
-  // Candidates given by hand are all that is fitted unless asked otherwise.
-  options.model_parameter_pool = args.free_parameters.value_or(
-      args.candidates.empty() ? options.model_parameter_pool : 0);
-  if (args.threads && *args.threads < 1) {
-    return fail(Status::Error("--threads: must be >= 1"));
-  }
-  // Under mpirun the candidate fits spread over the ranks, a core each.
-  options.batches = &WorldBatches();
-  options.num_threads = args.threads.value_or(WorldRanks().size() > 1 ? 1 : 2);
-
-  std::vector<Experiment> training, holdout;
-  status = LoadLogs(args.logs, config, &training);
-  if (!status.ok()) return fail(status);
-  status = LoadLogs(args.holdout, config, &holdout);
-  if (!status.ok()) return fail(status);
+  const KcrigConfig& config = in.config;
+  DiagnosisOptions& options = in.options;
 
   DiagnosisResult result;
   {
@@ -91,7 +102,7 @@ int RunDiagnose(const DiagnoseArgs& args) {
     options.callback = stop.Callback([&line](const IterationSummary& s) {
       line.Show("kcrig diagnose: " + s.stage, s.fraction);
     });
-    status = Diagnose(config.model, training, holdout, options,
+    status = Diagnose(config.model, in.training, in.holdout, options,
                       config.experiment.step, &result);
     line.Clear();
   }

@@ -64,8 +64,12 @@ int main(int argc, char** argv) {
   }
   // Under mpirun only the batch commands spread (every rank runs the
   // command, the batches are shared out); rank 0 alone prints and writes.
-  if (ranks.size() > 1) {
-    const std::string command = argc > 1 ? argv[1] : "";
+  if (!ranks.launch_error().empty()) {
+    std::fprintf(stderr, "kcrig: %s\n", ranks.launch_error().c_str());
+    return 1;
+  }
+  if (ranks.size() > 1 && argc > 1 && argv[1][0] != '-') {
+    const std::string command = argv[1];
     if (command != "validate" && command != "design" && command != "diagnose") {
       if (ranks.is_root()) {
         std::fprintf(

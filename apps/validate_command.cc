@@ -1,5 +1,6 @@
 #include "apps/validate_command.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -19,6 +20,7 @@ struct ValidateArgs {
   std::string config_dir;
   int cases = 40;
   std::string effects;
+  std::string plan;
   std::uint64_t seed = 1;
   std::optional<int> threads;
   bool quiet = false;
@@ -34,8 +36,13 @@ Status Prepare(const ValidateArgs& args, const Ranks& ranks,
   options->cases = args.cases;
   options->seed = args.seed;
   if (!args.effects.empty()) options->classes = SplitList(args.effects);
+  if (!args.plan.empty()) {
+    status = LoadBlindTestPlan(args.plan, &options->plan);
+    if (!status.ok()) return status;
+  }
   BlindCase probe;
-  status = DrawBlindCase(0, args.seed, config->model, options->classes, &probe);
+  status = DrawBlindCase(0, args.seed, config->model, options->classes,
+                         options->plan, &probe);
   if (!status.ok()) return Status::Error("--effects: " + status.message());
   // One process: both cores on each case; under MPI a core per rank.
   options->diagnosis.num_threads =
@@ -43,7 +50,10 @@ Status Prepare(const ValidateArgs& args, const Ranks& ranks,
   if (options->diagnosis.num_threads < 1) {
     return Status::Error("--threads: must be >= 1");
   }
-  return ranks.is_root() ? CheckOutput("--out", args.out, {}) : Status::Ok();
+  std::vector<std::string> inputs;
+  if (!args.plan.empty()) inputs.push_back(args.plan);
+  return ranks.is_root() ? CheckOutput("--out", args.out, inputs)
+                         : Status::Ok();
 }
 
 int RunValidate(const ValidateArgs& args) {
@@ -57,29 +67,29 @@ int RunValidate(const ValidateArgs& args) {
   };
   KcrigConfig config;
   ValidationOptions options;
-  Status status = ranks.Broadcast(Prepare(args, ranks, &config, &options));
+  Status status = ranks.Agree(Prepare(args, ranks, &config, &options));
   if (!status.ok()) return fail(status);
 
   std::map<int, std::string> mine;
   {
     ProgressLine line(args.quiet || !ranks.is_root());
+    // Rank 0's share of the cases, about: the progress line's scale.
+    const double share = static_cast<double>(options.cases) / ranks.size();
     int done = 0;
-    const int own =
-        (options.cases - ranks.rank() + ranks.size() - 1) / ranks.size();
     options.diagnosis.callback = stop.Callback([&](const IterationSummary& s) {
-      line.Show("kcrig validate: case " + std::to_string(done + 1) + "/" +
-                    std::to_string(own) + " " + s.stage,
-                (done + s.fraction) / own);
+      line.Show(
+          "kcrig validate: " + std::to_string(done) + " cases done, " + s.stage,
+          std::min(1.0, (done + s.fraction) / share));
     });
-    for (int i = 0; i < options.cases && status.ok(); ++i) {
-      if (!ranks.Owns(i)) continue;
+    ranks.ForEachItem(options.cases, [&](int i) {
       status = RunValidationCase(config, options, i, &mine[i]);
       if (!status.ok()) {
         status = Status::Error("case " + std::to_string(i) + ": " +
                                status.message());
       }
       ++done;
-    }
+      return status.ok();
+    });
     line.Clear();
   }
   std::vector<std::string> outcomes;
@@ -115,6 +125,9 @@ void AddValidateCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--effects", args->effects,
                   "Comma-separated truths to cycle through (default: the six "
                   "library effects, none, model_parameter)");
+  cmd->add_option("--plan", args->plan,
+                  "Test plan (YAML): the training and hold-out ramps every "
+                  "case runs (default: drawn per case)");
   cmd->add_option("--seed", args->seed, "Seed of the cases (default 1)");
   cmd->add_option_function<int>(
       "--threads", [args](const int& n) { args->threads = n; },

@@ -60,7 +60,9 @@ class ByteReader {
     std::int64_t rows = 0, cols = 0;
     Get(&rows);
     Get(&cols);
-    if (rows < 0 || cols < 0 || !Have(rows * cols * sizeof(double))) {
+    constexpr std::int64_t kMaxSide = 1 << 20;  // no overflow below
+    if (rows < 0 || cols < 0 || rows > kMaxSide || cols > kMaxSide ||
+        !Have(static_cast<std::uint64_t>(rows) * cols * sizeof(double))) {
       ok_ = false;
       return;
     }
@@ -69,6 +71,9 @@ class ByteReader {
       for (Eigen::Index i = 0; i < rows; ++i) Get(&(*m)(i, j));
     }
   }
+  // What was read is not what the writer wrote (a length out of reason).
+  void Fail() { ok_ = false; }
+  // Every read succeeded and every byte was read.
   bool ok() const { return ok_ && at_ == bytes_.size(); }
 
  private:

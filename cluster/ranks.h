@@ -6,6 +6,7 @@
 #ifndef KCRIG_CLUSTER_RANKS_H_
 #define KCRIG_CLUSTER_RANKS_H_
 
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -27,14 +28,28 @@ class Ranks {
   Ranks(const Ranks&) = delete;
   Ranks& operator=(const Ranks&) = delete;
 
+  // Started by an MPI launcher with several ranks but built without MPI:
+  // why kcrig cannot run so ("" otherwise). main refuses to go on.
+  const std::string& launch_error() const { return launch_error_; }
+
   int rank() const { return rank_; }
   int size() const { return size_; }
   bool is_root() const { return rank_ == 0; }
-  bool Owns(int item) const { return item % size_ == rank_; }
 
-  // The root's `status` on every rank (what only the root checks, such as
-  // its output file, stops all ranks alike). Collective.
-  Status Broadcast(const Status& status) const;
+  // work(item) for items 0 .. count-1 spread over the ranks, each rank
+  // taking the next item when it finishes one (rank 0 hands them out, from
+  // a thread of its own, while it works too), so that items of uneven cost
+  // balance. Which rank ran an item is not part of any result: Gather puts
+  // them in item order. `work` returns false to take no more items on this
+  // rank. Collective.
+  void ForEachItem(int count, const std::function<bool(int)>& work) const;
+
+  // Every rank's `local` status agreed on: an error of any rank (the
+  // lowest failing one, named) is every rank's, so that all stop together
+  // instead of some waiting in a collective for ranks that left. Call it
+  // after what a rank checks alone (its inputs, the root's output file).
+  // Collective.
+  Status Agree(const Status& local) const;
 
   // Every rank passes the results of its own items (item -> text) or the
   // error that stopped it; the root receives the texts of items
@@ -49,6 +64,7 @@ class Ranks {
   int rank_ = 0;
   int size_ = 1;
   bool joined_mpi_ = false;
+  std::string launch_error_;
 };
 
 // The process's ranks: main's Ranks, or rank 0 of 1 when there is none.
@@ -58,9 +74,6 @@ const Ranks& WorldRanks();
 // `threads` threads there) and every rank receives every result. One rank:
 // the local threads alone.
 const BatchRunner& WorldBatches();
-
-// Whether this kcrig was built with MPI.
-bool BuiltWithMpi();
 
 }  // namespace kcrig
 

@@ -103,10 +103,12 @@ std::vector<DesignEvaluation> DesignObjective::Evaluate(
           &information);
   const int n = evaluator_->num_parameters();
   for (size_t k = 0; k < to_run.size(); ++k) {
-    Eigen::MatrixXd matrix(n, n);
-    std::memcpy(
-        matrix.data(), information[k].data(),
-        std::min(information[k].size(), matrix.size() * sizeof(double)));
+    // A result of another size is not a matrix: no information.
+    Eigen::MatrixXd matrix = Eigen::MatrixXd::Constant(
+        n, n, std::numeric_limits<double>::quiet_NaN());
+    if (information[k].size() == matrix.size() * sizeof(double)) {
+      std::memcpy(matrix.data(), information[k].data(), information[k].size());
+    }
     results[to_run[k]] = Evaluated(results[to_run[k]].unit, matrix);
   }
 

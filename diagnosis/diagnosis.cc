@@ -152,8 +152,6 @@ class DiagnosisRun {
     return Status::Ok();
   }
 
-  // The fraction done is a rough guide from typical stage costs: the fits
-  // of the single effects take about half of a diagnosis, pairs a quarter.
   const BatchRunner& Batches() const { return BatchesOr(options_.batches); }
 
   // `count` fits as one batch (spread over the ranks with
@@ -179,6 +177,8 @@ class DiagnosisRun {
     }
   }
 
+  // The fraction done is a rough guide from typical stage costs: the fits
+  // of the single effects take about half of a diagnosis, pairs a quarter.
   Status Progress(const std::string& text, double fraction) {
     return progress_.Report({text, fraction}) ? Status::Ok()
                                               : Interrupted("diagnosis");

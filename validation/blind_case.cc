@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <random>
 
+#include "base/yaml_reader.h"
 #include "rt_core/model/channels.h"
 
 namespace kcrig {
@@ -61,8 +62,9 @@ void DrawWrongParameter(const SuspensionParameters<double>& model, double m,
   static const char* kPoints[] = {"O1", "O2", "V1", "V2", "P",
                                   "N1", "N2", "U1", "U2", "Q"};
   if ((*rng)() % 3 != 0) {
-    c->parameter =
-        std::string(kPoints[(*rng)() % 10]) + "." + "xyz"[(*rng)() % 3];
+    const char* point = kPoints[(*rng)() % 10];
+    const char axis = "xyz"[(*rng)() % 3];
+    c->parameter = std::string(point) + "." + axis;
     const double error = ((*rng)() % 2 ? 1 : -1) * LogUniform(1e-3, 1e-2, m);
     c->parameter_value = *FindParameter(model, c->parameter) + error;
   } else {
@@ -73,7 +75,59 @@ void DrawWrongParameter(const SuspensionParameters<double>& model, double m,
   c->sets.push_back({c->parameter, c->parameter_value});
 }
 
+// One ramp of a plan's list.
+Status LoadRamp(const YamlReader& reader, const YAML::Node& node,
+                const std::string& key, BlindDesign* d) {
+  KCRIG_RETURN_IF_ERROR(
+      reader.InRange(node, key, "phi_deg", -180, 180, &d->phi_deg));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(node, key, "z_a", -1, 1, &d->z_a));
+  KCRIG_RETURN_IF_ERROR(
+      reader.InRange(node, key, "duration", 0.05, 60, &d->duration));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(node, key, "hold", 0, 60, &d->hold));
+  return reader.InRange(node, key, "return", 0, 60, &d->return_duration);
+}
+
+Status LoadRamps(const YamlReader& reader, const YAML::Node& root,
+                 const std::string& key, bool required,
+                 std::vector<BlindDesign>* ramps) {
+  if (!root[key] && !required) return Status::Ok();
+  YAML::Node list;
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", key, &list));
+  if (!list.IsSequence() || (required && list.size() == 0) ||
+      list.size() > kMaxPlanLogs / 2) {
+    return reader.Error(list, key,
+                        std::string("expected a list of ") +
+                            (required ? "1" : "0") + " to " +
+                            std::to_string(kMaxPlanLogs / 2) + " ramps");
+  }
+  ramps->resize(list.size());
+  for (size_t i = 0; i < list.size(); ++i) {
+    KCRIG_RETURN_IF_ERROR(LoadRamp(
+        reader, list[i], key + "[" + std::to_string(i) + "]", &(*ramps)[i]));
+  }
+  return Status::Ok();
+}
+
 }  // namespace
+
+Status LoadBlindTestPlan(const std::string& file, BlindTestPlan* plan) {
+  YamlReader reader(file);
+  YAML::Node root;
+  KCRIG_RETURN_IF_ERROR(reader.Load(&root));
+  for (const auto& entry : root) {
+    const std::string key = entry.first.as<std::string>();
+    if (key != "training" && key != "holdout") {
+      return reader.Error(entry.first, key, "unknown key (training, holdout)");
+    }
+  }
+  BlindTestPlan loaded;
+  KCRIG_RETURN_IF_ERROR(
+      LoadRamps(reader, root, "training", true, &loaded.training));
+  KCRIG_RETURN_IF_ERROR(
+      LoadRamps(reader, root, "holdout", false, &loaded.holdout));
+  *plan = std::move(loaded);
+  return Status::Ok();
+}
 
 RampExcitation<double> BlindDesign::Ramp(double fmax) const {
   return {phi_deg * kDegree, z_a, fmax, duration, hold, return_duration};
@@ -101,7 +155,7 @@ std::string BlindCase::Arguments() const {
 Status DrawBlindCase(int index, std::uint64_t seed,
                      const SuspensionParameters<double>& model,
                      const std::vector<std::string>& classes,
-                     BlindCase* blind_case) {
+                     const BlindTestPlan& plan, BlindCase* blind_case) {
   const std::vector<std::string>& cycle =
       classes.empty() ? BlindCaseClasses() : classes;
   for (const std::string& name : cycle) {
@@ -116,14 +170,20 @@ Status DrawBlindCase(int index, std::uint64_t seed,
   c.index = index;
   c.truth = cycle[index % cycle.size()];
   c.magnitude = u(rng);
-  c.noise_seed = seed * 1000 + index * 7;
-  for (BlindDesign& d : c.designs) {
+  c.noise_seed = (seed * 1000003 + index) * kMaxPlanLogs;
+  BlindDesign drawn[3];
+  for (BlindDesign& d : drawn) {
     d.phi_deg = 90 * u(rng);
     d.z_a = -0.5 * u(rng);
     d.duration = 1 + 1.5 * u(rng);
     d.hold = 0.3 * u(rng);
     d.return_duration = 0.6 + 1.2 * u(rng);
   }
+  c.training = plan.training.empty()
+                   ? std::vector<BlindDesign>{drawn[0], drawn[1]}
+                   : plan.training;
+  c.holdout =
+      plan.training.empty() ? std::vector<BlindDesign>{drawn[2]} : plan.holdout;
   for (int i = 0; i < kNumBushings; ++i) {
     c.sets.push_back({"c_" + std::string(kBushingChassisNames[i]),
                       model.bushings[i].stiffness * (0.9 + 0.2 * u(rng))});

@@ -3,7 +3,8 @@
 // effects, none, or a wrong "known" parameter (a hard point off along one
 // axis, or the spring rate) — its magnitude from small to large, the rig's
 // true bushings (+-10 % off the configured ones, as a real rig's are), the
-// designs of two training logs and one hold-out log, and the noise seeds.
+// designs of two training logs and one hold-out log (or those of a test
+// plan), and the noise seeds.
 // The same (index, seed) gives the same case on any machine and rank.
 #ifndef KCRIG_VALIDATION_BLIND_CASE_H_
 #define KCRIG_VALIDATION_BLIND_CASE_H_
@@ -40,6 +41,21 @@ struct BlindDesign {
   std::string Arguments() const;
 };
 
+// Most logs of a case (training and hold-out): each log has a noise seed of
+// its own.
+inline constexpr int kMaxPlanLogs = 64;
+
+// The experiments a user will run: every case's logs take these designs
+// (empty: each case draws its own).
+struct BlindTestPlan {
+  std::vector<BlindDesign> training, holdout;
+};
+
+// A plan file (YAML): `training:` and `holdout:` lists of ramps
+// {phi_deg, z_a [m], duration [s], hold [s], return [s]}; 1 to 32 training
+// ramps, 0 to 32 hold-out ramps. Errors name file, line and key.
+Status LoadBlindTestPlan(const std::string& file, BlindTestPlan* plan);
+
 struct BlindCase {
   int index = 0;
   std::string truth;     // one of BlindCaseClasses()
@@ -49,21 +65,23 @@ struct BlindCase {
   // The plant's parameters that differ from the configuration: the true
   // bushings, and a wrong "known" parameter.
   std::vector<std::pair<std::string, double>> sets;
-  std::string parameter;         // model_parameter: the one that is off...
-  double parameter_value = 0;    // ...and its true value
-  BlindDesign designs[3];        // two training logs, one hold-out
-  std::uint64_t noise_seed = 0;  // of log k: noise_seed + k
+  std::string parameter;       // model_parameter: the one that is off...
+  double parameter_value = 0;  // ...and its true value
+  // The logs' designs: the training logs, then the hold-out logs.
+  std::vector<BlindDesign> training, holdout;
+  std::uint64_t noise_seed = 0;  // of log k (training, then hold-out)
   // The truth as `kcrig simulate` options (--effect ... --set ...).
   std::string Arguments() const;
 };
 
 // Case `index` of the series `seed` for the configured `model`. `classes`
-// (of BlindCaseClasses(); empty: all) are cycled through instead. Errors on
-// an unknown class.
+// (of BlindCaseClasses(); empty: all) are cycled through instead. The
+// designs are drawn (two training logs, one hold-out) unless `plan` gives
+// them (the same draws otherwise). Errors on an unknown class.
 Status DrawBlindCase(int index, std::uint64_t seed,
                      const SuspensionParameters<double>& model,
                      const std::vector<std::string>& classes,
-                     BlindCase* blind_case);
+                     const BlindTestPlan& plan, BlindCase* blind_case);
 
 // The configured model with the case's parameters set: the rig's plant.
 SuspensionParameters<double> BlindCasePlant(

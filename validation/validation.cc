@@ -21,11 +21,14 @@ constexpr double kSizeBins[] = {0, 1, 2, 3, 5, 10, 30};
 // Effects beyond this size are the ones the acceptance figures count.
 constexpr double kLargeEffect = 3;
 
-// One log of the case as the rig would record it, or without noise; the
-// truth is not in what the diagnosis gets.
+// Log k of the case (training, then hold-out) as the rig would record it,
+// or without noise; the truth is not in what the diagnosis gets.
 Status SimulateLog(const KcrigConfig& config, const ValidationOptions& options,
                    const BlindCase& c, int k, bool noise,
                    Experiment* experiment) {
+  const int trained = static_cast<int>(c.training.size());
+  const BlindDesign& design =
+      k < trained ? c.training[k] : c.holdout[k - trained];
   SimulatedRunOptions run;
   run.rate = config.experiment.rate;
   run.step = options.plant_step;
@@ -35,7 +38,7 @@ Status SimulateLog(const KcrigConfig& config, const ValidationOptions& options,
   run.geometry = GeometryFingerprint(config.model);
   RunLog log;
   Status status = SimulateRun(BlindCasePlant(c, config.model),
-                              c.designs[k].Ramp(config.experiment.fmax),
+                              design.Ramp(config.experiment.fmax),
                               config.experiment, run, &log);
   if (!status.ok()) return status;
   log.metadata.synthetic = false;
@@ -51,17 +54,17 @@ Status EffectSize(const KcrigConfig& config, const ValidationOptions& options,
                   const BlindCase& c, double* size) {
   *size = 0;
   if (c.truth == "none") return Status::Ok();
-  std::vector<Experiment> clean(2);
-  for (int k = 0; k < 2; ++k) {
+  std::vector<Experiment> clean(c.training.size());
+  for (int k = 0; k < static_cast<int>(clean.size()); ++k) {
     const Status status = SimulateLog(config, options, c, k, false, &clean[k]);
     if (!status.ok()) return status;
   }
   return NominalFitSigmaHat(config, clean, size);
 }
 
-Json Designs(const BlindCase& c) {
+Json Designs(const std::vector<BlindDesign>& designs) {
   Json out = Json::array();
-  for (const BlindDesign& d : c.designs) out.push_back(d.Arguments());
+  for (const BlindDesign& d : designs) out.push_back(d.Arguments());
   return out;
 }
 
@@ -86,7 +89,8 @@ Json Score(const BlindCase& c, double size, const Json& diag) {
   out["truth"] = c.truth;
   out["truth_options"] = c.Arguments();
   out["magnitude"] = c.magnitude;
-  out["designs"] = Designs(c);
+  out["designs"] = {{"training", Designs(c.training)},
+                    {"holdout", Designs(c.holdout)}};
   out["size_sigma"] = size;
   out["verdict"] = verdict;
   out["column"] = verdict.find('+') != std::string::npos ? "pair" : verdict;
@@ -240,20 +244,22 @@ Status RunValidationCase(const KcrigConfig& config,
                          const ValidationOptions& options, int index,
                          std::string* outcome) {
   BlindCase c;
-  Status status =
-      DrawBlindCase(index, options.seed, config.model, options.classes, &c);
+  Status status = DrawBlindCase(index, options.seed, config.model,
+                                options.classes, options.plan, &c);
   if (!status.ok()) return status;
-  std::vector<Experiment> logs(3);
-  for (int k = 0; k < 3; ++k) {
-    status = SimulateLog(config, options, c, k, true, &logs[k]);
+  std::vector<Experiment> training(c.training.size()),
+      holdout(c.holdout.size());
+  for (size_t k = 0; k < training.size() + holdout.size(); ++k) {
+    Experiment* log =
+        k < training.size() ? &training[k] : &holdout[k - training.size()];
+    status = SimulateLog(config, options, c, static_cast<int>(k), true, log);
     if (!status.ok()) return status;
   }
   DiagnosisResult result;
-  status = Diagnose(config.model, {logs[0], logs[1]}, {logs[2]},
-                    options.diagnosis, config.experiment.step, &result);
+  status = Diagnose(config.model, training, holdout, options.diagnosis,
+                    config.experiment.step, &result);
   if (!status.ok()) return status;
-  const Json diag = Json::parse(
-      DiagnosisToJson(result, {"train_a", "train_b"}, {"holdout"}, ""));
+  const Json diag = Json::parse(DiagnosisToJson(result, {}, {}, ""));
   // Only now is the truth looked at.
   double size = 0;
   status = EffectSize(config, options, c, &size);
@@ -274,6 +280,10 @@ std::string ValidationToJson(const KcrigConfig& config,
   doc["classes"] =
       options.classes.empty() ? BlindCaseClasses() : options.classes;
   doc["plant_step"] = {{"value", options.plant_step}, {"unit", "s"}};
+  doc["plan"] = options.plan.training.empty()
+                    ? Json("drawn per case: two training logs, one hold-out")
+                    : Json({{"training", Designs(options.plan.training)},
+                            {"holdout", Designs(options.plan.holdout)}});
   doc["figures"] = Figures(cases);
   doc["confusion"] = Confusion(cases);
   doc["power"] = Power(cases);

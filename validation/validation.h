@@ -30,6 +30,8 @@ struct ValidationOptions {
   std::uint64_t seed = 1;
   // The truths cycled through (BlindCaseClasses() names; empty: all).
   std::vector<std::string> classes;
+  // The experiments every case runs (empty: each case draws its own).
+  BlindTestPlan plan;
   // The rig's integration step [s]: a rig is continuous, so the logs come
   // from a plant stepped ten times finer than the model (1e-3 s).
   double plant_step = 1e-4;

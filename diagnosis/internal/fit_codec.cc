@@ -14,11 +14,7 @@ class Writer {
  public:
   template <typename T>
   void operator()(T& x) {
-    if constexpr (std::is_arithmetic_v<T>) {
-      out.Put(x);
-    } else {
-      out.Put(x);  // std::string
-    }
+    out.Put(x);  // a number or a std::string
   }
   void operator()(Eigen::MatrixXd& x) { out.PutMatrix(x); }
   void operator()(Eigen::VectorXd& x) { out.PutMatrix(x); }
@@ -49,18 +45,22 @@ class Reader {
   void operator()(Eigen::VectorXd& x) {
     Eigen::MatrixXd m;
     in.GetMatrix(&m);
-    x = m.cols() == 1 ? Eigen::VectorXd(m.col(0)) : Eigen::VectorXd();
+    if (m.cols() != 1) return in.Fail();
+    x = m.col(0);
   }
   void operator()(Vec6<double>& x) {
     Eigen::MatrixXd m;
     in.GetMatrix(&m);
-    if (m.rows() == 6 && m.cols() == 1) x = m.col(0);
+    if (m.rows() != 6 || m.cols() != 1) return in.Fail();
+    x = m.col(0);
   }
   template <typename T>
   void operator()(std::vector<T>& x) {
     std::uint64_t size = 0;
     in.Get(&size);
-    x.assign(size < (1u << 24) ? size : 0, T());
+    if (size > (1u << 24)) return in.Fail();
+    x.clear();
+    x.resize(size);  // every element is read below
     for (auto&& item : x) Element(item);
   }
   template <typename T>
@@ -174,6 +174,8 @@ void Reader::Element(T& x) {
 
 }  // namespace
 
+// Visit takes non-const references (one description for both directions):
+// the encoders work on copies.
 std::string EncodeFit(const Status& status, const EffectFit& fit) {
   Writer writer;
   Status s = status;

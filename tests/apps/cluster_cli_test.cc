@@ -175,6 +175,68 @@ TEST_F(ClusterCliTest, AKilledRankEndsTheJobAndNothingIsWritten) {
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
+void WriteFile(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+// A test plan: every case runs its ramps, and validate.json says so.
+TEST_F(ClusterCliTest, APlanGivesEveryCaseItsRamps) {
+  const std::string plan = Path("plan.yaml");
+  WriteFile(
+      plan,
+      "training:\n"
+      "  - {phi_deg: 80, z_a: -0.4, duration: 1.5, hold: 0.2, return: 1}\n"
+      "  - {phi_deg: 15, z_a: -0.1, duration: 1.5, hold: 0, return: 1}\n"
+      "holdout:\n"
+      "  - {phi_deg: 45, z_a: -0.3, duration: 1, hold: 0.1, return: 1}\n");
+  const CliResult run = RunKcrig(
+      "validate --quiet --cases 2 --effects none,rig_compliance "
+      "--plan " +
+      plan + " --out " + Path("v.json"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json doc = nlohmann::json::parse(ReadFile(Path("v.json")));
+  const nlohmann::json designs = {
+      {"training",
+       {"--phi 80.000 --z -0.4000 --duration 1.500 --hold 0.200 --return "
+        "1.000",
+        "--phi 15.000 --z -0.1000 --duration 1.500 --hold 0.000 --return "
+        "1.000"}},
+      {"holdout",
+       {"--phi 45.000 --z -0.3000 --duration 1.000 --hold 0.100 --return "
+        "1.000"}}};
+  EXPECT_EQ(doc["plan"], designs);
+  for (const nlohmann::json& c : doc["case_results"]) {
+    EXPECT_EQ(c["designs"], designs);
+  }
+}
+
+TEST_F(ClusterCliTest, ABadPlanIsOneLineNamingFileLineAndKey) {
+  const std::string plan = Path("plan.yaml");
+  const std::string out = Path("v.json");
+  const std::pair<std::string, std::string> cases[] = {
+      {"training:\n  - {phi_deg: 80, duration: 1, hold: 0, return: 1}\n",
+       "plan.yaml:2: training[0].z_a: missing key"},
+      {"training:\n  - {phi_deg: 80, z_a: 0, duration: -1, hold: 0, "
+       "return: 1}\n",
+       "training[0].duration: must be within"},
+      {"training: []\n", "training: expected a list of 1 to 32 ramps"},
+      {"holdout:\n  - {phi_deg: 1, z_a: 0, duration: 1, hold: 0, return: "
+       "1}\n",
+       "training: missing key"},
+      {"training:\n  - {phi_deg: 80, z_a: 0, duration: 1, hold: 0, return: "
+       "1}\nramps: 3\n",
+       "ramps: unknown key"}};
+  for (const auto& [text, expected] : cases) {
+    WriteFile(plan, text);
+    const CliResult run =
+        RunKcrig("validate --quiet --plan " + plan + " --out " + out);
+    EXPECT_EQ(run.exit_code, 1) << text << run.output;
+    EXPECT_EQ(CountLines(run.output), 1) << run.output;
+    EXPECT_NE(run.output.find(expected), std::string::npos) << run.output;
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
+}
+
 TEST_F(ClusterCliTest, BadInputIsOneLineNamingTheOption) {
   const std::string out = Path("bad.json");
   for (const std::string& arguments :

@@ -50,8 +50,10 @@ void PrintCase(const nlohmann::json& c) {
               c["verdict"].get<std::string>().c_str(),
               c["confidence"].get<std::string>().c_str(), 100 * closed);
   std::printf("     truth %s; designs", c["truth_options"].dump().c_str());
-  for (const nlohmann::json& d : c["designs"]) {
-    std::printf(" [%s]", d.get<std::string>().c_str());
+  for (const char* kind : {"training", "holdout"}) {
+    for (const nlohmann::json& d : c["designs"][kind]) {
+      std::printf(" %s [%s]", kind, d.get<std::string>().c_str());
+    }
   }
   std::printf("\n");
 }

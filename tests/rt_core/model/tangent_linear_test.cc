@@ -196,7 +196,9 @@ void ExpectStepsAgree(const std::vector<std::string>& names, bool load_tangent,
     }
     load.point(2) = Jet8(0.1 * normal(random));
     if (load_tangent) {
-      load.point(2).v[(trial + 3) % kDirections] = 0.01 * normal(random);
+      for (int k = 0; k < 3; ++k) {
+        load.point(k).v[(trial + 3 + k) % kDirections] = 0.01 * normal(random);
+      }
     }
 
     ModelState<Jet8> reference = state, tangent_linear = state;
