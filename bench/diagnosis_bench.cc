@@ -101,7 +101,8 @@ void BM_ValidateOnRanks(benchmark::State& state) {
   const std::string out = "/tmp/kcrig_validate_bench_" + std::to_string(ranks) +
                           "_" + std::to_string(getpid()) + ".json";
   const std::string command =
-      "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun "
+      "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 "
+      "OMPI_MCA_btl=self,vader mpirun "
       "--oversubscribe -np " +
       std::to_string(ranks) +
       " " KCRIG_BINARY
