@@ -68,11 +68,12 @@ int RunReport(const ReportArgs& args) {
   // A report finished before the signal is complete and stays.
   if (!status.ok() && stop.received()) return stop.Exit("report");
   if (!status.ok()) return fail(status);
-  std::printf("kcrig report: %d figures (%d experiments%s%s%s), wrote %s\n",
+  std::printf("kcrig report: %d figures (%d experiments%s%s%s%s), wrote %s\n",
               summary.figures, summary.experiments,
               summary.campaign ? ", campaign" : "",
               summary.diagnosis ? ", diagnosis" : "",
-              summary.timing ? ", timing" : "", out.c_str());
+              summary.timing ? ", timing" : "",
+              summary.validation ? ", validation" : "", out.c_str());
   if (summary.campaign) std::printf("  %s\n", KcSheetLine(summary).c_str());
   return 0;
 }

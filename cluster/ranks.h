@@ -1,8 +1,9 @@
 // The processes a batch of independent items (the cases of `kcrig
 // validate`) is spread over: MPI's world when kcrig was built with MPI and
-// launched by mpirun (or srun), else this process alone. Item i belongs to
-// rank i % size, and the root (rank 0) gathers every item's result in item
-// order: what it writes is the same for any number of ranks.
+// launched by mpirun (or srun), else this process alone. Items go to
+// whichever rank is free (ForEachItem), and the root (rank 0) gathers every
+// item's result in item order: what it writes is the same for any number of
+// ranks.
 #ifndef KCRIG_CLUSTER_RANKS_H_
 #define KCRIG_CLUSTER_RANKS_H_
 

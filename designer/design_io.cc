@@ -58,7 +58,6 @@ Status ReadRun(const nlohmann::json& node, const std::string& where,
         ReadPoint(node, "initial", where, &r.start, &r.start_value),
         ReadPoint(node, "optimal", where, &r.best, &r.best_value),
         ReadField(node, "evaluations", where, &r.evaluations),
-        ReadField(node, "seconds", where, &r.seconds),
         ReadField(node, "budget_exhausted", where, &r.budget_exhausted),
         ReadField(node, "message", where, &r.message),
         ReadRows(node, "path", where, 2, &path),
@@ -129,7 +128,6 @@ std::string DesignRunsToJson(Criterion criterion,
     doc["optimal"] = Point(best.best, best.best_value);
     doc["optimal_singular"] = best.best_singular;
     doc["evaluations"] = best.evaluations;
-    doc["seconds"] = best.seconds;
   }
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
   for (const DesignRun& run : runs) {
@@ -145,7 +143,6 @@ std::string DesignRunsToJson(Criterion criterion,
                     {"initial", Point(r.start, r.start_value)},
                     {"optimal", Point(r.best, r.best_value)},
                     {"evaluations", r.evaluations},
-                    {"seconds", r.seconds},
                     {"budget_exhausted", r.budget_exhausted},
                     {"message", r.message},
                     {"path", path},

@@ -1,6 +1,5 @@
 #include "designer/discrimination.h"
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 
@@ -17,7 +16,6 @@ Status DesignDiscriminatingExperiment(const EffectModel& a,
                                       const ExperimentConfig& experiment,
                                       const DiscriminationOptions& options,
                                       DiscriminatingDesign* design) {
-  const auto start = std::chrono::steady_clock::now();
   *design = DiscriminatingDesign();
   design->model_a = a.Name();
   design->model_b = b.Name();
@@ -79,9 +77,6 @@ Status DesignDiscriminatingExperiment(const EffectModel& a,
       // `design`; nothing else to do.
     }
   }
-  design->seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-          .count();
   if (design->divergence < 0) {
     return failure.ok() ? Status::Error(
                               "discriminating design: no design "
@@ -110,7 +105,6 @@ std::string DiscriminatingDesignToJson(const DiscriminatingDesign& design) {
       {"return_s", d.return_duration},
       {"divergence", design.divergence},
       {"evaluations", design.evaluations},
-      {"seconds", design.seconds},
       {"run_options", options}};
   return doc.dump();
 }

@@ -39,7 +39,6 @@ struct DiscriminatingDesign {
   RampExcitation<double> excitation;  // the experiment to run
   double divergence = 0;              // T at the design
   int evaluations = 0;
-  double seconds = 0;
 };
 
 // Designs the experiment that best tells `a` (at `values_a`) from `b` (at

@@ -65,7 +65,6 @@ Json CandidateJson(const CandidateScore& s) {
   out["ljung_box_p"] = s.scored ? Number(s.ljung_box_p) : Json(nullptr);
   out["iterations"] = s.fit.result.iterations;
   out["converged"] = s.fit.result.converged;
-  out["seconds"] = s.fit.result.seconds;
   return out;
 }
 
@@ -307,7 +306,6 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
   if (!design_json.empty()) {
     doc["discriminating_design"] = Json::parse(design_json);
   }
-  doc["seconds"] = r.seconds;
   return doc.dump(2) + "\n";
 }
 

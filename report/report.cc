@@ -26,6 +26,8 @@
 #include "report/report_page.h"
 #include "rt_core/model/channels.h"
 #include "rt_core/model/plant_effects.h"
+#include "validation/blind_case.h"
+#include "validation/validation.h"
 
 namespace kcrig {
 namespace {
@@ -673,6 +675,115 @@ Status TimingJson(const fs::path& root, const fs::path& file, Json* out) {
   return Status::Ok();
 }
 
+// A validate.json as the page draws it: the confusion matrix as a grid of
+// counts, the detection rate per class and size bin, and every case's size
+// and outcome. Errors name the file and the field.
+Status ValidationJson(const fs::path& root, const fs::path& file, Json* out) {
+  Json doc;
+  KCRIG_RETURN_IF_ERROR(ReadJsonFile(file.string(), &doc));
+  const std::string where = file.string();
+  Json confusion, power, figures, cases;
+  for (const auto& [key, value] :
+       {std::pair<const char*, Json*>{"confusion", &confusion},
+        {"power", &power},
+        {"figures", &figures}}) {
+    KCRIG_RETURN_IF_ERROR(ReadField(doc, key, where, value));
+    if (!value->is_object()) {
+      return Status::Error(where + "." + key + ": expected an object");
+    }
+  }
+  KCRIG_RETURN_IF_ERROR(ReadField(doc, "case_results", where, &cases));
+  if (!cases.is_array()) {
+    return Status::Error(where + ".case_results: expected a list");
+  }
+  // Rows and columns in the confusion matrix's own order, so that its
+  // diagonal reads as the correct verdicts.
+  const std::vector<std::string>& columns = ConfusionColumns();
+  std::vector<std::string> rows;
+  for (const std::string& truth : BlindCaseClasses()) {
+    if (confusion.contains(truth)) rows.push_back(truth);
+  }
+  for (const auto& [truth, row] : confusion.items()) {
+    if (std::find(rows.begin(), rows.end(), truth) == rows.end()) {
+      return Status::Error(where + ".confusion." + truth + ": unknown class");
+    }
+    for (const auto& [column, count] : row.items()) {
+      if (!count.is_number_integer() ||
+          std::find(columns.begin(), columns.end(), column) == columns.end()) {
+        return Status::Error(where + ".confusion." + truth + "." + column +
+                             ": expected a count of a verdict");
+      }
+    }
+  }
+  Json counts = Json::array();
+  for (const std::string& truth : rows) {
+    Json row = Json::array();
+    for (const std::string& column : columns) {
+      row.push_back(confusion[truth].value(column, 0));
+    }
+    counts.push_back(row);
+  }
+  // Where the bushing effects act against where they were placed (absent
+  // from files of earlier builds: no such figure then).
+  const Json places = doc.value("component_confusion", Json::object());
+  if (!places.is_object()) {
+    return Status::Error(where + ".component_confusion: expected an object");
+  }
+  std::vector<std::string> place_rows, place_columns;
+  for (const auto& [truth, row] : places.items()) {
+    place_rows.push_back(truth);
+    for (const auto& [column, count] : row.items()) {
+      if (!count.is_number_integer()) {
+        return Status::Error(where + ".component_confusion." + truth + "." +
+                             column + ": expected a count");
+      }
+      if (std::find(place_columns.begin(), place_columns.end(), column) ==
+          place_columns.end()) {
+        place_columns.push_back(column);
+      }
+    }
+  }
+  Json place_counts = Json::array();
+  for (const std::string& truth : place_rows) {
+    Json row = Json::array();
+    for (const std::string& column : place_columns) {
+      row.push_back(places[truth].value(column, 0));
+    }
+    place_counts.push_back(row);
+  }
+  Json outcomes = Json::array();
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const std::string at = where + ".case_results[" + std::to_string(i) + "]";
+    std::string truth, verdict;
+    double size = 0;
+    bool correct = false, confident_wrong = false;
+    KCRIG_RETURN_IF_ERROR(ReadField(cases[i], "truth", at, &truth));
+    KCRIG_RETURN_IF_ERROR(ReadField(cases[i], "verdict", at, &verdict));
+    KCRIG_RETURN_IF_ERROR(ReadField(cases[i], "size_sigma", at, &size));
+    KCRIG_RETURN_IF_ERROR(ReadField(cases[i], "correct", at, &correct));
+    KCRIG_RETURN_IF_ERROR(
+        ReadField(cases[i], "confident_wrong", at, &confident_wrong));
+    outcomes.push_back({{"truth", truth},
+                        {"verdict", verdict},
+                        {"size_sigma", size},
+                        {"correct", correct},
+                        {"confident_wrong", confident_wrong}});
+  }
+  *out = {{"source", fs::relative(file, root).string()},
+          {"seed", doc.value("seed", Json(nullptr))},
+          {"rows", rows},
+          {"columns", columns},
+          {"counts", counts},
+          {"places",
+           {{"rows", place_rows},
+            {"columns", place_columns},
+            {"counts", place_counts}}},
+          {"power", power},
+          {"figures", figures},
+          {"cases", outcomes}};
+  return Status::Ok();
+}
+
 // The template with its three slots filled. The slots are found in the
 // template itself, so nothing inserted (plotly, user data) is searched.
 Status FillTemplate(const std::string& plotly, const std::string& data,
@@ -747,16 +858,18 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
     if (!status.ok()) return status;
   }
   // Diagnosis and timing files anywhere in the folder.
-  std::vector<fs::path> diag_files, timing_files;
+  std::vector<fs::path> diag_files, timing_files, validate_files;
   for (const fs::directory_entry& entry :
        fs::recursive_directory_iterator(root)) {
     if (!entry.is_regular_file()) continue;
     const std::string name = entry.path().filename().string();
     if (name == "diag.json") diag_files.push_back(entry.path());
     if (name == "timing.json") timing_files.push_back(entry.path());
+    if (name == "validate.json") validate_files.push_back(entry.path());
   }
   std::sort(diag_files.begin(), diag_files.end());
   std::sort(timing_files.begin(), timing_files.end());
+  std::sort(validate_files.begin(), validate_files.end());
   Json diagnoses = Json::array();
   for (const fs::path& file : diag_files) {
     KCRIG_RETURN_IF_ERROR(Progress(
@@ -778,10 +891,20 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
   }
   data["timings"] = timings;
   summary->timing = !timings.empty();
-  if (!summary->campaign && !summary->diagnosis && !summary->timing) {
+  Json validations = Json::array();
+  for (const fs::path& file : validate_files) {
+    Json v;
+    status = GuardedRead(file, [&] { return ValidationJson(root, file, &v); });
+    if (!status.ok()) return status;
+    validations.push_back(v);
+  }
+  data["validations"] = validations;
+  summary->validation = !validations.empty();
+  if (!summary->campaign && !summary->diagnosis && !summary->timing &&
+      !summary->validation) {
     return Status::Error(from_dir +
-                         ": no campaign.json, diag.json or timing.json to "
-                         "report on");
+                         ": no campaign.json, diag.json, timing.json or "
+                         "validate.json to report on");
   }
   // Figures the page will draw (the browser test checks each rendered).
   int figures = 0;
@@ -796,6 +919,12 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
         1 + (d["ranking"].empty() ? 0 : 1) + (d.contains("overlay") ? 1 : 0);
   }
   figures += static_cast<int>(timings.size());
+  // Per validation: the confusion matrix, the cases and, unless every case
+  // was clean, the power curve; with bushing effects, their places.
+  for (const Json& v : validations) {
+    figures +=
+        (v["power"].empty() ? 2 : 3) + (v["places"]["rows"].empty() ? 0 : 1);
+  }
   summary->figures = figures;
   data["expected_figures"] = figures;
 

@@ -13,7 +13,10 @@
 //   - diagnosis: residual energy by channel x load regime, the candidate
 //     ranking, and held-out data against the nominal and attributed models;
 //   - timing: wake-up latency and compute-time histograms with the budget,
-//     overruns.
+//     overruns;
+//   - validation (`kcrig validate`): the confusion matrix, the detection
+//     rate against the effect's size in noise units per class (the power
+//     curve), and every case's size and outcome.
 // Units as engineers read them: mm, deg, kN, N/mm, us.
 #ifndef KCRIG_REPORT_REPORT_H_
 #define KCRIG_REPORT_REPORT_H_
@@ -55,7 +58,7 @@ struct ReportOptions {
 struct ReportSummary {
   int figures = 0;
   int experiments = 0;
-  bool campaign = false, diagnosis = false, timing = false;
+  bool campaign = false, diagnosis = false, timing = false, validation = false;
   // A campaign's K&C sheet: the channels on which the final model and the
   // rig differ (|z| > 3 on a gradient or loop width of some run).
   std::vector<std::string> kc_differing_channels;
@@ -67,7 +70,8 @@ std::string KcSheetLine(const ReportSummary& summary);
 
 // Reads a campaign output folder `from_dir` (campaign.json and its
 // iteration_*/ folders; a diag.json and timing.json there or in an
-// iteration folder are picked up too) and writes the report to
+// iteration folder are picked up too, and a validate.json anywhere in it)
+// and writes the report to
 // `html_path` atomically. Errors name the file and field; nothing is
 // written then. A folder with none of these files is an error.
 Status WriteReport(const KcrigConfig& config, const std::string& from_dir,

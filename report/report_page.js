@@ -492,6 +492,95 @@
 
   });
 
+  guarded('validation', function () { if (data.validations && data.validations.length) {
+    var s7 = section('validation', 'Validation: how well kcrig diagnoses this configuration');
+    data.validations.forEach(function (v) {
+      var f = v.figures;
+      function tally(t, hits) { return t[hits] + '/' + t.total; }
+      s7.appendChild(el('h3', {}, v.source + ' (seed ' + v.seed + ', ' +
+                        v.cases.length + ' cases)'));
+      s7.appendChild(el('div', {class: 'verdict'},
+          'library effects > 3\u03c3 named: ' +
+          tally(f.library_effects_beyond_3_sigma, 'correct') +
+          '; clean logs called none: ' + tally(f.clean, 'none') +
+          '; wrong parameters > 3\u03c3 named: ' +
+          tally(f.wrong_parameters_beyond_3_sigma, 'named') +
+          '; gap closed \u2265 80 % when correct: ' +
+          tally(f.gap_closed_80_percent_when_correct, 'closed') +
+          '; confident wrong answers: ' + f.confident_wrong));
+      // A count matrix as a heat map with each count written on its cell.
+      function counts(title, m) {
+        var cells = [], most = 1;
+        m.counts.forEach(function (row) { most = Math.max.apply(null, [most].concat(row)); });
+        m.counts.forEach(function (row, r) {
+          row.forEach(function (n, c) {
+            if (n) cells.push({x: m.columns[c], y: m.rows[r], text: String(n),
+                               showarrow: false,
+                               font: {color: n > most / 2 ? '#fff' : '#000'}});
+          });
+        });
+        figure(s7, [{type: 'heatmap', x: m.columns, y: m.rows, z: m.counts,
+                     colorscale: 'Blues', reversescale: true, zmin: 0,
+                     colorbar: {title: {text: 'cases'}}}],
+               {title: {text: title}, annotations: cells,
+                yaxis: {autorange: 'reversed', automargin: true},
+                xaxis: {automargin: true}},
+               Math.max(320, 40 * m.rows.length + 160));
+      }
+      counts('Confusion matrix (rows: truth, columns: verdict)', v);
+      if (v.places.rows.length) {
+        counts('Bushing effects: where they act (rows) and where kcrig ' +
+               'placed them (columns)', v.places);
+      }
+      var curves = [];
+      Object.keys(v.power).forEach(function (truth, i) {
+        var bins = v.power[truth].bins.filter(function (b) { return b.cases; });
+        curves.push({type: 'scatter', mode: 'lines+markers', name: truth,
+                     marker: {color: palette[i % palette.length]},
+                     x: bins.map(function (b) {
+                       return b.to_sigma === null ? 2 * b.from_sigma :
+                              Math.max(0.5, Math.sqrt(Math.max(b.from_sigma, 0.25) *
+                                                      b.to_sigma));
+                     }),
+                     y: bins.map(function (b) { return 100 * b.detected / b.cases; }),
+                     text: bins.map(function (b) {
+                       return '[' + b.from_sigma + ', ' +
+                              (b.to_sigma === null ? '\u221e' : b.to_sigma) +
+                              ') \u03c3: ' + b.detected + '/' + b.cases;
+                     }),
+                     hoverinfo: 'name+text'});
+      });
+      if (curves.length) figure(s7, curves,
+             {title: {text: 'Power curve: detection rate against effect size'},
+              xaxis: {type: 'log', title: {text: 'effect size [noise units ' +
+                                               '\u03c3, bin centre]'}},
+              yaxis: {title: {text: 'named correctly [%]'}, range: [-5, 105]},
+              shapes: [{type: 'line', x0: 3, x1: 3, yref: 'paper', y0: 0, y1: 1,
+                        line: {color: '#999', dash: 'dot'}}]}, 420);
+      var outcome = [['correct', '#2ca02c'], ['wrong', '#ff7f0e'],
+                     ['confident wrong', '#d62728']];
+      figure(s7, outcome.map(function (o) {
+        var mine = v.cases.filter(function (c) {
+          var kind = c.correct ? 'correct' :
+                     (c.confident_wrong ? 'confident wrong' : 'wrong');
+          return kind === o[0];
+        });
+        return {type: 'scatter', mode: 'markers', name: o[0],
+                marker: {color: o[1], size: 9},
+                x: mine.map(function (c) { return Math.max(c.size_sigma, 0.05); }),
+                y: mine.map(function (c) { return c.truth; }),
+                text: mine.map(function (c) { return 'verdict ' + c.verdict; }),
+                hoverinfo: 'x+y+text'};
+      }), {title: {text: 'Every case: its size and what kcrig said (clean ' +
+                         'cases at the left edge)'},
+           xaxis: {type: 'log', title: {text: 'effect size [\u03c3]'}},
+           yaxis: {automargin: true}},
+             Math.max(320, 40 * v.rows.length + 160));
+    });
+  }
+
+  });
+
   // A figure rendered when plotly drew its SVG and at least one trace.
   var status = document.getElementById('kcrig-status');
   Promise.all(pending).then(function (divs) {

@@ -75,6 +75,24 @@ void DrawWrongParameter(const SuspensionParameters<double>& model, double m,
   c->sets.push_back({c->parameter, c->parameter_value});
 }
 
+// Where a bushing effect acts: one case in two a single bushing (drawn from
+// a stream of its own, so that every other draw is as without placement),
+// else every bushing.
+void PlaceBushingEffect(std::uint64_t seed, int index, BlindCase* c) {
+  std::seed_seq where{seed, static_cast<std::uint64_t>(index),
+                      std::uint64_t{0xb5}};
+  std::mt19937_64 rng(where);
+  const bool single = rng() % 2 == 0;
+  const int worn = static_cast<int>(rng() % kNumBushings);
+  for (int i = 0; i < kNumBushings; ++i) {
+    if (single && i != worn) continue;
+    BushingSet one{};
+    one[i] = true;
+    c->components.push_back(DescribeBushingSet(one));
+  }
+  if (single) c->effect += ",at=" + c->components.front();
+}
+
 // One ramp of a plan's list.
 Status LoadRamp(const YamlReader& reader, const YAML::Node& node,
                 const std::string& key, BlindDesign* d) {
@@ -189,6 +207,7 @@ Status DrawBlindCase(int index, std::uint64_t seed,
                       model.bushings[i].stiffness * (0.9 + 0.2 * u(rng))});
   }
   c.effect = EffectText(c.truth, c.magnitude, &rng, &u);
+  if (IsBushingEffect(c.truth)) PlaceBushingEffect(seed, index, &c);
   if (c.truth == "model_parameter") {
     DrawWrongParameter(model, c.magnitude, &rng, &c);
   }

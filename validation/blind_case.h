@@ -1,7 +1,9 @@
 // The blind cases of `kcrig validate` (and of the blind diagnosis tests): a
 // seeded generator draws the truth of each case — one of the six library
 // effects, none, or a wrong "known" parameter (a hard point off along one
-// axis, or the spring rate) — its magnitude from small to large, the rig's
+// axis, or the spring rate) — its magnitude from small to large, where a
+// bushing effect acts (one case in two a single bushing, a worn one; else
+// every bushing), the rig's
 // true bushings (+-10 % off the configured ones, as a real rig's are), the
 // designs of two training logs and one hold-out log (or those of a test
 // plan), and the noise seeds.
@@ -62,6 +64,10 @@ struct BlindCase {
   std::string effect;    // the --effect text of a library effect, or ""
   double magnitude = 0;  // 0..1, small to large (log scale in a range)
   PlantEffects effects;  // parsed from `effect`
+  // Where a bushing effect acts, in the component vocabulary
+  // (plant_effects.h) and bushing order: one bushing, or all five; empty
+  // for the other truths.
+  std::vector<std::string> components;
   // The plant's parameters that differ from the configuration: the true
   // bushings, and a wrong "known" parameter.
   std::vector<std::pair<std::string, double>> sets;

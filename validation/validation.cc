@@ -73,6 +73,43 @@ Json Field(const Json& diag, const char* name, Json otherwise) {
   return diag.contains(name) && !diag[name].is_null() ? diag[name] : otherwise;
 }
 
+// A set of components as the component confusion matrix labels it: the
+// places joined by '+', "every bushing" for all five, "no component".
+std::string ComponentLabel(const Json& components) {
+  if (components.size() == kNumBushings) return "every bushing";
+  std::string label;
+  for (const Json& c : components) {
+    label += (label.empty() ? "" : "+") + c.get<std::string>();
+  }
+  return label.empty() ? "no component" : label;
+}
+
+// A coverage study: the 95 % intervals of the fitted stiffnesses against
+// the rig's true ones, counted only for a correct verdict (whose fitted
+// model is the truth's, the nominal one for a clean case); null otherwise.
+Json StiffnessCoverage(const BlindCase& c, const Json& diag, bool correct) {
+  if (!correct) return nullptr;
+  const std::string model = Field(diag, "model", "");
+  Json fitted = c.truth == "none" ? Field(diag, "nominal", nullptr) : nullptr;
+  for (const Json& candidate : Field(diag, "candidates", Json::array())) {
+    if (c.truth != "none" && candidate["model"] == model) fitted = candidate;
+  }
+  if (!fitted.is_object()) return nullptr;
+  int inside = 0, total = 0;
+  for (const auto& [name, value] : c.sets) {
+    if (name.rfind("c_", 0) != 0) continue;
+    for (const Json& p : fitted.value("parameters", Json::array())) {
+      const Json& ci = p["ci95"];
+      if (p["name"] != name || !ci[0].is_number() || !ci[1].is_number()) {
+        continue;
+      }
+      ++total;
+      inside += ci[0].get<double>() <= value && value <= ci[1].get<double>();
+    }
+  }
+  return {{"inside", inside}, {"total", total}};
+}
+
 // The diagnosis (diag.json's fields) against the case's truth.
 Json Score(const BlindCase& c, double size, const Json& diag) {
   const std::string verdict = diag["verdict"];
@@ -97,6 +134,13 @@ Json Score(const BlindCase& c, double size, const Json& diag) {
   out["model"] = model;
   out["confidence"] = confidence;
   out["components"] = Field(diag, "components", Json::array());
+  out["truth_components"] = c.components;
+  out["stiffness_coverage"] = StiffnessCoverage(c, diag, correct);
+  // Of a bushing effect: the class named and acting where it acts.
+  out["component_correct"] =
+      c.components.empty()
+          ? Json(nullptr)
+          : Json(correct && out["components"] == Json(c.components));
   out["ambiguous"] = ambiguous;
   out["gap_closed"] = Field(quantification, "gap_closed", nullptr);
   out["correct"] = correct;
@@ -132,9 +176,13 @@ bool Flag(const Json& c, const char* name) {
 }
 
 Json Figures(const std::vector<Json>& cases) {
-  Tally large, clean, parameters, in_interval, closed;
+  Tally large, clean, parameters, in_interval, closed, placed, stiffness;
   int ambiguous = 0, confident_wrong = 0;
   for (const Json& c : cases) {
+    if (c["stiffness_coverage"].is_object()) {
+      stiffness.hits += c["stiffness_coverage"]["inside"].get<int>();
+      stiffness.total += c["stiffness_coverage"]["total"].get<int>();
+    }
     const bool correct = Flag(c, "correct");
     const bool parameter = c["truth"] == "model_parameter";
     const bool beyond = c["size_sigma"].get<double>() > kLargeEffect;
@@ -153,6 +201,10 @@ Json Figures(const std::vector<Json>& cases) {
     Tally& tally = parameter ? parameters : large;
     ++tally.total;
     tally.hits += correct;
+    if (c["component_correct"].is_boolean()) {
+      ++placed.total;
+      placed.hits += Flag(c, "component_correct");
+    }
     if (!parameter) continue;
     ambiguous += Flag(c, "named_in_ambiguity");
     if (c["value_in_interval"].is_boolean()) {
@@ -162,6 +214,8 @@ Json Figures(const std::vector<Json>& cases) {
   }
   Json out;
   out["library_effects_beyond_3_sigma"] = large.ToJson("correct");
+  out["bushing_effects_beyond_3_sigma_right_component"] =
+      placed.ToJson("correct");
   out["clean"] = clean.ToJson("none");
   out["false_alarm_rate"] = clean.total > 0
                                 ? Json(1.0 - double(clean.hits) / clean.total)
@@ -172,6 +226,7 @@ Json Figures(const std::vector<Json>& cases) {
   out["true_value_in_95_interval"] = in_interval.ToJson("inside");
   out["gap_closed_80_percent_when_correct"] = closed.ToJson("closed");
   out["confident_wrong"] = confident_wrong;
+  out["stiffness_in_95_interval_when_correct"] = stiffness.ToJson("inside");
   return out;
 }
 
@@ -184,6 +239,20 @@ Json Confusion(const std::vector<Json>& cases) {
       if (!out.contains(truth)) out[truth] = Json::object();
       out[truth][column] = out[truth].value(column, 0) + 1;
     }
+  }
+  return out;
+}
+
+// Of the bushing effects: where they act (rows) against where the
+// diagnosis placed them (columns).
+Json ComponentConfusion(const std::vector<Json>& cases) {
+  Json out = Json::object();
+  for (const Json& c : cases) {
+    if (c["truth_components"].empty()) continue;
+    const std::string truth = ComponentLabel(c["truth_components"]);
+    const std::string column = ComponentLabel(c["components"]);
+    if (!out.contains(truth)) out[truth] = Json::object();
+    out[truth][column] = out[truth].value(column, 0) + 1;
   }
   return out;
 }
@@ -286,35 +355,52 @@ std::string ValidationToJson(const KcrigConfig& config,
                             {"holdout", Designs(options.plan.holdout)}});
   doc["figures"] = Figures(cases);
   doc["confusion"] = Confusion(cases);
+  doc["component_confusion"] = ComponentConfusion(cases);
   doc["power"] = Power(cases);
   doc["case_results"] = cases;
   return doc.dump(2) + "\n";
+}
+
+const std::vector<std::string>& ConfusionColumns() {
+  static const std::vector<std::string> columns = {
+      "none",          "bushing_damping",
+      "hysteresis",    "progressive_stiffness",
+      "actuator_lag",  "rig_compliance",
+      "sensor_offset", "model_parameter",
+      "pair",          "unexplained"};
+  return columns;
 }
 
 std::string ValidationSummary(const std::string& validation_json) {
   const Json doc = Json::parse(validation_json);
   std::string out = "confusion matrix (rows: truth, columns: verdict)\n";
   char line[320];
-  static const char* kColumns[] = {"none",          "bushing_damping",
-                                   "hysteresis",    "progressive_stiffness",
-                                   "actuator_lag",  "rig_compliance",
-                                   "sensor_offset", "model_parameter",
-                                   "pair",          "unexplained"};
   std::snprintf(line, sizeof(line), "%22s", "");
   out += line;
-  for (const char* column : kColumns) {
-    std::snprintf(line, sizeof(line), " %6.6s", column);
+  for (const std::string& column : ConfusionColumns()) {
+    std::snprintf(line, sizeof(line), " %6.6s", column.c_str());
     out += line;
   }
   out += "\n";
   for (const auto& [truth, row] : doc["confusion"].items()) {
     std::snprintf(line, sizeof(line), "%22s", truth.c_str());
     out += line;
-    for (const char* column : kColumns) {
+    for (const std::string& column : ConfusionColumns()) {
       std::snprintf(line, sizeof(line), " %6d", row.value(column, 0));
       out += line;
     }
     out += "\n";
+  }
+  if (!doc["component_confusion"].empty()) {
+    out += "bushing effects: where they act -> where kcrig placed them\n";
+  }
+  for (const auto& [truth, row] : doc["component_confusion"].items()) {
+    std::snprintf(line, sizeof(line), "%22s ->", truth.c_str());
+    out += line;
+    for (const auto& [placed, count] : row.items()) {
+      out += " " + placed + " " + count.dump() + ";";
+    }
+    out.back() = '\n';
   }
   out += "detection rate by effect size (noise units; detected/cases)\n";
   for (const auto& [truth, power] : doc["power"].items()) {
@@ -339,7 +425,9 @@ std::string ValidationSummary(const std::string& validation_json) {
   out +=
       "library effects > 3x noise correct: " +
       tally(f["library_effects_beyond_3_sigma"], "correct") +
-      "; clean called none: " + tally(f["clean"], "none") +
+      " (bushing effects in the right component: " +
+      tally(f["bushing_effects_beyond_3_sigma_right_component"], "correct") +
+      "); clean called none: " + tally(f["clean"], "none") +
       "; wrong parameters > 3x noise named: " +
       tally(f["wrong_parameters_beyond_3_sigma"], "named") + " (+" +
       f["wrong_parameters_beyond_3_sigma"]["one_of_an_ambiguous_pair"].dump() +
@@ -347,7 +435,10 @@ std::string ValidationSummary(const std::string& validation_json) {
       tally(f["true_value_in_95_interval"], "inside") +
       "; correct with >= 80 % of the gap closed: " +
       tally(f["gap_closed_80_percent_when_correct"], "closed") +
-      "; confident wrong answers: " + f["confident_wrong"].dump() + "\n";
+      "; confident wrong answers: " + f["confident_wrong"].dump() +
+      "\nstiffness 95 % intervals covering the rig's true value (correct "
+      "verdicts; a coverage study): " +
+      tally(f["stiffness_in_95_interval_when_correct"], "inside") + "\n";
   return out;
 }
 

@@ -54,6 +54,10 @@ std::string ValidationToJson(const KcrigConfig& config,
                              const ValidationOptions& options,
                              const std::vector<std::string>& outcomes);
 
+// The columns of the confusion matrix in order: `none`, the classes, `pair`
+// (two effects named), `unexplained`. Its rows are BlindCaseClasses().
+const std::vector<std::string>& ConfusionColumns();
+
 // The terminal summary of validate.json's figures: the confusion matrix,
 // the power curve and the rates, in one screen.
 std::string ValidationSummary(const std::string& validation_json);

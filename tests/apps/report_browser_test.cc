@@ -77,6 +77,10 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
                "/b.csv --holdout " + dir + "/h.csv --out " + dir +
                "/diag.json");
   ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = RunKcrig(
+      "validate --quiet --cases 2 --effects bushing_damping,none --out " + dir +
+      "/validate.json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
 
   // The same timing under a folder whose name is markup: its figure title
   // must show it as text (plotly would draw a link and bold type).
@@ -87,8 +91,8 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
   r = RunKcrig("report --from " + dir + " --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   // 9 campaign figures (2 of them the K&C loops), 3 of the diagnosis, 2 of
-  // the timing.
-  ASSERT_NE(r.output.find("14 figures"), std::string::npos) << r.output;
+  // the timing, 4 of the validation (with the bushing effect's places).
+  ASSERT_NE(r.output.find("18 figures"), std::string::npos) << r.output;
 
   const std::string screenshot =
       std::string(KCRIG_TEST_ARTIFACT_DIR) + "/report_screenshot.png";
@@ -112,9 +116,9 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
   ASSERT_NE(dom.find("id=\"kcrig-status\""), std::string::npos)
       << dom.substr(0, 2000);
   EXPECT_EQ(Attribute(dom, "data-state"), "done");
-  EXPECT_EQ(Attribute(dom, "data-expected"), "14");
-  EXPECT_EQ(Attribute(dom, "data-figures"), "14");
-  EXPECT_EQ(Attribute(dom, "data-rendered"), "14");
+  EXPECT_EQ(Attribute(dom, "data-expected"), "18");
+  EXPECT_EQ(Attribute(dom, "data-figures"), "18");
+  EXPECT_EQ(Attribute(dom, "data-rendered"), "18");
   // The K&C sheet's tables: per run the channels, the standard figures and
   // the compliance matrix.
   EXPECT_NE(dom.find(">K&amp;C sheet</h2>"), std::string::npos);

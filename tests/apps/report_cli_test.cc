@@ -225,6 +225,81 @@ TEST_F(ReportCliTest, DiagnosisAndTimingFilesInTheFolderArePickedUp) {
   EXPECT_EQ(data["timings"][0]["overruns"], 1);
 }
 
+TEST_F(ReportCliTest, ValidationInTheFolderIsDrawnInTheConfusionMatrixsOrder) {
+  const std::string dir = Path("validation");
+  fs::create_directories(dir);
+  const CliResult v = RunKcrig(
+      "validate --quiet --cases 2 --effects bushing_damping,none "
+      "--out " +
+      dir + "/validate.json");
+  ASSERT_EQ(v.exit_code, 0) << v.output;
+  const CliResult r =
+      RunKcrig("report --from " + dir + " --quiet --out " + Path("r.html"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("4 figures (0 experiments, validation)"),
+            std::string::npos)
+      << r.output;
+  const Json written = Json::parse(std::ifstream(dir + "/validate.json"));
+  const Json data = PageData(ReadText(Path("r.html")));
+  ASSERT_EQ(data["validations"].size(), 1u);
+  const Json& page = data["validations"][0];
+  EXPECT_EQ(page["source"], "validate.json");
+  // The truths in the generator's order, every verdict column, and each
+  // count where validate.json put it.
+  EXPECT_EQ(page["rows"], Json({"bushing_damping", "none"}));
+  EXPECT_EQ(page["columns"].front(), "none");
+  EXPECT_EQ(page["columns"].back(), "unexplained");
+  int total = 0;
+  for (size_t i = 0; i < page["rows"].size(); ++i) {
+    for (size_t j = 0; j < page["columns"].size(); ++j) {
+      const int n = page["counts"][i][j];
+      total += n;
+      EXPECT_EQ(n,
+                written["confusion"][page["rows"][i].get<std::string>()].value(
+                    page["columns"][j].get<std::string>(), 0));
+    }
+  }
+  EXPECT_EQ(total, 2);
+  // Where the damping acts (one bushing or all five) against where the
+  // diagnosis placed it: one case.
+  const Json& places = page["places"];
+  ASSERT_EQ(places["rows"].size(), 1u);
+  const std::string acts = places["rows"][0];
+  EXPECT_TRUE(acts == "every bushing" || acts.rfind("bushing:", 0) == 0)
+      << acts;
+  for (size_t j = 0; j < places["columns"].size(); ++j) {
+    EXPECT_EQ(places["counts"][0][j],
+              written["component_confusion"][acts].value(
+                  places["columns"][j].get<std::string>(), 0));
+  }
+  EXPECT_EQ(page["power"], written["power"]);
+  ASSERT_EQ(page["cases"].size(), 2u);
+  EXPECT_EQ(page["cases"][1]["truth"], "none");
+  EXPECT_EQ(page["cases"][0]["size_sigma"],
+            written["case_results"][0]["size_sigma"]);
+
+  // A broken validate.json is one line naming its field.
+  Json doc = written;
+  doc["confusion"]["none"]["maybe"] = 1;
+  std::ofstream(dir + "/validate.json") << doc.dump();
+  const CliResult bad =
+      RunKcrig("report --from " + dir + " --quiet --out " + Path("bad.html"));
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_EQ(CountLines(bad.output), 1) << bad.output;
+  EXPECT_NE(bad.output.find("validate.json.confusion.none.maybe"),
+            std::string::npos)
+      << bad.output;
+  doc = written;
+  doc["case_results"][1].erase("size_sigma");
+  std::ofstream(dir + "/validate.json") << doc.dump();
+  const CliResult missing =
+      RunKcrig("report --from " + dir + " --quiet --out " + Path("bad.html"));
+  EXPECT_NE(missing.output.find("case_results[1]: missing field 'size_sigma'"),
+            std::string::npos)
+      << missing.output;
+  EXPECT_FALSE(fs::exists(Path("bad.html")));
+}
+
 // Every failure is one line naming what is wrong, and no report is left.
 void ExpectRefused(const std::string& args, const std::string& what,
                    const std::string& out) {
@@ -244,7 +319,8 @@ TEST_F(ReportCliTest, BadFoldersAreOneLineErrorsAndWriteNothing) {
   ExpectRefused("--from " + Path("missing"), "missing: not a folder", out);
   fs::create_directories(Path("empty"));
   ExpectRefused("--from " + Path("empty"),
-                "no campaign.json, diag.json or timing.json", out);
+                "no campaign.json, diag.json, timing.json or validate.json",
+                out);
   ExpectRefused("--from " + Campaign() + " --grid 19", "--grid 19", out);
   ExpectRefused("--from " + Campaign() + " --grid 1x5", "--grid 1x5", out);
 
