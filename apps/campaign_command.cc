@@ -1,14 +1,21 @@
 #include "apps/campaign_command.h"
 
+#include <unistd.h>
+
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "base/byte_codec.h"
+#include "base/input_file.h"
+#include "cluster/ranks.h"
 #include "designer/campaign.h"
 #include "diagnosis/diagnosis_io.h"
 #include "emulator/plant_config.h"
@@ -107,78 +114,153 @@ std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
   return out;
 }
 
-int RunCampaignCommand(const CampaignArgs& args) {
-  const StopSignal stop_signal;
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig campaign: %s\n", status.message().c_str());
-    return 1;
+// The embedded emulated rig with the user's plant changes.
+Status EmbeddedRig(const CampaignArgs& args, const KcrigConfig& config,
+                   RigRunner* rig, std::string* rig_text) {
+  PlantConfig plant;
+  KCRIG_RETURN_IF_ERROR(
+      LoadPlantConfig(config.directory, config.model, &plant));
+  if (args.seed) plant.seed = *args.seed;
+  for (const std::string& effect : args.plant_effects) {
+    const Status status = ParseEffect(effect, &plant.effects);
+    if (!status.ok())
+      return Status::Error("--plant-effect " + status.message());
+  }
+  for (const std::string& set : args.plant_sets) {
+    KCRIG_RETURN_IF_ERROR(
+        ApplyParameterAssignment("--plant-set", set, &plant.model));
+  }
+  KCRIG_RETURN_IF_ERROR(ValidateModel(plant.model, "--plant-set"));
+  *rig = [config, plant](const RampExcitation<double>& excitation, int run,
+                         const std::string& csv_path) {
+    return RunEmbeddedRig(config, plant, excitation, run, csv_path);
   };
-  KcrigConfig config;
-  Status status = LoadConfig(args.config_dir, &config);
-  if (!status.ok()) return fail(status);
-  RigRunner rig;
-  std::string rig_text;
-  if (args.rig == "sim") {
-    PlantConfig plant;
-    status = LoadPlantConfig(config.directory, config.model, &plant);
-    if (!status.ok()) return fail(status);
-    if (args.seed) plant.seed = *args.seed;
-    for (const std::string& effect : args.plant_effects) {
-      status = ParseEffect(effect, &plant.effects);
-      if (!status.ok()) {
-        return fail(Status::Error("--plant-effect " + status.message()));
-      }
-    }
-    for (const std::string& set : args.plant_sets) {
-      status = ApplyParameterAssignment("--plant-set", set, &plant.model);
-      if (!status.ok()) return fail(status);
-    }
-    status = ValidateModel(plant.model, "--plant-set");
-    if (!status.ok()) return fail(status);
-    rig = [config, plant](const RampExcitation<double>& excitation, int run,
-                          const std::string& csv_path) {
-      return RunEmbeddedRig(config, plant, excitation, run, csv_path);
-    };
-    rig_text = "embedded emulated rig (plant.yaml)";
-    const std::vector<std::string> effects = DescribeEffects(plant.effects);
-    for (size_t i = 0; i < effects.size(); ++i) {
-      rig_text += (i == 0 ? ", plant effects: " : " ") + effects[i];
-    }
-    for (size_t i = 0; i < args.plant_sets.size(); ++i) {
-      rig_text += (i == 0 ? ", plant parameters: " : " ") + args.plant_sets[i];
-    }
-  } else if (!args.plant_effects.empty() || !args.plant_sets.empty()) {
-    return fail(Status::Error(
+  *rig_text = "embedded emulated rig (plant.yaml)";
+  const std::vector<std::string> effects = DescribeEffects(plant.effects);
+  for (size_t i = 0; i < effects.size(); ++i) {
+    *rig_text += (i == 0 ? ", plant effects: " : " ") + effects[i];
+  }
+  for (size_t i = 0; i < args.plant_sets.size(); ++i) {
+    *rig_text += (i == 0 ? ", plant parameters: " : " ") + args.plant_sets[i];
+  }
+  return Status::Ok();
+}
+
+// The rig of --rig: the embedded one, or a rig over Modbus or CAN (never
+// under MPI: the rig loop runs in one process).
+Status MakeRig(const CampaignArgs& args, const KcrigConfig& config,
+               RigRunner* rig, std::string* rig_text) {
+  if (args.rig == "sim") return EmbeddedRig(args, config, rig, rig_text);
+  if (!args.plant_effects.empty() || !args.plant_sets.empty()) {
+    return Status::Error(
         "--plant-effect, --plant-set: only the embedded rig (--rig sim) has a "
         "plant to change; give a kcrig emulate rig its effects with emulate "
-        "--effect"));
-  } else if (args.rig.rfind("modbus-", 0) == 0 ||
-             args.rig.rfind("can:", 0) == 0) {
-    CampaignRig hil;
-    status = CampaignRig::Open(args.rig, config, &hil);
-    if (!status.ok()) return fail(status);
-    const std::atomic<int>* stop = &InstallStopSignalHandlers();
-    rig = [hil, stop](const RampExcitation<double>& excitation, int run,
-                      const std::string& csv_path) {
-      return hil.Run(excitation, run, csv_path, stop);
-    };
-    rig_text = "rig at " + args.rig;
-  } else {
-    return fail(Status::Error("--rig " + args.rig +
-                              ": expected sim, modbus-tcp://HOST:PORT, "
-                              "modbus-rtu://DEVICE or can:IFACE"));
+        "--effect");
   }
-  CampaignOptions options;
-  options.iterations = args.iterations;
-  status = ParseCriterion(args.criterion, &options.criterion);
-  if (!status.ok()) return fail(status);
-  options.optimizer = args.optimizer;
-  options.objective.budget = args.budget;
-  options.target_relative_halfwidth = args.target_percent / 100.0;
-  options.close_loop = !args.no_diagnose;
+  if (args.rig.rfind("modbus-", 0) != 0 && args.rig.rfind("can:", 0) != 0) {
+    return Status::Error("--rig " + args.rig +
+                         ": expected sim, modbus-tcp://HOST:PORT, "
+                         "modbus-rtu://DEVICE or can:IFACE");
+  }
+  if (WorldRanks().size() > 1) {
+    return Status::Error("--rig " + args.rig +
+                         ": a rig's loop runs in one process, never under "
+                         "MPI (only --rig sim spreads over ranks): start the "
+                         "campaign without mpirun");
+  }
+  CampaignRig hil;
+  KCRIG_RETURN_IF_ERROR(CampaignRig::Open(args.rig, config, &hil));
+  const std::atomic<int>* stop = &InstallStopSignalHandlers();
+  *rig = [hil, stop](const RampExcitation<double>& excitation, int run,
+                     const std::string& csv_path) {
+    return hil.Run(excitation, run, csv_path, stop);
+  };
+  *rig_text = "rig at " + args.rig;
+  return Status::Ok();
+}
 
-  status = ValidateCampaignOptions(config, options);
-  if (!status.ok()) return fail(status);
+// Under MPI rank 0 alone runs the rig; every rank receives the log (run.csv
+// and its sidecar, bit for bit) and so goes on with the same campaign.
+RigRunner RigOfRankZero(RigRunner rig) {
+  return [rig](const RampExcitation<double>& excitation, int run,
+               const std::string& csv_path) {
+    const Ranks& ranks = WorldRanks();
+    const std::string sidecar = SidecarPath(csv_path);
+    Status status = Status::Ok();
+    std::string bytes;
+    if (ranks.is_root()) {
+      status = rig(excitation, run, csv_path);
+      ByteWriter files;
+      for (const std::string& path : {csv_path, sidecar}) {
+        std::string text;
+        // Below MPI's 2 GiB a message: a 4 s log is about 0.5 MB.
+        if (status.ok()) status = ReadInputFile(path, 1u << 30, &text);
+        files.Put(text);
+      }
+      bytes = files.bytes();
+    }
+    status = ranks.Share(status, &bytes);
+    if (!status.ok() || ranks.is_root()) return status;
+    ByteReader files(bytes);
+    std::string csv, json;
+    files.Get(&csv);
+    files.Get(&json);
+    if (!files.ok()) return Status::Error(csv_path + ": corrupt when shared");
+    return WriteFilesAtomically({{csv_path, csv}, {sidecar, json}});
+  };
+}
+
+Status MakeOptions(const CampaignArgs& args, const KcrigConfig& config,
+                   CampaignOptions* options) {
+  options->iterations = args.iterations;
+  KCRIG_RETURN_IF_ERROR(ParseCriterion(args.criterion, &options->criterion));
+  options->optimizer = args.optimizer;
+  options->objective.budget = args.budget;
+  options->target_relative_halfwidth = args.target_percent / 100.0;
+  options->close_loop = !args.no_diagnose;
+  if (WorldRanks().size() > 1) {
+    // The designs' batches and the diagnosis' fits spread over the ranks,
+    // one thread each.
+    options->objective.batches = &WorldBatches();
+    options->objective.num_threads = 1;
+    options->diagnosis.batches = &WorldBatches();
+    options->diagnosis.num_threads = 1;
+  }
+  return ValidateCampaignOptions(config, *options);
+}
+
+// A folder of this process alone, removed with it: under MPI the ranks but
+// rank 0 write their copies of the campaign's files there.
+class PrivateFolder {
+ public:
+  PrivateFolder() {
+    path_ = (std::filesystem::temp_directory_path() /
+             ("kcrig_campaign_rank" + std::to_string(WorldRanks().rank()) +
+              "_" + std::to_string(getpid())))
+                .string();
+  }
+  ~PrivateFolder() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+int Fail(const Status& status) {
+  std::fprintf(stderr, "kcrig campaign: %s\n", status.message().c_str());
+  return 1;
+}
+
+// The campaign as the user sees it: progress, campaign.json, the report.
+int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
+                 const RigRunner& rig, const std::string& rig_text,
+                 CampaignOptions options) {
+  const StopSignal stop_signal;
+  const auto fail = Fail;
+  Status status;
   ProgressLine progress(args.quiet);
   options.callback = stop_signal.Callback(
       [&progress](const IterationSummary& s) { progress.Show(s.stage); });
@@ -250,6 +332,41 @@ int RunCampaignCommand(const CampaignArgs& args) {
     }
   }
   return stopped ? kExitUnexplained : 0;
+}
+
+int RunCampaignCommand(const CampaignArgs& args) {
+  KcrigConfig config;
+  RigRunner rig;
+  std::string rig_text;
+  CampaignOptions options;
+  Status status = LoadConfig(args.config_dir, &config);
+  if (status.ok()) status = MakeRig(args, config, &rig, &rig_text);
+  if (status.ok()) status = MakeOptions(args, config, &options);
+  const Ranks& ranks = WorldRanks();
+  status = ranks.Agree(status);
+  if (!status.ok()) return Fail(status);
+  if (ranks.size() == 1)
+    return RunAndReport(args, config, rig, rig_text, options);
+  if (ranks.is_root()) {
+    const int code =
+        RunAndReport(args, config, RigOfRankZero(rig), rig_text, options);
+    // An error rank 0 met alone (its output folder) leaves the others in a
+    // collective: the job ends with it.
+    if (code != 0 && code != kExitUnexplained) ranks.AbortJob(code);
+    return code;
+  }
+  // The other ranks follow rank 0's rig, in a folder of their own.
+  const PrivateFolder folder;
+  std::vector<CampaignIteration> followed;
+  status = RunCampaign(config, options, RigOfRankZero(rig), folder.path(),
+                       &followed);
+  if (!status.ok()) {
+    // Rank 0 met the same error (a rig's, shared) and reports it, or the
+    // error is this rank's alone and rank 0 waits: the job ends either way.
+    std::this_thread::sleep_for(std::chrono::seconds(5));
+    ranks.AbortJob(1);
+  }
+  return 0;
 }
 
 }  // namespace

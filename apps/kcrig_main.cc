@@ -70,13 +70,14 @@ int main(int argc, char** argv) {
   }
   if (ranks.size() > 1 && argc > 1 && argv[1][0] != '-') {
     const std::string command = argv[1];
-    if (command != "validate" && command != "design" && command != "diagnose") {
+    if (command != "validate" && command != "design" && command != "diagnose" &&
+        command != "campaign") {
       if (ranks.is_root()) {
         std::fprintf(
             stderr,
-            "kcrig %s: runs in one process (only validate, "
-            "design and diagnose spread over MPI ranks): start it without "
-            "mpirun\n",
+            "kcrig %s: runs in one process (only validate, design, "
+            "diagnose and campaign --rig sim spread over MPI ranks): start "
+            "it without mpirun\n",
             command.c_str());
       }
       return 1;

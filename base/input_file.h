@@ -7,6 +7,8 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "base/status.h"
@@ -32,6 +34,18 @@ inline Status CheckInputFile(const std::string& path,
                          " bytes; at most " + std::to_string(max_bytes) +
                          " are read from such a file");
   }
+  return Status::Ok();
+}
+
+// The whole file, checked as above first.
+inline Status ReadInputFile(const std::string& path, std::uintmax_t max_bytes,
+                            std::string* bytes) {
+  KCRIG_RETURN_IF_ERROR(CheckInputFile(path, max_bytes));
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::Error(path + ": cannot open");
+  bytes->assign(std::istreambuf_iterator<char>(in),
+                std::istreambuf_iterator<char>());
+  if (in.bad()) return Status::Error(path + ": cannot read");
   return Status::Ok();
 }
 

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <climits>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
@@ -154,6 +155,41 @@ Status Ranks::Agree(const Status& local) const {
   }
 #endif
   return local;
+}
+
+void Ranks::AbortJob(int code) const {
+  std::fflush(stdout);
+  std::fflush(stderr);
+#ifdef KCRIG_WITH_MPI
+  if (joined_mpi_) MPI_Abort(MPI_COMM_WORLD, code);
+#endif
+  std::exit(code);
+}
+
+Status Ranks::Share(const Status& root_status, std::string* bytes) const {
+#ifdef KCRIG_WITH_MPI
+  if (joined_mpi_ && size_ > 1) {
+    std::string message = root_status.ok() ? "" : root_status.message();
+    const std::string& payload = root_status.ok() ? *bytes : message;
+    // ok flag and length; a payload beyond MPI's int counts ends the job.
+    long header[2] = {root_status.ok() ? 1 : 0,
+                      static_cast<long>(payload.size())};
+    MPI_Bcast(header, 2, MPI_LONG, 0, MPI_COMM_WORLD);
+    if (header[1] > INT_MAX) {
+      if (is_root())
+        std::fprintf(stderr, "kcrig: a shared file exceeds 2 GiB\n");
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
+    std::string received = is_root() ? payload : std::string(header[1], '\0');
+    MPI_Bcast(received.data(), static_cast<int>(header[1]), MPI_CHAR, 0,
+              MPI_COMM_WORLD);
+    if (is_root()) return root_status;
+    if (header[0] == 0) return Status::Error("rank 0: " + received);
+    *bytes = std::move(received);
+    return Status::Ok();
+  }
+#endif
+  return root_status;
 }
 
 #ifdef KCRIG_WITH_MPI

@@ -52,6 +52,15 @@ class Ranks {
   // Collective.
   Status Agree(const Status& local) const;
 
+  // Ends the whole job with `code` (MPI_Abort; std::exit alone): for an
+  // error one rank met alone while the others may wait in a collective.
+  [[noreturn]] void AbortJob(int code) const;
+
+  // The root's `bytes` and status on every rank (the other ranks' inputs
+  // are ignored): what the root alone may produce, such as a rig's log, for
+  // every rank to go on from. Collective.
+  Status Share(const Status& root_status, std::string* bytes) const;
+
   // Every rank passes the results of its own items (item -> text) or the
   // error that stopped it; the root receives the texts of items
   // 0 .. num_items-1 in order. On the root, an error of any rank is

@@ -676,8 +676,7 @@ std::string CampaignToJson(Criterion criterion,
                               {"z_a", r.best.z_a},
                               {"criterion_at_start", r.start_value},
                               {"criterion_at_optimum", r.best_value},
-                              {"evaluations", r.evaluations},
-                              {"seconds", r.seconds}};
+                              {"evaluations", r.evaluations}};
     }
     list.push_back(entry);
   }

@@ -147,7 +147,6 @@ std::string EstimationResultToJson(
   doc["cost"] = result.cost;
   doc["sigma_hat"] = result.sigma_hat;
   doc["iterations"] = result.iterations;
-  doc["seconds"] = result.seconds;
   doc["integrator_step_s"] = result.integrator_step > 0
                                  ? Number(result.integrator_step)
                                  : nlohmann::ordered_json();

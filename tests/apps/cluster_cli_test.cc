@@ -1,15 +1,17 @@
-// Issue #22: `kcrig validate`, `design` and `diagnose` through the real CLI,
-// alone and under mpirun. The same cases give byte-identical validate.json
-// on 1, 2 and 3 ranks (and without mpirun), the same design and the same
-// logs the same design.json and diag.json but for their timings; a killed
-// rank ends the job naming it and writes nothing; the other commands refuse
-// several ranks; bad input to validate is one line naming the option.
+// Issue #22: `kcrig validate`, `design`, `diagnose` and `campaign --rig sim`
+// through the real CLI, alone and under mpirun. The same cases give
+// byte-identical validate.json on 1, 2 and 3 ranks (and without mpirun), the
+// same design and the same logs the same design.json and diag.json, and the
+// campaign the same folder, byte for byte; a killed rank ends the job naming
+// it and writes nothing; the other commands (and a campaign on a real rig)
+// refuse several ranks; bad input to validate is one line naming the option.
 #include <signal.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -115,6 +117,66 @@ TEST_F(ClusterCliTest, CandidateFitsGiveTheSameDiagnosisOnOneTwoAndThreeRanks) {
     EXPECT_EQ(CountLines(run.output), CountLines(alone.output)) << run.output;
     EXPECT_EQ(ReadFile(out), expected) << ranks << " ranks";
   }
+}
+
+// Every file under `dir` (relative path -> bytes).
+std::map<std::string, std::string> Folder(const std::string& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
+    if (!entry.is_regular_file()) continue;
+    files[std::filesystem::relative(entry.path(), dir).string()] =
+        ReadFile(entry.path().string());
+  }
+  return files;
+}
+
+TEST_F(ClusterCliTest, ACampaignOnRanksWritesTheSameFolderAsAlone) {
+  // A soft fixture: the first check fails, the diagnosis' candidate fits
+  // and the designs spread, an effect is adopted.
+  const std::string out = Path("campaign");
+  const std::string campaign =
+      " campaign --iterations 1 --budget 12 --quiet --no-report "
+      "--plant-effect rig_compliance:k=1e7 --out " +
+      out;
+  const CliResult alone = RunKcrig(campaign);
+  ASSERT_EQ(alone.exit_code, 0) << alone.output;
+  EXPECT_NE(alone.output.find("adopted"), std::string::npos) << alone.output;
+  const std::map<std::string, std::string> expected = Folder(out);
+  ASSERT_TRUE(expected.count("campaign.json"));
+  ASSERT_TRUE(expected.count("iteration_1/run.csv"));
+  for (int ranks : {1, 2, 3}) {
+    std::filesystem::remove_all(out);
+    const CliResult run = RunCommand(kMpirun + "-np " + std::to_string(ranks) +
+                                     " " + KCRIG_BINARY + campaign);
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    EXPECT_EQ(CountLines(run.output), CountLines(alone.output)) << run.output;
+    const std::map<std::string, std::string> written = Folder(out);
+    EXPECT_EQ(written.size(), expected.size()) << ranks << " ranks";
+    for (const auto& [name, bytes] : expected) {
+      EXPECT_TRUE(written.count(name) && written.at(name) == bytes)
+          << name << " on " << ranks << " ranks";
+    }
+  }
+  // The ranks' private copies are gone.
+  for (const auto& entry : std::filesystem::directory_iterator(
+           std::filesystem::temp_directory_path())) {
+    EXPECT_EQ(entry.path().filename().string().rfind("kcrig_campaign_rank", 0),
+              std::string::npos)
+        << entry.path();
+  }
+}
+
+TEST_F(ClusterCliTest, ACampaignOnARealRigRefusesSeveralRanks) {
+  const CliResult run = RunCommand(
+      kMpirun + "-np 2 " + KCRIG_BINARY +
+      " campaign --rig modbus-tcp://127.0.0.1:1 --out " + Path("campaign"));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.output.find("kcrig campaign: rank 0: --rig "
+                            "modbus-tcp://127.0.0.1:1: a rig's loop runs in "
+                            "one process"),
+            std::string::npos)
+      << run.output;
+  EXPECT_FALSE(std::filesystem::exists(Path("campaign")));
 }
 
 TEST_F(ClusterCliTest, OtherCommandsRefuseSeveralRanks) {
