@@ -675,6 +675,47 @@ Status TimingJson(const fs::path& root, const fs::path& file, Json* out) {
   return Status::Ok();
 }
 
+// A count matrix (row -> column -> count) checked: an object whose rows are
+// `rows` and whose counts are integers, in `columns` when it is given
+// (else every column met is added to it).
+Status CheckCounts(const Json& matrix, const std::string& where,
+                   const std::vector<std::string>& rows,
+                   std::vector<std::string>* columns) {
+  if (!matrix.is_object()) return Status::Error(where + ": expected an object");
+  const bool fixed = !columns->empty();
+  for (const auto& [truth, row] : matrix.items()) {
+    if (std::find(rows.begin(), rows.end(), truth) == rows.end() ||
+        !row.is_object()) {
+      return Status::Error(where + "." + truth + ": unknown row");
+    }
+    for (const auto& [column, count] : row.items()) {
+      const bool known =
+          std::find(columns->begin(), columns->end(), column) != columns->end();
+      if (!count.is_number_integer() || (fixed && !known)) {
+        return Status::Error(where + "." + truth + "." + column +
+                             ": expected a count of a known column");
+      }
+      if (!known) columns->push_back(column);
+    }
+  }
+  return Status::Ok();
+}
+
+// The page's heat map of a checked count matrix: rows, columns and counts
+// in their order, 0 where the matrix has no cell.
+Json CountGrid(const Json& matrix, const std::vector<std::string>& rows,
+               const std::vector<std::string>& columns) {
+  Json counts = Json::array();
+  for (const std::string& truth : rows) {
+    Json row = Json::array();
+    for (const std::string& column : columns) {
+      row.push_back(matrix[truth].value(column, 0));
+    }
+    counts.push_back(row);
+  }
+  return {{"rows", rows}, {"columns", columns}, {"counts", counts}};
+}
+
 // A validate.json as the page draws it: the confusion matrix as a grid of
 // counts, the detection rate per class and size bin, and every case's size
 // and outcome. Errors name the file and the field.
@@ -696,61 +737,22 @@ Status ValidationJson(const fs::path& root, const fs::path& file, Json* out) {
   if (!cases.is_array()) {
     return Status::Error(where + ".case_results: expected a list");
   }
-  // Rows and columns in the confusion matrix's own order, so that its
-  // diagonal reads as the correct verdicts.
-  const std::vector<std::string>& columns = ConfusionColumns();
+  // The truths in the generator's order, so that the diagonal reads as
+  // the correct verdicts.
   std::vector<std::string> rows;
   for (const std::string& truth : BlindCaseClasses()) {
     if (confusion.contains(truth)) rows.push_back(truth);
   }
-  for (const auto& [truth, row] : confusion.items()) {
-    if (std::find(rows.begin(), rows.end(), truth) == rows.end()) {
-      return Status::Error(where + ".confusion." + truth + ": unknown class");
-    }
-    for (const auto& [column, count] : row.items()) {
-      if (!count.is_number_integer() ||
-          std::find(columns.begin(), columns.end(), column) == columns.end()) {
-        return Status::Error(where + ".confusion." + truth + "." + column +
-                             ": expected a count of a verdict");
-      }
-    }
-  }
-  Json counts = Json::array();
-  for (const std::string& truth : rows) {
-    Json row = Json::array();
-    for (const std::string& column : columns) {
-      row.push_back(confusion[truth].value(column, 0));
-    }
-    counts.push_back(row);
-  }
+  std::vector<std::string> columns = ConfusionColumns();
+  KCRIG_RETURN_IF_ERROR(
+      CheckCounts(confusion, where + ".confusion", rows, &columns));
   // Where the bushing effects act against where they were placed (absent
   // from files of earlier builds: no such figure then).
   const Json places = doc.value("component_confusion", Json::object());
-  if (!places.is_object()) {
-    return Status::Error(where + ".component_confusion: expected an object");
-  }
   std::vector<std::string> place_rows, place_columns;
-  for (const auto& [truth, row] : places.items()) {
-    place_rows.push_back(truth);
-    for (const auto& [column, count] : row.items()) {
-      if (!count.is_number_integer()) {
-        return Status::Error(where + ".component_confusion." + truth + "." +
-                             column + ": expected a count");
-      }
-      if (std::find(place_columns.begin(), place_columns.end(), column) ==
-          place_columns.end()) {
-        place_columns.push_back(column);
-      }
-    }
-  }
-  Json place_counts = Json::array();
-  for (const std::string& truth : place_rows) {
-    Json row = Json::array();
-    for (const std::string& column : place_columns) {
-      row.push_back(places[truth].value(column, 0));
-    }
-    place_counts.push_back(row);
-  }
+  for (const auto& [truth, row] : places.items()) place_rows.push_back(truth);
+  KCRIG_RETURN_IF_ERROR(CheckCounts(places, where + ".component_confusion",
+                                    place_rows, &place_columns));
   Json outcomes = Json::array();
   for (size_t i = 0; i < cases.size(); ++i) {
     const std::string at = where + ".case_results[" + std::to_string(i) + "]";
@@ -771,13 +773,8 @@ Status ValidationJson(const fs::path& root, const fs::path& file, Json* out) {
   }
   *out = {{"source", fs::relative(file, root).string()},
           {"seed", doc.value("seed", Json(nullptr))},
-          {"rows", rows},
-          {"columns", columns},
-          {"counts", counts},
-          {"places",
-           {{"rows", place_rows},
-            {"columns", place_columns},
-            {"counts", place_counts}}},
+          {"confusion", CountGrid(confusion, rows, columns)},
+          {"places", CountGrid(places, place_rows, place_columns)},
           {"power", power},
           {"figures", figures},
           {"cases", outcomes}};

@@ -527,7 +527,7 @@
                 xaxis: {automargin: true}},
                Math.max(320, 40 * m.rows.length + 160));
       }
-      counts('Confusion matrix (rows: truth, columns: verdict)', v);
+      counts('Confusion matrix (rows: truth, columns: verdict)', v.confusion);
       if (v.places.rows.length) {
         counts('Bushing effects: where they act (rows) and where kcrig ' +
                'placed them (columns)', v.places);
@@ -575,7 +575,7 @@
                          'cases at the left edge)'},
            xaxis: {type: 'log', title: {text: 'effect size [\u03c3]'}},
            yaxis: {automargin: true}},
-             Math.max(320, 40 * v.rows.length + 160));
+             Math.max(320, 40 * v.confusion.rows.length + 160));
     });
   }
 
