@@ -234,19 +234,28 @@ Status MakeOptions(const CampaignArgs& args, const KcrigConfig& config,
 class PrivateFolder {
  public:
   PrivateFolder() {
-    path_ = (std::filesystem::temp_directory_path() /
-             ("kcrig_campaign_rank" + std::to_string(WorldRanks().rank()) +
-              "_" + std::to_string(getpid())))
-                .string();
+    std::error_code error;
+    const std::filesystem::path temp =
+        std::filesystem::temp_directory_path(error);
+    if (error) {
+      status_ = Status::Error("no temporary folder (" + error.message() + ")");
+      return;
+    }
+    path_ =
+        (temp / ("kcrig_campaign_rank" + std::to_string(WorldRanks().rank()) +
+                 "_" + std::to_string(getpid())))
+            .string();
   }
   ~PrivateFolder() {
     std::error_code ignored;
     std::filesystem::remove_all(path_, ignored);
   }
   const std::string& path() const { return path_; }
+  const Status& status() const { return status_; }
 
  private:
   std::string path_;
+  Status status_ = Status::Ok();
 };
 
 int Fail(const Status& status) {
@@ -352,19 +361,25 @@ int RunCampaignCommand(const CampaignArgs& args) {
         RunAndReport(args, config, RigOfRankZero(rig), rig_text, options);
     // An error rank 0 met alone (its output folder) leaves the others in a
     // collective: the job ends with it.
-    if (code != 0 && code != kExitUnexplained) ranks.AbortJob(code);
+    if (code != 0 && code != kExitUnexplained) {
+      ranks.AbortJob(code, "");  // rank 0 has said why
+    }
     return code;
   }
   // The other ranks follow rank 0's rig, in a folder of their own.
   const PrivateFolder folder;
   std::vector<CampaignIteration> followed;
-  status = RunCampaign(config, options, RigOfRankZero(rig), folder.path(),
-                       &followed);
+  status = folder.status();
+  if (status.ok()) {
+    status = RunCampaign(config, options, RigOfRankZero(rig), folder.path(),
+                         &followed);
+  }
   if (!status.ok()) {
     // Rank 0 met the same error (a rig's, shared) and reports it, or the
     // error is this rank's alone and rank 0 waits: the job ends either way.
     std::this_thread::sleep_for(std::chrono::seconds(5));
-    ranks.AbortJob(1);
+    ranks.AbortJob(1, "kcrig campaign: rank " + std::to_string(ranks.rank()) +
+                          ": " + status.message());
   }
   return 0;
 }

@@ -28,7 +28,7 @@ int main(int argc, char** argv) {
   // handled as a full disk, instead of the signal killing the process.
   std::signal(SIGXFSZ, SIG_IGN);
   // Joins MPI under mpirun (kcrig validate spreads its cases), until exit.
-  const kcrig::Ranks ranks(&argc, &argv);
+  kcrig::Ranks ranks(&argc, &argv);
   CLI::App app{
       "kcrig: real-time HIL controller and offline tools for a hydraulic "
       "kinematics-and-compliance suspension rig"};
@@ -82,10 +82,7 @@ int main(int argc, char** argv) {
       }
       return 1;
     }
-    if (!ranks.is_root()) {
-      (void)std::freopen("/dev/null", "w", stdout);
-      (void)std::freopen("/dev/null", "w", stderr);
-    }
+    if (!ranks.is_root()) ranks.SilenceOutput();
   }
   try {
     app.parse(argc, argv);

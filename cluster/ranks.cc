@@ -1,5 +1,7 @@
 #include "cluster/ranks.h"
 
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
 #include <climits>
@@ -157,8 +159,21 @@ Status Ranks::Agree(const Status& local) const {
   return local;
 }
 
-void Ranks::AbortJob(int code) const {
+void Ranks::SilenceOutput() {
+  std::fflush(stderr);
+  kept_stderr_ = dup(STDERR_FILENO);
+  (void)std::freopen("/dev/null", "w", stdout);
+  (void)std::freopen("/dev/null", "w", stderr);
+}
+
+void Ranks::AbortJob(int code, const std::string& why) const {
   std::fflush(stdout);
+  const std::string line = why.empty() ? "" : why + "\n";
+  if (kept_stderr_ >= 0) {
+    (void)!write(kept_stderr_, line.data(), line.size());
+  } else {
+    std::fputs(line.c_str(), stderr);
+  }
   std::fflush(stderr);
 #ifdef KCRIG_WITH_MPI
   if (joined_mpi_) MPI_Abort(MPI_COMM_WORLD, code);

@@ -52,9 +52,15 @@ class Ranks {
   // Collective.
   Status Agree(const Status& local) const;
 
-  // Ends the whole job with `code` (MPI_Abort; std::exit alone): for an
-  // error one rank met alone while the others may wait in a collective.
-  [[noreturn]] void AbortJob(int code) const;
+  // Sends this rank's stdout and stderr to /dev/null (rank 0 alone prints),
+  // keeping stderr for AbortJob's one line.
+  void SilenceOutput();
+
+  // Ends the whole job with `code` (MPI_Abort; std::exit alone) after one
+  // line, `why` (none when empty), on this rank's stderr (also when
+  // silenced): for an error
+  // one rank met alone while the others may wait in a collective.
+  [[noreturn]] void AbortJob(int code, const std::string& why) const;
 
   // The root's `bytes` and status on every rank (the other ranks' inputs
   // are ignored): what the root alone may produce, such as a rig's log, for
@@ -74,6 +80,7 @@ class Ranks {
   int rank_ = 0;
   int size_ = 1;
   bool joined_mpi_ = false;
+  int kept_stderr_ = -1;  // the stderr SilenceOutput replaced
   std::string launch_error_;
 };
 

@@ -166,6 +166,21 @@ TEST_F(ClusterCliTest, ACampaignOnRanksWritesTheSameFolderAsAlone) {
   }
 }
 
+TEST_F(ClusterCliTest, ACampaignErrorOfOneRankEndsTheJobNamingIt) {
+  // Rank 1 alone has no temporary folder (MPMD: its own environment).
+  const std::string campaign =
+      " campaign --iterations 1 --budget 12 --quiet --no-report --out " +
+      Path("campaign");
+  const CliResult run = RunCommand(
+      kMpirun + "-np 1 " + KCRIG_BINARY + campaign +
+      " : -np 1 env TMPDIR=/dev/null/none " + KCRIG_BINARY + campaign);
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.output.find("kcrig campaign: rank 1: no temporary folder"),
+            std::string::npos)
+      << run.output;
+  EXPECT_FALSE(std::filesystem::exists(Path("campaign") + "/campaign.json"));
+}
+
 TEST_F(ClusterCliTest, ACampaignOnARealRigRefusesSeveralRanks) {
   const CliResult run = RunCommand(
       kMpirun + "-np 2 " + KCRIG_BINARY +
