@@ -193,7 +193,7 @@ RigRunner RigOfRankZero(RigRunner rig) {
       ByteWriter files;
       for (const std::string& path : {csv_path, sidecar}) {
         std::string text;
-        // Below MPI's 2 GiB a message: a 4 s log is about 0.5 MB.
+        // A 4 s log is about 0.5 MB; Share refuses more than 2 GiB.
         if (status.ok()) status = ReadInputFile(path, 1u << 30, &text);
         files.Put(text);
       }
@@ -225,8 +225,36 @@ Status MakeOptions(const CampaignArgs& args, const KcrigConfig& config,
     options->objective.num_threads = 1;
     options->diagnosis.batches = &WorldBatches();
     options->diagnosis.num_threads = 1;
+    // Ceres sums a cost over its threads in an order that varies; one
+    // thread keeps every rank's arithmetic, and so its decisions, the same.
+    options->estimator.num_threads = 1;
   }
   return ValidateCampaignOptions(config, *options);
+}
+
+// Under MPI every rank's campaign must be rank 0's, bit for bit (the ranks
+// meet in the same collectives only while they decide alike): an iteration
+// whose campaign.json entry differs from rank 0's (arithmetic that differs
+// between nodes) ends the job, naming the rank. Alone: nothing. Collective.
+void FollowsRankZero(const CampaignIteration& it, Criterion criterion,
+                     std::string folder) {
+  const Ranks& ranks = WorldRanks();
+  if (ranks.size() == 1) return;
+  // As the logs' paths spell it ("out/" gives "out/iteration_0").
+  while (folder.size() > 1 && folder.back() == '/') folder.pop_back();
+  // campaign.json's entry (no timings) names the logs: in the root's
+  // folder or this rank's.
+  std::string mine = CampaignToJson(criterion, {it});
+  for (size_t at = mine.find(folder);
+       !folder.empty() && at != std::string::npos; at = mine.find(folder, at)) {
+    mine.replace(at, folder.size(), "OUT");
+  }
+  std::string root = mine;
+  if (!ranks.Share(Status::Ok(), &root).ok() || root == mine) return;
+  ranks.AbortJob(1, "kcrig campaign: rank " + std::to_string(ranks.rank()) +
+                        ": iteration " + std::to_string(it.index) +
+                        " differs from rank 0's (the nodes' arithmetic "
+                        "differs); run the campaign on one node");
 }
 
 // A folder of this process alone, removed with it: under MPI the ranks but
@@ -246,9 +274,11 @@ class PrivateFolder {
                  "_" + std::to_string(getpid())))
             .string();
   }
-  ~PrivateFolder() {
+  ~PrivateFolder() { Remove(); }
+  // Before the job ends without destructors.
+  void Remove() const {
     std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
+    if (!path_.empty()) std::filesystem::remove_all(path_, ignored);
   }
   const std::string& path() const { return path_; }
   const Status& status() const { return status_; }
@@ -257,6 +287,18 @@ class PrivateFolder {
   std::string path_;
   Status status_ = Status::Ok();
 };
+
+// The output folder, made before any rank starts (an error then is every
+// rank's, not rank 0's alone mid-campaign).
+Status MakeOutputFolder(const std::string& out) {
+  std::error_code error;
+  std::filesystem::create_directories(out, error);
+  if (error) {
+    return Status::Error("--out " + out + ": cannot create (" +
+                         error.message() + ")");
+  }
+  return Status::Ok();
+}
 
 int Fail(const Status& status) {
   std::fprintf(stderr, "kcrig campaign: %s\n", status.message().c_str());
@@ -273,11 +315,23 @@ int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
   ProgressLine progress(args.quiet);
   options.callback = stop_signal.Callback(
       [&progress](const IterationSummary& s) { progress.Show(s.stage); });
+  // campaign.json lists the complete iterations as each completes, so an
+  // end by a signal (mpirun's too) keeps them.
+  const std::string summary =
+      (std::filesystem::path(args.out) / "campaign.json").string();
+  std::vector<CampaignIteration> complete;
+  Status written = Status::Ok();
   options.on_iteration = [&](const CampaignIteration& it) {
     progress.Clear();
     std::printf("%s\n",
                 CampaignIterationSummary(it, options.criterion).c_str());
     std::fflush(stdout);
+    FollowsRankZero(it, options.criterion, args.out);
+    complete.push_back(it);
+    if (written.ok()) {
+      written = WriteFilesAtomically(
+          {{summary, CampaignToJson(options.criterion, complete)}});
+    }
   };
   std::printf(
       "kcrig campaign: %s, criterion %s, optimizer %s, up to %d designed "
@@ -288,10 +342,6 @@ int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
   status = RunCampaign(config, options, rig, args.out, &iterations);
   progress.Clear();
   if (!iterations.empty()) {
-    const std::string summary =
-        (std::filesystem::path(args.out) / "campaign.json").string();
-    const Status written = WriteFilesAtomically(
-        {{summary, CampaignToJson(options.criterion, iterations)}});
     if (!written.ok()) return fail(written);
     std::printf(
         "%s  wrote %s (and iteration_*/run.csv, est.json, design.json)\n",
@@ -344,14 +394,19 @@ int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
 }
 
 int RunCampaignCommand(const CampaignArgs& args) {
+  // Rank 0 alone reads the inputs; the other ranks their copies.
+  const Ranks& ranks = WorldRanks();
+  InputMirror mirror(ranks);
+  std::string config_dir = args.config_dir;
+  Status status = MirrorConfig(&mirror, &config_dir);
   KcrigConfig config;
   RigRunner rig;
   std::string rig_text;
   CampaignOptions options;
-  Status status = LoadConfig(args.config_dir, &config);
+  if (status.ok()) status = LoadConfig(config_dir, &config);
   if (status.ok()) status = MakeRig(args, config, &rig, &rig_text);
   if (status.ok()) status = MakeOptions(args, config, &options);
-  const Ranks& ranks = WorldRanks();
+  if (status.ok() && ranks.is_root()) status = MakeOutputFolder(args.out);
   status = ranks.Agree(status);
   if (!status.ok()) return Fail(status);
   if (ranks.size() == 1)
@@ -368,20 +423,26 @@ int RunCampaignCommand(const CampaignArgs& args) {
   }
   // The other ranks follow rank 0's rig, in a folder of their own.
   const PrivateFolder folder;
+  options.on_iteration = [&](const CampaignIteration& it) {
+    FollowsRankZero(it, options.criterion, folder.path());
+  };
   std::vector<CampaignIteration> followed;
   status = folder.status();
   if (status.ok()) {
     status = RunCampaign(config, options, RigOfRankZero(rig), folder.path(),
                          &followed);
   }
-  if (!status.ok()) {
-    // Rank 0 met the same error (a rig's, shared) and reports it, or the
-    // error is this rank's alone and rank 0 waits: the job ends either way.
-    std::this_thread::sleep_for(std::chrono::seconds(5));
-    ranks.AbortJob(1, "kcrig campaign: rank " + std::to_string(ranks.rank()) +
-                          ": " + status.message());
+  // Rank 0's own error (the rig's, shared) is rank 0's to report.
+  if (status.ok() || status.message().rfind("rank 0: ", 0) == 0) {
+    return status.ok() ? 0 : 1;
   }
-  return 0;
+  // This rank's alone, while rank 0 may wait in a collective: the job ends
+  // (after rank 0 has had time to report an error of its own first).
+  std::this_thread::sleep_for(std::chrono::seconds(5));
+  folder.Remove();
+  mirror.Remove();
+  ranks.AbortJob(1, "kcrig campaign: rank " + std::to_string(ranks.rank()) +
+                        ": " + status.message());
 }
 
 }  // namespace

@@ -188,6 +188,18 @@ Status ConfiguredDbc(const KcrigConfig& config, std::string* dbc_file) {
   return status;
 }
 
+Status MirrorConfig(InputMirror* mirror, std::string* config_dir) {
+  if (config_dir->empty()) *config_dir = DefaultConfigDirectory();
+  return mirror->Mirror(config_dir);
+}
+
+Status MirrorLogs(InputMirror* mirror, std::vector<std::string>* logs) {
+  for (std::string& log : *logs) {
+    KCRIG_RETURN_IF_ERROR(mirror->Mirror(&log, {SidecarPath(log)}));
+  }
+  return Status::Ok();
+}
+
 Status LoadLogs(const std::vector<std::string>& paths,
                 const KcrigConfig& config,
                 std::vector<Experiment>* experiments) {

@@ -8,6 +8,7 @@
 
 #include "CLI/CLI.hpp"
 #include "base/status.h"
+#include "cluster/input_mirror.h"
 #include "estimator/experiment.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/model_config.h"
@@ -66,6 +67,12 @@ Status ConfiguredDbc(const KcrigConfig& config, std::string* dbc_file);
 Status LoadLogs(const std::vector<std::string>& paths,
                 const KcrigConfig& config,
                 std::vector<Experiment>* experiments);
+
+// Under MPI rank 0 alone reads the inputs (cluster/input_mirror.h): the
+// config folder (as LoadConfig resolves "") and the logs with their
+// sidecars; on the other ranks the paths then name their copies.
+Status MirrorConfig(InputMirror* mirror, std::string* config_dir);
+Status MirrorLogs(InputMirror* mirror, std::vector<std::string>* logs);
 
 }  // namespace kcrig
 

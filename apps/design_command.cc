@@ -119,8 +119,14 @@ int RunDesign(const DesignArgs& args) {
     std::fprintf(stderr, "kcrig design: %s\n", status.message().c_str());
     return 1;
   };
+  // Rank 0 alone reads the inputs; the other ranks their copies.
+  InputMirror mirror(WorldRanks());
+  DesignArgs read = args;
+  Status status = MirrorConfig(&mirror, &read.config_dir);
+  if (status.ok()) status = mirror.Mirror(&read.estimate);
   DesignInputs in;
-  Status status = WorldRanks().Agree(Prepare(args, &in));
+  if (status.ok()) status = Prepare(read, &in);
+  status = WorldRanks().Agree(status);
   if (!status.ok()) return fail(status);
   const KcrigConfig& config = in.config;
   const Criterion criterion = in.criterion;

@@ -90,8 +90,15 @@ int RunDiagnose(const DiagnoseArgs& args) {
     std::fprintf(stderr, "kcrig diagnose: %s\n", status.message().c_str());
     return 1;
   };
+  // Rank 0 alone reads the inputs; the other ranks their copies.
+  InputMirror mirror(WorldRanks());
+  DiagnoseArgs read = args;
+  Status status = MirrorConfig(&mirror, &read.config_dir);
+  if (status.ok()) status = MirrorLogs(&mirror, &read.logs);
+  if (status.ok()) status = MirrorLogs(&mirror, &read.holdout);
   DiagnoseInputs in;
-  Status status = WorldRanks().Agree(Prepare(args, &in));
+  if (status.ok()) status = Prepare(read, &in);
+  status = WorldRanks().Agree(status);
   if (!status.ok()) return fail(status);
   const KcrigConfig& config = in.config;
   DiagnosisOptions& options = in.options;

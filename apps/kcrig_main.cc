@@ -98,12 +98,20 @@ int main(int argc, char** argv) {
   // The commands return their errors; an exception that still escapes (a
   // library's, on input nobody foresaw) is one line and exit 1, never an
   // abort. Outputs are written atomically at the end: nothing half-written.
+  // Under several ranks the others may wait in a collective: the job ends.
+  std::string why;
   try {
     return run();
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "kcrig %s: error: %s\n", argv[1], e.what());
+    why = e.what();
   } catch (...) {
-    std::fprintf(stderr, "kcrig %s: error: an unexpected failure\n", argv[1]);
+    why = "an unexpected failure";
   }
+  const std::string rank =
+      ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "";
+  const std::string line =
+      "kcrig " + std::string(argv[1]) + ": " + rank + "error: " + why;
+  if (ranks.size() > 1) ranks.AbortJob(1, line);
+  std::fprintf(stderr, "%s\n", line.c_str());
   return 1;
 }

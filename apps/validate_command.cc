@@ -65,9 +65,15 @@ int RunValidate(const ValidateArgs& args) {
     }
     return 1;
   };
+  // Rank 0 alone reads the inputs; the other ranks their copies.
+  InputMirror mirror(ranks);
+  ValidateArgs read = args;
+  Status status = MirrorConfig(&mirror, &read.config_dir);
+  if (status.ok()) status = mirror.Mirror(&read.plan);
   KcrigConfig config;
   ValidationOptions options;
-  Status status = ranks.Agree(Prepare(args, ranks, &config, &options));
+  if (status.ok()) status = Prepare(read, ranks, &config, &options);
+  status = ranks.Agree(status);
   if (!status.ok()) return fail(status);
 
   std::map<int, std::string> mine;

@@ -22,7 +22,7 @@ struct DesignRun {
 size_t BestRun(const std::vector<DesignRun>& runs);
 
 // The best run is the headline (criterion, initial and optimal design with
-// values, evaluations, seconds, optimizer); "runs" lists all of them with
+// values, evaluations, optimizer); "runs" lists all of them with
 // their paths and evaluated points.
 std::string DesignRunsToJson(Criterion criterion,
                              const std::vector<DesignRun>& runs);

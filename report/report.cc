@@ -26,8 +26,6 @@
 #include "report/report_page.h"
 #include "rt_core/model/channels.h"
 #include "rt_core/model/plant_effects.h"
-#include "validation/blind_case.h"
-#include "validation/validation.h"
 
 namespace kcrig {
 namespace {
@@ -716,6 +714,25 @@ Json CountGrid(const Json& matrix, const std::vector<std::string>& rows,
   return {{"rows", rows}, {"columns", columns}, {"counts", counts}};
 }
 
+// The figures the page's verdict line reads: each tally's hits and total,
+// the confident wrong answers.
+Status CheckFigures(const Json& figures, const std::string& where) {
+  int count = 0;
+  for (const auto& [name, hits] :
+       {std::pair<const char*, const char*>{"library_effects_beyond_3_sigma",
+                                            "correct"},
+        {"clean", "none"},
+        {"wrong_parameters_beyond_3_sigma", "named"},
+        {"gap_closed_80_percent_when_correct", "closed"}}) {
+    Json tally;
+    KCRIG_RETURN_IF_ERROR(ReadField(figures, name, where, &tally));
+    const std::string at = where + "." + name;
+    KCRIG_RETURN_IF_ERROR(ReadField(tally, hits, at, &count));
+    KCRIG_RETURN_IF_ERROR(ReadField(tally, "total", at, &count));
+  }
+  return ReadField(figures, "confident_wrong", where, &count);
+}
+
 // A validate.json as the page draws it: the confusion matrix as a grid of
 // counts, the detection rate per class and size bin, and every case's size
 // and outcome. Errors name the file and the field.
@@ -733,17 +750,22 @@ Status ValidationJson(const fs::path& root, const fs::path& file, Json* out) {
       return Status::Error(where + "." + key + ": expected an object");
     }
   }
+  KCRIG_RETURN_IF_ERROR(CheckFigures(figures, where + ".figures"));
   KCRIG_RETURN_IF_ERROR(ReadField(doc, "case_results", where, &cases));
   if (!cases.is_array()) {
     return Status::Error(where + ".case_results: expected a list");
   }
-  // The truths in the generator's order, so that the diagonal reads as
-  // the correct verdicts.
-  std::vector<std::string> rows;
-  for (const std::string& truth : BlindCaseClasses()) {
+  // The truths and verdicts in the order validate.json gives, so that the
+  // diagonal reads as the correct verdicts.
+  std::vector<std::string> order, rows, columns;
+  KCRIG_RETURN_IF_ERROR(ReadField(doc, "confusion_rows", where, &order));
+  KCRIG_RETURN_IF_ERROR(ReadField(doc, "confusion_columns", where, &columns));
+  if (columns.empty()) {
+    return Status::Error(where + ".confusion_columns: empty");
+  }
+  for (const std::string& truth : order) {
     if (confusion.contains(truth)) rows.push_back(truth);
   }
-  std::vector<std::string> columns = ConfusionColumns();
   KCRIG_RETURN_IF_ERROR(
       CheckCounts(confusion, where + ".confusion", rows, &columns));
   // Where the bushing effects act against where they were placed (absent
@@ -772,7 +794,8 @@ Status ValidationJson(const fs::path& root, const fs::path& file, Json* out) {
                         {"confident_wrong", confident_wrong}});
   }
   *out = {{"source", fs::relative(file, root).string()},
-          {"seed", doc.value("seed", Json(nullptr))},
+          // As text: a JavaScript number would round a seed beyond 2^53.
+          {"seed", doc.value("seed", Json(nullptr)).dump()},
           {"confusion", CountGrid(confusion, rows, columns)},
           {"places", CountGrid(places, place_rows, place_columns)},
           {"power", power},

@@ -34,7 +34,7 @@ MAY_INCLUDE = {
     "validation": ["base", "rt_core/model", "records", "estimator",
                    "diagnosis", "emulator"],
     "report": ["base", "rt_core/model", "records", "estimator", "diagnosis",
-               "kc_sheet", "designer", "validation", "emulator"],
+               "kc_sheet", "designer"],
     "apps": ["base", "rt_core/model", "rt_core/runtime", "io_drivers",
              "records", "hil", "emulator", "estimator", "diagnosis",
              "kc_sheet", "designer", "validation", "cluster", "report"],

@@ -76,7 +76,13 @@ Json Field(const Json& diag, const char* name, Json otherwise) {
 // A set of components as the component confusion matrix labels it: the
 // places joined by '+', "every bushing" for all five, "no component".
 std::string ComponentLabel(const Json& components) {
-  if (components.size() == kNumBushings) return "every bushing";
+  const auto bushings =
+      std::count_if(components.begin(), components.end(), [](const Json& c) {
+        return c.get<std::string>().rfind("bushing:", 0) == 0;
+      });
+  if (bushings == kNumBushings && components.size() == kNumBushings) {
+    return "every bushing";
+  }
   std::string label;
   for (const Json& c : components) {
     label += (label.empty() ? "" : "+") + c.get<std::string>();
@@ -354,6 +360,8 @@ std::string ValidationToJson(const KcrigConfig& config,
                     : Json({{"training", Designs(options.plan.training)},
                             {"holdout", Designs(options.plan.holdout)}});
   doc["figures"] = Figures(cases);
+  doc["confusion_rows"] = BlindCaseClasses();
+  doc["confusion_columns"] = ConfusionColumns();
   doc["confusion"] = Confusion(cases);
   doc["component_confusion"] = ComponentConfusion(cases);
   doc["power"] = Power(cases);

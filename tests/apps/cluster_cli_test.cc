@@ -43,11 +43,21 @@ std::string ReadFile(const std::string& path) {
 
 class ClusterCliTest : public TempDirTest {
  protected:
+  // mpirun with the ranks' temporary folders in the test's own folder,
+  // which TempFolderIsEmpty then checks.
+  std::string Mpirun() const {
+    std::filesystem::create_directories(Path("tmp"));
+    return kMpirun + "-x TMPDIR=" + Path("tmp") + " ";
+  }
+  // No rank left a private folder behind (a killed one cannot).
+  void ExpectNoPrivateFolderLeft() const {
+    EXPECT_TRUE(std::filesystem::is_empty(Path("tmp")));
+  }
   // kcrig `arguments` under mpirun on `ranks` ranks, writing `out`.
   CliResult OnRanks(int ranks, const std::string& arguments,
                     std::string* out) const {
     *out = Path("np" + std::to_string(ranks) + ".json");
-    return RunCommand(kMpirun + "-np " + std::to_string(ranks) + " " +
+    return RunCommand(Mpirun() + "-np " + std::to_string(ranks) + " " +
                       KCRIG_BINARY + arguments + " --out " + *out);
   }
 };
@@ -140,13 +150,17 @@ TEST_F(ClusterCliTest, ACampaignOnRanksWritesTheSameFolderAsAlone) {
       out;
   const CliResult alone = RunKcrig(campaign);
   ASSERT_EQ(alone.exit_code, 0) << alone.output;
+  EXPECT_NE(alone.output.find("the next experiment is the one that tells "
+                              "them apart"),
+            std::string::npos)
+      << alone.output;
   EXPECT_NE(alone.output.find("adopted"), std::string::npos) << alone.output;
   const std::map<std::string, std::string> expected = Folder(out);
   ASSERT_TRUE(expected.count("campaign.json"));
   ASSERT_TRUE(expected.count("iteration_1/run.csv"));
   for (int ranks : {1, 2, 3}) {
     std::filesystem::remove_all(out);
-    const CliResult run = RunCommand(kMpirun + "-np " + std::to_string(ranks) +
+    const CliResult run = RunCommand(Mpirun() + "-np " + std::to_string(ranks) +
                                      " " + KCRIG_BINARY + campaign);
     ASSERT_EQ(run.exit_code, 0) << run.output;
     EXPECT_EQ(CountLines(run.output), CountLines(alone.output)) << run.output;
@@ -157,13 +171,7 @@ TEST_F(ClusterCliTest, ACampaignOnRanksWritesTheSameFolderAsAlone) {
           << name << " on " << ranks << " ranks";
     }
   }
-  // The ranks' private copies are gone.
-  for (const auto& entry : std::filesystem::directory_iterator(
-           std::filesystem::temp_directory_path())) {
-    EXPECT_EQ(entry.path().filename().string().rfind("kcrig_campaign_rank", 0),
-              std::string::npos)
-        << entry.path();
-  }
+  ExpectNoPrivateFolderLeft();
 }
 
 TEST_F(ClusterCliTest, ACampaignErrorOfOneRankEndsTheJobNamingIt) {
@@ -172,7 +180,7 @@ TEST_F(ClusterCliTest, ACampaignErrorOfOneRankEndsTheJobNamingIt) {
       " campaign --iterations 1 --budget 12 --quiet --no-report --out " +
       Path("campaign");
   const CliResult run = RunCommand(
-      kMpirun + "-np 1 " + KCRIG_BINARY + campaign +
+      Mpirun() + "-np 1 " + KCRIG_BINARY + campaign +
       " : -np 1 env TMPDIR=/dev/null/none " + KCRIG_BINARY + campaign);
   EXPECT_NE(run.exit_code, 0);
   EXPECT_NE(run.output.find("kcrig campaign: rank 1: no temporary folder"),
@@ -183,7 +191,7 @@ TEST_F(ClusterCliTest, ACampaignErrorOfOneRankEndsTheJobNamingIt) {
 
 TEST_F(ClusterCliTest, ACampaignOnARealRigRefusesSeveralRanks) {
   const CliResult run = RunCommand(
-      kMpirun + "-np 2 " + KCRIG_BINARY +
+      Mpirun() + "-np 2 " + KCRIG_BINARY +
       " campaign --rig modbus-tcp://127.0.0.1:1 --out " + Path("campaign"));
   EXPECT_NE(run.exit_code, 0);
   EXPECT_NE(run.output.find("kcrig campaign: rank 0: --rig "
@@ -194,8 +202,41 @@ TEST_F(ClusterCliTest, ACampaignOnARealRigRefusesSeveralRanks) {
   EXPECT_FALSE(std::filesystem::exists(Path("campaign")));
 }
 
+TEST_F(ClusterCliTest, RankZeroAloneReadsTheInputs) {
+  // Rank 1 starts in an empty folder: the relative paths of the config and
+  // the logs (and their sidecars) name nothing there, so it can only work
+  // on rank 0's copies.
+  const std::string here = Path("here"), elsewhere = Path("elsewhere");
+  std::filesystem::create_directories(elsewhere);
+  std::filesystem::create_directories(here);
+  std::filesystem::copy(KCRIG_TEST_CONFIG_DIR, here + "/cfg",
+                        std::filesystem::copy_options::recursive);
+  for (const char* log : {"a", "b"}) {
+    const CliResult sim = RunKcrig(
+        std::string("simulate --noise --seed ") + (log[0] == 'a' ? "1" : "2") +
+        " --phi " + (log[0] == 'a' ? "80" : "25") +
+        " --z -0.3 --duration 1 --return 1 --effect hysteresis:force=200 "
+        "--out " +
+        here + "/" + log + ".csv");
+    ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  }
+  const std::string diagnose =
+      " diagnose --quiet --config cfg --log a.csv --log b.csv --candidates "
+      "hysteresis,bushing_damping --no-pairs --out diag.json";
+  const CliResult alone = RunCommand("cd " + here + " && " + KCRIG_BINARY +
+                                     diagnose + " && mv diag.json alone.json");
+  ASSERT_EQ(alone.exit_code, 0) << alone.output;
+  const CliResult run = RunCommand(
+      Mpirun() + "-np 1 --wdir " + here + " " + KCRIG_BINARY + diagnose +
+      " : -np 1 --wdir " + elsewhere + " " + KCRIG_BINARY + diagnose);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(ReadFile(here + "/diag.json"), ReadFile(here + "/alone.json"));
+  EXPECT_FALSE(std::filesystem::exists(elsewhere + "/diag.json"));
+  ExpectNoPrivateFolderLeft();
+}
+
 TEST_F(ClusterCliTest, OtherCommandsRefuseSeveralRanks) {
-  const CliResult run = RunCommand(kMpirun + "-np 2 " + KCRIG_BINARY +
+  const CliResult run = RunCommand(Mpirun() + "-np 2 " + KCRIG_BINARY +
                                    " simulate --out " + Path("run.csv"));
   EXPECT_NE(run.exit_code, 0);
   EXPECT_NE(run.output.find("kcrig simulate: runs in one process"),
@@ -233,7 +274,7 @@ TEST_F(ClusterCliTest, AKilledRankEndsTheJobAndNothingIsWritten) {
     }
   });
   const CliResult run =
-      RunCommand(kMpirun + "-np 2 " + KCRIG_BINARY +
+      RunCommand(Mpirun() + "-np 2 " + KCRIG_BINARY +
                  " validate --quiet --cases 8 --effects rig_compliance "
                  "--out " +
                  out);

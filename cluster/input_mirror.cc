@@ -1,0 +1,127 @@
+#include "cluster/input_mirror.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "base/byte_codec.h"
+#include "base/input_file.h"
+
+namespace kcrig {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Most bytes of one input file, and of all the files of one input: far
+// beyond a configuration or a log, below MPI's 2 GiB per message.
+constexpr std::uintmax_t kMaxFileBytes = 256u << 20;
+constexpr std::uint64_t kMaxInputBytes = 1u << 30;
+
+// The root's files of `path` (name -> bytes), packed: a flag (0: the root
+// could not read it, 1: a file, 2: a folder), then the files.
+Status Pack(const std::string& path, const std::vector<std::string>& companions,
+            std::string* bytes) {
+  std::vector<std::string> files;
+  std::error_code error;
+  const bool folder = fs::is_directory(path, error);
+  if (folder) {
+    for (const fs::directory_entry& entry :
+         fs::directory_iterator(path, error)) {
+      if (entry.is_regular_file(error)) files.push_back(entry.path().string());
+    }
+  } else if (fs::is_regular_file(path, error)) {
+    files.push_back(path);
+    for (const std::string& companion : companions) {
+      if (fs::is_regular_file(companion, error)) files.push_back(companion);
+    }
+  }
+  ByteWriter out;
+  out.Put<std::uint8_t>(files.empty() ? 0 : (folder ? 2 : 1));
+  out.Put<std::uint64_t>(files.size());
+  std::uint64_t total = 0;
+  for (const std::string& file : files) {
+    std::string text;
+    KCRIG_RETURN_IF_ERROR(ReadInputFile(file, kMaxFileBytes, &text));
+    total += text.size();
+    if (total > kMaxInputBytes) {
+      return Status::Error(path + ": more than 1 GiB to send to the ranks");
+    }
+    out.Put(fs::path(file).filename().string());
+    out.Put(text);
+  }
+  *bytes = out.bytes();
+  return Status::Ok();
+}
+
+// Writes the files of `bytes` into `folder`; `*path` names the copy.
+Status Unpack(const std::string& bytes, const std::string& folder,
+              std::string* path) {
+  ByteReader in(bytes);
+  std::uint8_t kind = 0;
+  std::uint64_t count = 0;
+  in.Get(&kind);
+  in.Get(&count);
+  if (kind == 0) return Status::Ok();
+  std::error_code error;
+  fs::create_directories(folder, error);
+  if (error) {
+    return Status::Error(folder + ": cannot create (" + error.message() + ")");
+  }
+  std::string first;
+  for (std::uint64_t i = 0; i < count && i < (1u << 20); ++i) {
+    std::string name, text;
+    in.Get(&name);
+    in.Get(&text);
+    // Only a plain name lands in the folder.
+    if (name.empty() || name == "." || name == ".." ||
+        name.find('/') != std::string::npos) {
+      in.Fail();
+      break;
+    }
+    const std::string copy = (fs::path(folder) / name).string();
+    std::ofstream out(copy, std::ios::binary);
+    out << text;
+    if (!out.flush()) return Status::Error(copy + ": cannot write");
+    if (i == 0) first = copy;
+  }
+  if (!in.ok()) return Status::Error(*path + ": corrupt when shared");
+  *path = kind == 2 ? folder : first;
+  return Status::Ok();
+}
+
+}  // namespace
+
+InputMirror::InputMirror(const Ranks& ranks) : ranks_(ranks) {
+  if (ranks.size() == 1 || ranks.is_root()) return;
+  std::error_code error;
+  const fs::path temp = fs::temp_directory_path(error);
+  if (error) {
+    status_ = Status::Error("no temporary folder (" + error.message() + ")");
+    return;
+  }
+  folder_ = temp / ("kcrig_inputs_rank" + std::to_string(ranks.rank()) + "_" +
+                    std::to_string(getpid()));
+}
+
+void InputMirror::Remove() const {
+  if (folder_.empty()) return;
+  std::error_code ignored;
+  fs::remove_all(folder_, ignored);
+}
+
+Status InputMirror::Mirror(std::string* path,
+                           const std::vector<std::string>& companions) {
+  if (path->empty() || ranks_.size() == 1) return Status::Ok();
+  std::string bytes;
+  Status status = Status::Ok();
+  if (ranks_.is_root()) status = Pack(*path, companions, &bytes);
+  status = ranks_.Share(status, &bytes);
+  const std::string folder =
+      (fs::path(folder_) / ("input" + std::to_string(mirrored_++))).string();
+  if (!status.ok() || ranks_.is_root()) return status;
+  KCRIG_RETURN_IF_ERROR(status_);
+  return Unpack(bytes, folder, path);
+}
+
+}  // namespace kcrig

@@ -1,0 +1,46 @@
+// Rank 0 alone reads a command's input files: under several MPI ranks the
+// root reads each input (a file with its companions, or a folder's regular
+// files) and every other rank receives the bytes into a private folder of
+// its own and reads its copy, so that a node need not see the root's file
+// system. Alone (or on the root) the paths stay as they are.
+#ifndef KCRIG_CLUSTER_INPUT_MIRROR_H_
+#define KCRIG_CLUSTER_INPUT_MIRROR_H_
+
+#include <string>
+#include <vector>
+
+#include "base/status.h"
+#include "cluster/ranks.h"
+
+namespace kcrig {
+
+class InputMirror {
+ public:
+  explicit InputMirror(const Ranks& ranks);
+  // Removes this rank's copies.
+  ~InputMirror() { Remove(); }
+  // The same, before the job ends without destructors.
+  void Remove() const;
+  InputMirror(const InputMirror&) = delete;
+  InputMirror& operator=(const InputMirror&) = delete;
+
+  // The file or folder `*path` as the root sees it: on the other ranks
+  // `*path` then names the copy. A file's `companions` (e.g. a log's
+  // sidecar) that exist on the root are copied beside it under their own
+  // names. An empty path (an input not given) stays empty; a path the root
+  // cannot read stays as it is (the command's own reading then fails on
+  // every rank alike). Collective: every rank calls it with the same
+  // arguments in the same order.
+  Status Mirror(std::string* path,
+                const std::vector<std::string>& companions = {});
+
+ private:
+  const Ranks& ranks_;
+  std::string folder_;  // this rank's copies ("" on the root and alone)
+  Status status_ = Status::Ok();  // why this rank has no folder
+  int mirrored_ = 0;
+};
+
+}  // namespace kcrig
+
+#endif  // KCRIG_CLUSTER_INPUT_MIRROR_H_
