@@ -49,6 +49,21 @@ class ClusterCliTest : public TempDirTest {
     std::filesystem::create_directories(Path("tmp"));
     return kMpirun + "-x TMPDIR=" + Path("tmp") + " ";
   }
+  // Two 1 s logs of a plant with hysteresis, `prefix`a.csv and b.csv.
+  bool SimulateTwoLogs(const std::string& prefix) const {
+    for (const char* log : {"a", "b"}) {
+      const bool first = log[0] == 'a';
+      const CliResult sim = RunKcrig(
+          std::string("simulate --noise --seed ") + (first ? "1" : "2") +
+          " --phi " + (first ? "80" : "25") +
+          " --z -0.3 --duration 1 --return 1 --effect hysteresis:force=200 "
+          "--out " +
+          prefix + log + ".csv");
+      EXPECT_EQ(sim.exit_code, 0) << sim.output;
+      if (sim.exit_code != 0) return false;
+    }
+    return true;
+  }
   // No rank left a private folder behind (a killed one cannot).
   void ExpectNoPrivateFolderLeft() const {
     EXPECT_TRUE(std::filesystem::is_empty(Path("tmp")));
@@ -103,15 +118,7 @@ TEST_F(ClusterCliTest, DesignBatchesGiveTheSameDesignOnOneTwoAndThreeRanks) {
 }
 
 TEST_F(ClusterCliTest, CandidateFitsGiveTheSameDiagnosisOnOneTwoAndThreeRanks) {
-  for (const char* log : {"a", "b"}) {
-    const CliResult sim = RunKcrig(
-        std::string("simulate --noise --seed ") + (log[0] == 'a' ? "1" : "2") +
-        " --phi " + (log[0] == 'a' ? "80" : "25") +
-        " --z -0.3 --duration 1 --return 1 --effect hysteresis:force=200 "
-        "--out " +
-        Path(std::string(log) + ".csv"));
-    ASSERT_EQ(sim.exit_code, 0) << sim.output;
-  }
+  ASSERT_TRUE(SimulateTwoLogs(Path("")));
   const std::string diagnose =
       " diagnose --quiet --log " + Path("a.csv") + " --log " + Path("b.csv") +
       " --candidates hysteresis,bushing_damping,rig_compliance --no-pairs";
@@ -211,15 +218,7 @@ TEST_F(ClusterCliTest, RankZeroAloneReadsTheInputs) {
   std::filesystem::create_directories(here);
   std::filesystem::copy(KCRIG_TEST_CONFIG_DIR, here + "/cfg",
                         std::filesystem::copy_options::recursive);
-  for (const char* log : {"a", "b"}) {
-    const CliResult sim = RunKcrig(
-        std::string("simulate --noise --seed ") + (log[0] == 'a' ? "1" : "2") +
-        " --phi " + (log[0] == 'a' ? "80" : "25") +
-        " --z -0.3 --duration 1 --return 1 --effect hysteresis:force=200 "
-        "--out " +
-        here + "/" + log + ".csv");
-    ASSERT_EQ(sim.exit_code, 0) << sim.output;
-  }
+  ASSERT_TRUE(SimulateTwoLogs(here + "/"));
   const std::string diagnose =
       " diagnose --quiet --config cfg --log a.csv --log b.csv --candidates "
       "hysteresis,bushing_damping --no-pairs --out diag.json";
