@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 
@@ -278,28 +279,64 @@ TEST_F(ReportCliTest, ValidationInTheFolderIsDrawnInTheConfusionMatrixsOrder) {
   EXPECT_EQ(page["cases"][1]["truth"], "none");
   EXPECT_EQ(page["cases"][0]["size_sigma"],
             written["case_results"][0]["size_sigma"]);
+}
 
-  // A broken validate.json is one line naming its field.
-  Json doc = written;
-  doc["confusion"]["none"]["maybe"] = 1;
-  std::ofstream(dir + "/validate.json") << doc.dump();
-  const CliResult bad =
-      RunKcrig("report --from " + dir + " --quiet --out " + Path("bad.html"));
-  EXPECT_EQ(bad.exit_code, 1);
-  EXPECT_EQ(CountLines(bad.output), 1) << bad.output;
-  EXPECT_NE(
-      bad.output.find("validate.json.confusion.none.maybe: expected a count"),
-      std::string::npos)
-      << bad.output;
-  doc = written;
-  doc["case_results"][1].erase("size_sigma");
-  std::ofstream(dir + "/validate.json") << doc.dump();
-  const CliResult missing =
-      RunKcrig("report --from " + dir + " --quiet --out " + Path("bad.html"));
-  EXPECT_NE(missing.output.find("case_results[1]: missing field 'size_sigma'"),
+// A validate.json as kcrig validate writes it, by hand (no validation run:
+// this one runs under the sanitizers), then broken in one place at a time:
+// one line naming the field, no page.
+TEST_F(ReportCliTest, ABrokenValidateJsonIsOneLineNamingTheField) {
+  const std::string dir = Path("validation");
+  fs::create_directories(dir);
+  const Json written = Json::parse(R"({"seed": 1,
+    "confusion_rows": ["hysteresis", "none"],
+    "confusion_columns": ["none", "hysteresis", "pair", "unexplained"],
+    "confusion": {"hysteresis": {"hysteresis": 1}, "none": {"none": 1}},
+    "component_confusion": {"bushing:V1": {"bushing:V1": 1}},
+    "power": {"hysteresis": {"bins": [{"from_sigma": 3, "to_sigma": 5,
+                                       "cases": 1, "detected": 1}],
+                             "smallest_detected_sigma": 4.2}},
+    "figures": {"library_effects_beyond_3_sigma": {"correct": 1, "total": 1},
+                "clean": {"none": 1, "total": 1},
+                "wrong_parameters_beyond_3_sigma": {"named": 0, "total": 0},
+                "gap_closed_80_percent_when_correct": {"closed": 1,
+                                                       "total": 1},
+                "confident_wrong": 0},
+    "case_results": [
+      {"truth": "hysteresis", "verdict": "hysteresis", "size_sigma": 4.2,
+       "correct": true, "confident_wrong": false},
+      {"truth": "none", "verdict": "none", "size_sigma": 0,
+       "correct": true, "confident_wrong": false}]})");
+  std::ofstream(dir + "/validate.json") << written.dump();
+  const CliResult good =
+      RunKcrig("report --from " + dir + " --quiet --out " + Path("r.html"));
+  ASSERT_EQ(good.exit_code, 0) << good.output;
+  EXPECT_NE(good.output.find("4 figures (0 experiments, validation)"),
             std::string::npos)
-      << missing.output;
-  EXPECT_FALSE(fs::exists(Path("bad.html")));
+      << good.output;
+  auto refused = [&](const std::function<void(Json*)>& breakage,
+                     const std::string& what) {
+    Json doc = written;
+    breakage(&doc);
+    std::ofstream(dir + "/validate.json") << doc.dump();
+    const CliResult bad =
+        RunKcrig("report --from " + dir + " --quiet --out " + Path("bad.html"));
+    EXPECT_EQ(bad.exit_code, 1) << what;
+    EXPECT_EQ(CountLines(bad.output), 1) << bad.output;
+    EXPECT_NE(bad.output.find(what), std::string::npos) << bad.output;
+    EXPECT_FALSE(fs::exists(Path("bad.html"))) << what;
+  };
+  refused([](Json* d) { (*d)["confusion"]["none"]["maybe"] = 1; },
+          "validate.json.confusion.none.maybe: expected a count");
+  refused([](Json* d) { (*d)["confusion"]["none"]["none"] = "1"; },
+          "validate.json.confusion.none.none: expected a count");
+  refused([](Json* d) { (*d)["case_results"][1].erase("size_sigma"); },
+          "case_results[1]: missing field 'size_sigma'");
+  refused([](Json* d) { (*d)["figures"]["clean"].erase("total"); },
+          "validate.json.figures.clean: missing field 'total'");
+  refused([](Json* d) { d->erase("confusion_rows"); },
+          "validate.json: missing field 'confusion_rows'");
+  refused([](Json* d) { (*d)["component_confusion"] = 3; },
+          "validate.json.component_confusion: expected an object");
 }
 
 // Every failure is one line naming what is wrong, and no report is left.
