@@ -1,7 +1,5 @@
 #include "apps/campaign_command.h"
 
-#include <unistd.h>
-
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -15,6 +13,7 @@
 #include "apps/progress.h"
 #include "base/byte_codec.h"
 #include "base/input_file.h"
+#include "cluster/rank_folder.h"
 #include "cluster/ranks.h"
 #include "designer/campaign.h"
 #include "diagnosis/diagnosis_io.h"
@@ -257,37 +256,6 @@ void FollowsRankZero(const CampaignIteration& it, Criterion criterion,
                         "differs); run the campaign on one node");
 }
 
-// A folder of this process alone, removed with it: under MPI the ranks but
-// rank 0 write their copies of the campaign's files there.
-class PrivateFolder {
- public:
-  PrivateFolder() {
-    std::error_code error;
-    const std::filesystem::path temp =
-        std::filesystem::temp_directory_path(error);
-    if (error) {
-      status_ = Status::Error("no temporary folder (" + error.message() + ")");
-      return;
-    }
-    path_ =
-        (temp / ("kcrig_campaign_rank" + std::to_string(WorldRanks().rank()) +
-                 "_" + std::to_string(getpid())))
-            .string();
-  }
-  ~PrivateFolder() { Remove(); }
-  // Before the job ends without destructors.
-  void Remove() const {
-    std::error_code ignored;
-    if (!path_.empty()) std::filesystem::remove_all(path_, ignored);
-  }
-  const std::string& path() const { return path_; }
-  const Status& status() const { return status_; }
-
- private:
-  std::string path_;
-  Status status_ = Status::Ok();
-};
-
 // The output folder, made before any rank starts (an error then is every
 // rank's, not rank 0's alone mid-campaign).
 Status MakeOutputFolder(const std::string& out) {
@@ -422,7 +390,7 @@ int RunCampaignCommand(const CampaignArgs& args) {
     return code;
   }
   // The other ranks follow rank 0's rig, in a folder of their own.
-  const PrivateFolder folder;
+  const RankFolder folder("campaign", ranks.rank());
   options.on_iteration = [&](const CampaignIteration& it) {
     FollowsRankZero(it, options.criterion, folder.path());
   };

@@ -1,7 +1,5 @@
 #include "cluster/input_mirror.h"
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 
@@ -93,21 +91,9 @@ Status Unpack(const std::string& bytes, const std::string& folder,
 }  // namespace
 
 InputMirror::InputMirror(const Ranks& ranks) : ranks_(ranks) {
-  if (ranks.size() == 1 || ranks.is_root()) return;
-  std::error_code error;
-  const fs::path temp = fs::temp_directory_path(error);
-  if (error) {
-    status_ = Status::Error("no temporary folder (" + error.message() + ")");
-    return;
+  if (ranks.size() > 1 && !ranks.is_root()) {
+    folder_ = std::make_unique<RankFolder>("inputs", ranks.rank());
   }
-  folder_ = temp / ("kcrig_inputs_rank" + std::to_string(ranks.rank()) + "_" +
-                    std::to_string(getpid()));
-}
-
-void InputMirror::Remove() const {
-  if (folder_.empty()) return;
-  std::error_code ignored;
-  fs::remove_all(folder_, ignored);
 }
 
 Status InputMirror::Mirror(std::string* path,
@@ -117,10 +103,11 @@ Status InputMirror::Mirror(std::string* path,
   Status status = Status::Ok();
   if (ranks_.is_root()) status = Pack(*path, companions, &bytes);
   status = ranks_.Share(status, &bytes);
-  const std::string folder =
-      (fs::path(folder_) / ("input" + std::to_string(mirrored_++))).string();
+  const int index = mirrored_++;
   if (!status.ok() || ranks_.is_root()) return status;
-  KCRIG_RETURN_IF_ERROR(status_);
+  KCRIG_RETURN_IF_ERROR(folder_->status());
+  const std::string folder =
+      (fs::path(folder_->path()) / ("input" + std::to_string(index))).string();
   return Unpack(bytes, folder, path);
 }
 

@@ -6,10 +6,12 @@
 #ifndef KCRIG_CLUSTER_INPUT_MIRROR_H_
 #define KCRIG_CLUSTER_INPUT_MIRROR_H_
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "base/status.h"
+#include "cluster/rank_folder.h"
 #include "cluster/ranks.h"
 
 namespace kcrig {
@@ -17,10 +19,11 @@ namespace kcrig {
 class InputMirror {
  public:
   explicit InputMirror(const Ranks& ranks);
-  // Removes this rank's copies.
-  ~InputMirror() { Remove(); }
-  // The same, before the job ends without destructors.
-  void Remove() const;
+  // Removes this rank's copies, before the job ends without destructors
+  // (the destructor does too).
+  void Remove() const {
+    if (folder_) folder_->Remove();
+  }
   InputMirror(const InputMirror&) = delete;
   InputMirror& operator=(const InputMirror&) = delete;
 
@@ -36,8 +39,8 @@ class InputMirror {
 
  private:
   const Ranks& ranks_;
-  std::string folder_;  // this rank's copies ("" on the root and alone)
-  Status status_ = Status::Ok();  // why this rank has no folder
+  // This rank's copies (none on the root and alone).
+  std::unique_ptr<RankFolder> folder_;
   int mirrored_ = 0;
 };
 
