@@ -711,50 +711,50 @@ class DiagnosisRun {
     return nullptr;
   }
 
-  // Stage 6: bushing effects placed on the bushings they act in
-  // (DiagnosisOptions::place_components): the chosen one when it is a
-  // single bushing effect, else, with nothing chosen, every bushing effect
-  // (a worn bushing is one component: the effect in all five explains it
-  // badly, and how badly says little about which effect it is). Placed models
-  // start from their effect's global fit and join the ranking; returns the
-  // chosen model.
+  // Stage 6: effects placed on the components they act in
+  // (DiagnosisOptions::place_components; PlaceableComponents: bushings,
+  // fixture axes, sensor channels): the chosen one when it is placeable,
+  // else, with nothing chosen, every placeable effect (a worn bushing is one
+  // component: the effect in all five explains it badly, and how badly says
+  // little about which effect it is). Placed models start from their
+  // effect's global fit and join the ranking; returns the chosen model.
   const CandidateScore* PlaceOnComponents(const CandidateScore* chosen) {
     if (!options_.place_components) return chosen;
     // The chosen effect everywhere leaves only noise, or nothing was chosen
-    // and the best, no bushing effect, does: no placement can explain more
-    // (it could only tie, and the data cannot place the effect), and an
-    // ambiguity stands.
+    // and the best, no placeable effect, does: no placement can explain
+    // more (it could only tie, and the data cannot place the effect), and
+    // an ambiguity stands.
     const CandidateScore& leader = result_->ranking.front();
-    if (chosen != nullptr ? rules_.AtNoise(*chosen)
-                          : leader.ok && !IsBushingEffect(leader.model) &&
-                                rules_.AtNoise(leader)) {
+    if (chosen != nullptr
+            ? rules_.AtNoise(*chosen)
+            : leader.ok && !Placeable(leader.model) && rules_.AtNoise(leader)) {
       return chosen;
     }
     std::vector<CandidateScore> globals;
     for (const CandidateScore& s : result_->ranking) {
       const bool wanted = chosen == nullptr || s.model == chosen->model;
-      if (wanted && s.ok && IsBushingEffect(s.model)) globals.push_back(s);
+      if (wanted && s.ok && Placeable(s.model)) globals.push_back(s);
     }
-    // Each effect in each single bushing; the one that scores best is
-    // extended, bushing by bushing (the others' fits would only cost time).
+    // Each effect on each single component; the one that scores best is
+    // extended, component by component (the others' fits would only cost
+    // time).
     std::vector<CandidateScore> tried;
     const CandidateScore* global = nullptr;
     CandidateScore placed;
     for (const CandidateScore& g : globals) {
-      std::vector<CandidateScore> singles =
-          FitPlacements(g.model, BushingSet{}, g.fit.values);
+      CandidateScore start;
+      if (!StartPlacement(g, &start, &tried)) continue;
       if (progress_.aborted()) return chosen;
-      if (singles.empty() || !singles[0].ok) continue;
-      tried.insert(tried.end(), singles.begin(), singles.end());
-      if (global == nullptr || singles[0].score < placed.score) {
+      if (global == nullptr || start.score < placed.score) {
         global = &g;
-        placed = singles[0];
+        placed = start;
       }
     }
-    if (global == nullptr) return chosen;
-    ExtendPlacement(*global, &placed, &tried);
-    // As many parameters either way: the lower score, the effect in all
-    // five bushings when they tie.
+    if (progress_.aborted() || global == nullptr) return chosen;
+    if (!NarrowsFromAll(ClassOf(global->model))) {
+      ExtendPlacement(*global, &placed, &tried);
+    }
+    // The lower score; the global form when they tie.
     const std::string best =
         placed.score < global->score ? placed.model : global->model;
     if (progress_.aborted()) return chosen;
@@ -770,28 +770,82 @@ class DiagnosisRun {
     // Nothing was chosen: the placement decides against the other effects
     // (not against its own effect elsewhere, which it has beaten already).
     std::vector<CandidateScore> contenders = {*pick};
-    const std::string effect = best.substr(0, best.find('@'));
+    const std::string effect = ClassOf(best);
     for (const CandidateScore& s : ranking) {
-      if (s.model.substr(0, s.model.find('@')) != effect) {
-        contenders.push_back(s);
-      }
+      if (ClassOf(s.model) != effect) contenders.push_back(s);
     }
     return rules_.Decides(contenders) ? pick : nullptr;
   }
 
-  // Forward selection of the bushings `global`'s effect acts in, from
-  // `placed` (its best single bushing): add the bushing that improves the
-  // score most while it Improves it, up to four (five is `global`). Every
-  // fit joins `tried`.
+  static std::string ClassOf(const std::string& model) {
+    return model.substr(0, model.find('@'));
+  }
+  static bool Placeable(const std::string& model) {
+    return model.find('+') == std::string::npos &&
+           !PlaceableComponents(ClassOf(model)).empty();
+  }
+
+  // A fixture's axes give together (its mounts carry the load in every
+  // direction), so its placement starts from every axis and drops those the
+  // data do not need; a bushing's wear or a sensor's error is one
+  // component, so theirs starts from the single components and adds.
+  static bool NarrowsFromAll(const std::string& effect) {
+    return effect == "rig_compliance";
+  }
+
+  // The placement of `global`'s effect the selection starts from: its best
+  // single component, or, for NarrowsFromAll, every component narrowed to
+  // those the data need. Every fit joins `tried`; false when none fits.
+  bool StartPlacement(const CandidateScore& global, CandidateScore* start,
+                      std::vector<CandidateScore>* tried) {
+    const std::string effect = ClassOf(global.model);
+    std::vector<CandidateScore> scores =
+        NarrowsFromAll(effect) ? FitSets(global, {PlaceableComponents(effect)})
+                               : FitPlacements(global, {});
+    tried->insert(tried->end(), scores.begin(), scores.end());
+    if (scores.empty() || !scores[0].ok) return false;
+    *start = scores[0];
+    if (NarrowsFromAll(effect)) NarrowPlacement(global, start, tried);
+    return true;
+  }
+
+  // Backward elimination from `placed`: drop the component whose removal
+  // costs least while the score stays within the noise floor's spread of
+  // `placed`'s (the data cannot tell the effect there). Every fit joins
+  // `tried`.
+  void NarrowPlacement(const CandidateScore& global, CandidateScore* placed,
+                       std::vector<CandidateScore>* tried) {
+    for (std::vector<std::string> set = ModelComponents(placed->model);
+         set.size() > 1; set = ModelComponents(placed->model)) {
+      std::vector<std::vector<std::string>> smaller;
+      for (size_t k = 0; k < set.size(); ++k) {
+        smaller.push_back(set);
+        smaller.back().erase(smaller.back().begin() + k);
+      }
+      std::vector<CandidateScore> scores = FitSets(global, smaller);
+      if (progress_.aborted() || scores.empty()) return;
+      tried->insert(tried->end(), scores.begin(), scores.end());
+      if (!scores[0].ok ||
+          scores[0].score - placed->score > rules_.score_noise) {
+        return;
+      }
+      *placed = scores[0];
+    }
+  }
+
+  // Forward selection of the components `global`'s effect acts on, from
+  // `placed` (its best single component): add the component that improves
+  // the score most while it Improves it, short of all of a bushing effect's
+  // five (that is `global`) and within a candidate's parameters. Every fit
+  // joins `tried`.
   void ExtendPlacement(const CandidateScore& global, CandidateScore* placed,
                        std::vector<CandidateScore>* tried) {
-    std::vector<std::string> effects;
-    std::vector<BushingSet> places;
-    while (ParseModelName(placed->model, &effects, &places).ok() &&
-           std::count(places[0].begin(), places[0].end(), true) <
-               kNumBushings - 1) {
-      std::vector<CandidateScore> scores =
-          FitPlacements(global.model, places[0], global.fit.values);
+    const std::string effect = ClassOf(global.model);
+    const size_t most =
+        PlaceableComponents(effect).size() - (IsBushingEffect(effect) ? 1 : 0);
+    for (std::vector<std::string> set = ModelComponents(placed->model);
+         set.size() < most; set = ModelComponents(placed->model)) {
+      std::vector<CandidateScore> scores = FitPlacements(global, set);
       if (progress_.aborted() || scores.empty()) return;
       tried->insert(tried->end(), scores.begin(), scores.end());
       if (!Improves(scores[0], *placed)) return;
@@ -799,20 +853,40 @@ class DiagnosisRun {
     }
   }
 
-  // `effect` in `set` plus each bushing not in it, fitted from `start` (the
-  // global form's values: the same parameters), then from the effect's later
-  // starts as the candidates are, and ranked.
-  std::vector<CandidateScore> FitPlacements(const std::string& effect,
-                                            const BushingSet& set,
-                                            const Start& start) {
+  // `global`'s effect on `set` plus each component not in it (FitSets).
+  std::vector<CandidateScore> FitPlacements(
+      const CandidateScore& global, const std::vector<std::string>& set) {
+    std::vector<std::vector<std::string>> larger;
+    for (const std::string& added :
+         PlaceableComponents(ClassOf(global.model))) {
+      if (std::find(set.begin(), set.end(), added) != set.end()) continue;
+      larger.push_back(set);
+      larger.back().push_back(added);
+    }
+    return FitSets(global, larger);
+  }
+
+  // `global`'s effect on each of `sets`, fitted from the global fit's values
+  // (the parameters they share), then from the effect's later starts as the
+  // candidates are, and ranked. A set the effect cannot take (too many
+  // parameters) is left out.
+  std::vector<CandidateScore> FitSets(
+      const CandidateScore& global,
+      const std::vector<std::vector<std::string>>& sets) {
+    const std::string effect = ClassOf(global.model);
+    EffectModel global_model;
+    if (!EffectModel::CreateNamed(nominal_, global.model,
+                                  options_.estimator.lower_scale,
+                                  options_.estimator.upper_scale, &global_model)
+             .ok()) {
+      return {};
+    }
     std::vector<EffectModel> models;
-    for (int i = 0; i < kNumBushings; ++i) {
-      if (set[i]) continue;
-      BushingSet next = set;
-      next[i] = true;
+    for (const std::vector<std::string>& set : sets) {
+      std::string place;
+      for (const std::string& c : set) place += (place.empty() ? "" : "+") + c;
       EffectModel m;
-      if (EffectModel::Create(nominal_,
-                              {effect + "@" + DescribeBushingSet(next)},
+      if (EffectModel::Create(nominal_, {effect + "@" + place},
                               options_.estimator.lower_scale,
                               options_.estimator.upper_scale, &m)
               .ok()) {
@@ -823,7 +897,7 @@ class DiagnosisRun {
     std::vector<std::vector<Start>> starts;
     for (const EffectModel& m : models) {
       pointers.push_back(&m);
-      starts.push_back({start});
+      starts.push_back({m.StartFrom(global_model, global.fit.values)});
       // The effect's own later starts: the global fit's values can sit in
       // a local minimum of the placed effect (a Dahl force spread over five
       // bushings is not one bushing's).

@@ -52,6 +52,45 @@ std::vector<EffectParameter> FreedParameter(
   return {};
 }
 
+// A sensor error on single channels: each channel's offset (named as the
+// channel), its gain error `gain_C` and a coupling `C_from_D` from each
+// other channel D of its kind (positions into a position, angles into an
+// angle): m_C = y_C (1 + gain) + sum coupling y_D + offset.
+std::vector<EffectParameter> PlacedSensorParameters(const std::string& target) {
+  SensorChannels channels{};
+  ParseSensorChannels(target, &channels);
+  std::vector<EffectParameter> own;
+  for (int c = 0; c < 6; ++c) {
+    if (!channels[c]) continue;
+    const std::string name = kChannelNames[c];
+    const bool position = c < 3;
+    own.push_back({"sensor_offset",
+                   name,
+                   position ? "m" : "rad",
+                   0,
+                   position ? 1e-4 : 2e-4,
+                   position ? -0.01 : -0.05,
+                   position ? 0.01 : 0.05,
+                   0,
+                   {0}});
+    own.push_back(
+        {"sensor_offset", "gain_" + name, "-", 0, 0.01, -0.5, 0.5, 0, {0}});
+    for (int d = position ? 0 : 3; d < (position ? 3 : 6); ++d) {
+      if (d == c) continue;
+      own.push_back({"sensor_offset",
+                     name + "_from_" + kChannelNames[d],
+                     "-",
+                     0,
+                     0.01,
+                     -0.5,
+                     0.5,
+                     0,
+                     {0}});
+    }
+  }
+  return own;
+}
+
 // The fitted parameters of each effect. Bounds keep the plant well posed
 // (a Dahl force or lag constant of zero divides by zero) and physically
 // plausible; the start is the "no effect" end of each range, or, where that
@@ -87,8 +126,28 @@ std::vector<EffectParameter> ParametersOf(
     // range crosses zero (no mount give) so that a rig without the effect
     // is an interior point, not a bound the fit would crawl to; a negative
     // compliance is unphysical and says "no effect" within the noise.
-    return {
-        {effect, "compliance", "m/N", 0, 2e-8, -1e-6, 1e-6, 1e-10, {1e-10}}};
+    FixtureAxes axes = kTranslationalAxes;
+    if (!target.empty()) ParseFixtureAxes(target, &axes);
+    std::vector<EffectParameter> own;
+    if (axes[0] || axes[1] || axes[2]) {
+      own.push_back(
+          {effect, "compliance", "m/N", 0, 2e-8, -1e-6, 1e-6, 1e-10, {1e-10}});
+    }
+    if (axes[3] || axes[4]) {
+      own.push_back({effect,
+                     "rotational_compliance",
+                     "rad/(N m)",
+                     0,
+                     2e-6,
+                     -1e-4,
+                     1e-4,
+                     1e-8,
+                     {1e-8}});
+    }
+    return own;
+  }
+  if (effect == "sensor_offset" && !target.empty()) {
+    return PlacedSensorParameters(target);
   }
   if (effect == "sensor_offset") {
     return {{effect, "x", "m", 0, 1e-4, -0.01, 0.01, 0, {0}},
@@ -120,14 +179,19 @@ void SetEffectParameter(const EffectParameter& p, const T& value,
     (n == "tau" ? e->actuator_lag.tau : e->actuator_lag.dead_time) = value;
   } else if (p.effect == "rig_compliance") {
     e->rig_compliance.enabled = true;
-    e->rig_compliance.k = T(1.0) / value;
+    (n == "compliance" ? e->rig_compliance.k : e->rig_compliance.k_rot) =
+        T(1.0) / value;
   } else if (p.effect == "sensor_offset") {
     e->sensor_offset.enabled = true;
-    if (n == "scale") {
-      e->sensor_offset.scale = value;
-    } else {
-      for (int k = 0; k < 6; ++k) {
-        if (n == kChannelNames[k]) e->sensor_offset.offset(k) = value;
+    if (n == "scale") e->sensor_offset.scale = value;
+    for (int k = 0; k < 6; ++k) {
+      const std::string channel = kChannelNames[k];
+      if (n == channel) e->sensor_offset.offset(k) = value;
+      if (n == "gain_" + channel) e->sensor_offset.mixing(k, k) = value;
+      for (int j = 0; j < 6; ++j) {
+        if (n == channel + "_from_" + kChannelNames[j]) {
+          e->sensor_offset.mixing(k, j) = value;
+        }
       }
     }
   }
@@ -276,7 +340,10 @@ std::vector<std::string> SplitModelName(const std::string& name) {
   for (size_t begin = 0;;) {
     const size_t end = name.find('+', begin);
     const std::string part = name.substr(begin, end - begin);
-    if (part.rfind(kBushingComponent, 0) == 0 && !effects.empty()) {
+    const bool component = part.rfind(kBushingComponent, 0) == 0 ||
+                           part.rfind(kFixtureComponent, 0) == 0 ||
+                           part.rfind(kSensorComponent, 0) == 0;
+    if (component && !effects.empty()) {
       effects.back() += "+" + part;
     } else {
       effects.push_back(part);
@@ -320,12 +387,27 @@ Status ParsePlacedEffect(const std::string& effect, std::string* name,
     return Status::Ok();
   }
   if (separator == std::string::npos) return Status::Ok();
+  const std::string place = effect.substr(separator + 1);
+  if (*name == "rig_compliance") {
+    FixtureAxes axes;
+    KCRIG_RETURN_IF_ERROR(ParseFixtureAxes(place, &axes));
+    *target = DescribeFixtureAxes(axes);
+    return Status::Ok();
+  }
+  if (*name == "sensor_offset") {
+    SensorChannels channels;
+    KCRIG_RETURN_IF_ERROR(ParseSensorChannels(place, &channels));
+    *target = DescribeSensorChannels(channels);
+    return Status::Ok();
+  }
   if (!IsBushingEffect(*name)) {
     return Status::Error(
-        "only bushing_damping, hysteresis and progressive_stiffness are "
-        "placed on bushings");
+        "bushing_damping, hysteresis and progressive_stiffness are placed on "
+        "bushings, rig_compliance on fixture axes, sensor_offset on sensor "
+        "channels; " +
+        *name + " is not placed");
   }
-  return ParseBushingSet(effect.substr(separator + 1), at);
+  return ParseBushingSet(place, at);
 }
 
 }  // namespace
@@ -412,6 +494,71 @@ std::vector<double> EffectModel::LaterStart(int k) const {
   return start;
 }
 
+std::vector<double> EffectModel::StartFrom(
+    const EffectModel& other, const std::vector<double>& values) const {
+  std::vector<double> start;
+  for (const EffectParameter& p : parameters_) {
+    start.push_back(p.initial);
+    for (int i = 0; i < other.num_parameters() && i < (int)values.size(); ++i) {
+      if (other.parameters()[i].FullName() == p.FullName()) {
+        start.back() = values[i];
+      }
+    }
+  }
+  return start;
+}
+
+std::vector<std::string> PlaceableComponents(std::string_view effect) {
+  std::vector<std::string> components;
+  if (IsBushingEffect(effect)) {
+    for (std::string_view b : kBushingChassisNames) {
+      components.push_back(std::string(kBushingComponent) + std::string(b));
+    }
+  } else if (effect == "rig_compliance") {
+    for (std::string_view axis : kFixtureAxisNames) {
+      components.push_back(std::string(kFixtureComponent) + std::string(axis));
+    }
+  } else if (effect == "sensor_offset") {
+    for (const char* channel : kChannelNames) {
+      components.push_back(std::string(kSensorComponent) + channel);
+    }
+  }
+  return components;
+}
+
+std::vector<std::string> ModelComponents(const std::string& name) {
+  std::vector<std::string> effects, targets, components;
+  std::vector<BushingSet> places;
+  if (!ParseModelName(name, &effects, &places, &targets).ok()) return {};
+  auto add = [&components](const std::string& c) {
+    if (!c.empty() && std::find(components.begin(), components.end(), c) ==
+                          components.end()) {
+      components.push_back(c);
+    }
+  };
+  for (size_t e = 0; e < effects.size(); ++e) {
+    std::string text;
+    if (IsBushingEffect(effects[e])) {
+      text = DescribeBushingSet(places[e]);
+    } else if (effects[e] == kModelParameter) {
+      text = ComponentOfParameter(targets[e]);
+    } else if (effects[e] == "rig_compliance") {
+      text = targets[e].empty() ? DescribeFixtureAxes(kTranslationalAxes)
+                                : targets[e];
+    } else if (effects[e] == "sensor_offset") {
+      text = targets[e].empty()
+                 ? DescribeSensorChannels({true, true, true, true, true, true})
+                 : targets[e];
+    }
+    for (size_t begin = 0; begin < text.size();) {
+      const size_t end = std::min(text.find('+', begin), text.size());
+      add(text.substr(begin, end - begin));
+      begin = end + 1;
+    }
+  }
+  return components;
+}
+
 Status EffectModel::CreateNamed(const SuspensionParameters<double>& nominal,
                                 const std::string& name, double lower_scale,
                                 double upper_scale, EffectModel* model) {
@@ -475,6 +622,9 @@ void EffectModel::Build(const T* theta, SuspensionParameters<T>* parameters,
   for (size_t e = 0; e < effects_.size(); ++e) {
     if (BushingSet* at = PlacementOf(effects_[e], effects)) {
       *at = placements_[e];
+    }
+    if (effects_[e] == "rig_compliance" && !targets_[e].empty()) {
+      ParseFixtureAxes(targets_[e], &effects->rig_compliance.at);
     }
   }
 }

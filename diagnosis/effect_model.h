@@ -114,6 +114,11 @@ class EffectModel {
   int num_parameters() const { return static_cast<int>(parameters_.size()); }
   // The longest dead time the bounds allow [s] (sizes the delay line).
   double max_dead_time() const { return max_dead_time_; }
+  // A start for this model from `values` of `other` (physical, one per
+  // its parameter): each parameter of the same full name takes the other's
+  // value, the rest their `initial` (a placed effect from its global fit).
+  std::vector<double> StartFrom(const EffectModel& other,
+                                const std::vector<double>& values) const;
   // 1 + the longest list of later starts of its parameters.
   int num_starts() const;
   // Start `k` >= 1 (physical values, one per parameter): each parameter's
@@ -148,6 +153,19 @@ Status ParseModelName(const std::string& name,
                       std::vector<std::string>* effects,
                       std::vector<BushingSet>* placements,
                       std::vector<std::string>* targets = nullptr);
+
+// The components an effect class can be placed on, in the vocabulary's
+// order: the bushings for the bushing effects, the fixture axes for
+// rig_compliance, the sensor channels for sensor_offset; none for the
+// others.
+std::vector<std::string> PlaceableComponents(std::string_view effect);
+
+// The components a model acts on, each once, in the order of its effects:
+// a placed effect's own, an unplaced one's where its global form acts
+// (every bushing; the translational fixture axes; every sensor channel),
+// a freed parameter's component (ComponentOfParameter). Empty for the
+// nominal model, actuator_lag, or a name that does not parse.
+std::vector<std::string> ModelComponents(const std::string& name);
 
 // What the sensors of the candidate read for one experiment at the physical
 // parameter values `values` (one per EffectModel::parameters()): the plant

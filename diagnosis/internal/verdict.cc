@@ -58,42 +58,26 @@ void RankCandidates(std::vector<CandidateScore>* list) {
 
 namespace {
 
-// The verdict of `model`: its classes joined by '+', and the bushings its
-// bushing effects act in.
+// The verdict of `model`: its classes joined by '+', and the components it
+// acts on.
 void SetVerdictModel(const std::string& model, DiagnosisResult* result) {
   result->model = model;
   result->verdict.clear();
-  result->components.clear();
   std::vector<std::string> effects, targets;
   std::vector<BushingSet> places;
   if (!ParseModelName(model, &effects, &places, &targets).ok()) {
     result->verdict = model;  // a name the diagnosis made parses
+    result->components.clear();
     return;
   }
-  BushingSet bushings{};  // of every bushing effect, each listed once
   for (size_t e = 0; e < effects.size(); ++e) {
     // Two freed parameters are one class.
     if (std::find(effects.begin(), effects.begin() + e, effects[e]) ==
         effects.begin() + e) {
       result->verdict += (result->verdict.empty() ? "" : "+") + effects[e];
     }
-    for (int i = 0; i < kNumBushings && IsBushingEffect(effects[e]); ++i) {
-      bushings[i] = bushings[i] || places[e][i];
-    }
   }
-  for (int i = 0; i < kNumBushings; ++i) {
-    BushingSet one{};
-    one[i] = true;
-    if (bushings[i]) result->components.push_back(DescribeBushingSet(one));
-  }
-  for (const std::string& target : targets) {
-    const std::string component = ComponentOfParameter(target);
-    std::vector<std::string>& c = result->components;
-    if (!component.empty() &&
-        std::find(c.begin(), c.end(), component) == c.end()) {
-      c.push_back(component);
-    }
-  }
+  result->components = ModelComponents(model);
 }
 
 }  // namespace

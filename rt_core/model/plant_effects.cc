@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "rt_core/model/channels.h"
+
 namespace kcrig {
 namespace {
 
@@ -29,8 +31,10 @@ std::vector<Key> KeysOf(std::string_view effect, PlantEffects* e) {
     return {{"tau", &e->actuator_lag.tau, kPositive},
             {"dead_time", &e->actuator_lag.dead_time, kNonNegative}};
   }
-  if (effect == "rig_compliance")
-    return {{"k", &e->rig_compliance.k, kPositive}};
+  if (effect == "rig_compliance") {
+    return {{"k", &e->rig_compliance.k, kPositive},
+            {"k_rot", &e->rig_compliance.k_rot, kPositive}};
+  }
   if (effect == "sensor_offset") {
     PlantEffects::SensorOffset& s = e->sensor_offset;
     return {{"x", &s.offset(0), kAnyFinite},
@@ -65,42 +69,93 @@ std::string Names() {
   return names;
 }
 
-}  // namespace
-
-Status ParseBushingSet(std::string_view text, BushingSet* at) {
-  BushingSet parsed{};
+// Parses "PREFIX:A+PREFIX:B" over `names` into flags; `allowed` lists the
+// components for the error.
+template <size_t N>
+Status ParseComponents(std::string_view text, std::string_view prefix,
+                       const std::array<std::string_view, N>& names,
+                       std::string_view allowed, std::array<bool, N>* set) {
+  std::array<bool, N> parsed{};
   while (true) {
     const size_t plus = text.find('+');
     const std::string_view component = text.substr(0, plus);
-    int found = -1;
-    for (int i = 0; i < kNumBushings; ++i) {
-      if (component.substr(0, kBushingComponent.size()) == kBushingComponent &&
-          component.substr(kBushingComponent.size()) ==
-              kBushingChassisNames[i]) {
+    size_t found = N;
+    for (size_t i = 0; i < N; ++i) {
+      if (component.substr(0, prefix.size()) == prefix &&
+          component.substr(prefix.size()) == names[i]) {
         found = i;
       }
     }
-    if (found < 0) {
+    if (found == N) {
       return Status::Error("unknown component '" + std::string(component) +
-                           "' (bushing:O1, bushing:O2, bushing:V1, "
-                           "bushing:V2 or bushing:P, joined by +)");
+                           "' (" + std::string(allowed) + ", joined by +)");
     }
     parsed[found] = true;
     if (plus == std::string_view::npos) break;
     text = text.substr(plus + 1);
   }
-  *at = parsed;
+  *set = parsed;
   return Status::Ok();
 }
 
-std::string DescribeBushingSet(const BushingSet& at) {
+template <size_t N>
+std::string DescribeComponents(std::string_view prefix,
+                               const std::array<std::string_view, N>& names,
+                               const std::array<bool, N>& set) {
   std::string text;
-  for (int i = 0; i < kNumBushings; ++i) {
-    if (!at[i]) continue;
-    text += (text.empty() ? "" : "+") + std::string(kBushingComponent) +
-            std::string(kBushingChassisNames[i]);
+  for (size_t i = 0; i < N; ++i) {
+    if (!set[i]) continue;
+    text +=
+        (text.empty() ? "" : "+") + std::string(prefix) + std::string(names[i]);
   }
   return text;
+}
+
+std::array<std::string_view, kNumBushings> BushingNames() {
+  std::array<std::string_view, kNumBushings> names;
+  for (int i = 0; i < kNumBushings; ++i) names[i] = kBushingChassisNames[i];
+  return names;
+}
+
+std::array<std::string_view, 6> ChannelNames() {
+  std::array<std::string_view, 6> names;
+  for (int k = 0; k < 6; ++k) names[k] = kChannelNames[k];
+  return names;
+}
+
+}  // namespace
+
+Status ParseBushingSet(std::string_view text, BushingSet* at) {
+  return ParseComponents(text, kBushingComponent, BushingNames(),
+                         "bushing:O1, bushing:O2, bushing:V1, bushing:V2 or "
+                         "bushing:P",
+                         at);
+}
+
+std::string DescribeBushingSet(const BushingSet& at) {
+  return DescribeComponents(kBushingComponent, BushingNames(), at);
+}
+
+Status ParseFixtureAxes(std::string_view text, FixtureAxes* axes) {
+  return ParseComponents(text, kFixtureComponent, kFixtureAxisNames,
+                         "fixture:x, fixture:y, fixture:z, fixture:rx or "
+                         "fixture:ry",
+                         axes);
+}
+
+std::string DescribeFixtureAxes(const FixtureAxes& axes) {
+  return DescribeComponents(kFixtureComponent, kFixtureAxisNames, axes);
+}
+
+Status ParseSensorChannels(std::string_view text, SensorChannels* channels) {
+  return ParseComponents(text, kSensorComponent, ChannelNames(),
+                         "sensor:x, sensor:y, sensor:z, sensor:toe, "
+                         "sensor:camber or sensor:caster",
+                         channels);
+}
+
+std::string DescribeSensorChannels(const SensorChannels& channels) {
+  return DescribeComponents(kSensorComponent, ChannelNames(), channels);
 }
 
 Status ParseEffect(std::string_view text, PlantEffects* effects) {
@@ -128,8 +183,11 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
     const std::string_view key = item.substr(0, equals);
     const std::string value_text(item.substr(equals + 1));
     BushingSet* at = PlacementOf(name, &parsed);
-    if (key == "at" && at != nullptr) {
-      const Status status = ParseBushingSet(value_text, at);
+    const bool fixture = name == "rig_compliance";
+    if (key == "at" && (at != nullptr || fixture)) {
+      const Status status =
+          fixture ? ParseFixtureAxes(value_text, &parsed.rig_compliance.at)
+                  : ParseBushingSet(value_text, at);
       if (!status.ok()) return Status::Error(where + ": " + status.message());
       continue;
     }
@@ -142,7 +200,7 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
       for (const Key& k : keys) {
         allowed += (allowed.empty() ? "" : ", ") + std::string(k.name);
       }
-      if (at != nullptr) allowed += ", at";
+      if (at != nullptr || fixture) allowed += ", at";
       return Status::Error(where + ": unknown parameter of " +
                            std::string(name) + " (one of " + allowed + ")");
     }
@@ -171,7 +229,11 @@ std::vector<std::string> DescribeEffects(const PlantEffects& effects) {
     if (!*EnabledFlag(name, &copy)) continue;
     std::string text(name);
     char separator = ':';
+    const FixtureAxes& axes = copy.rig_compliance.at;
+    const bool rotates = axes[3] || axes[4];
     for (const Key& k : KeysOf(name, &copy)) {
+      // A mount that does not rotate says so by leaving k_rot out.
+      if (k.name == "k_rot" && !rotates) continue;
       char value[32];
       std::snprintf(value, sizeof(value), "%.6g", *k.value);
       text += separator + std::string(k.name) + "=" + value;
@@ -180,6 +242,9 @@ std::vector<std::string> DescribeEffects(const PlantEffects& effects) {
     const BushingSet* at = PlacementOf(name, &copy);
     if (at != nullptr && *at != kEveryBushing) {
       text += ",at=" + DescribeBushingSet(*at);
+    }
+    if (name == "rig_compliance" && axes != kTranslationalAxes) {
+      text += ",at=" + DescribeFixtureAxes(axes);
     }
     out.push_back(text);
   }

@@ -23,17 +23,26 @@
 //                                                       tau [s] = 0.05,
 //                                                       dead_time [s] = 0.01
 //   rig_compliance         the clamped body's mounts give: the measured
-//                          wheel-centre position includes F / k per axis.
-//                                                       k [N/m] = 5e7
+//                          wheel-centre position includes F / k per
+//                          translational axis, and on the rotational axes
+//                          the angles include M / k_rot, M = p x F the
+//                          force's moment about the wheel centre (p its
+//                          acting point; rx: camber, ry: caster).
+//                                                       k [N/m] = 5e7,
+//                                                       k_rot [N m/rad] = 5e5
 //   sensor_offset          per-channel offset and a common scale error of the
 //                          position and angle sensors: m = scale * y + offset.
 //                          x, y, z [m] = 1e-4, -1e-4, 5e-5;
 //                          toe, camber, caster [rad] = 2e-4, -2e-4, 1e-4;
 //                          scale [-] = 1.03
+//                          The diagnosis places it on single channels with a
+//                          gain error and a coupling from the other channels
+//                          of its kind (`mixing`, not a --effect key).
 //
 // The three bushing effects act in every bushing unless `at` places them
 // (`at=bushing:V1`, `at=bushing:O1+bushing:O2`): a worn bushing is one
-// component, not the whole axle.
+// component, not the whole axle. rig_compliance acts on the translational
+// axes unless `at` places it (`at=fixture:x+fixture:rx`).
 #ifndef KCRIG_RT_CORE_MODEL_PLANT_EFFECTS_H_
 #define KCRIG_RT_CORE_MODEL_PLANT_EFFECTS_H_
 
@@ -55,6 +64,20 @@ inline constexpr std::array<std::string_view, 6> kEffectNames = {
 // Where a bushing effect acts: one flag per bushing, in BushingIndex order.
 using BushingSet = std::array<bool, kNumBushings>;
 inline constexpr BushingSet kEveryBushing = {true, true, true, true, true};
+
+// The fixture's axes a rig compliance gives on, as components
+// ("fixture:x"): the translations and the rotations about the rig's x and y
+// axes (a force acting above the wheel centre has no moment about z there).
+inline constexpr int kNumFixtureAxes = 5;
+inline constexpr std::string_view kFixtureComponent = "fixture:";
+inline constexpr std::array<std::string_view, kNumFixtureAxes>
+    kFixtureAxisNames = {"x", "y", "z", "rx", "ry"};
+using FixtureAxes = std::array<bool, kNumFixtureAxes>;
+inline constexpr FixtureAxes kTranslationalAxes = {true, true, true, false,
+                                                   false};
+// A sensor channel as a component: "sensor:" + kChannelNames.
+inline constexpr std::string_view kSensorComponent = "sensor:";
+using SensorChannels = std::array<bool, 6>;
 
 // Which effects the plant has and their parameters (SI). Defaults as in the
 // table above; `enabled` false means the nominal model. Templated on the
@@ -85,7 +108,9 @@ struct BasicPlantEffects {
   } actuator_lag;
   struct RigCompliance {
     bool enabled = false;
-    T k = T(5e7);  // mount stiffness per axis [N/m]
+    T k = T(5e7);      // mount stiffness per translational axis [N/m]
+    T k_rot = T(5e5);  // per rotational axis [N m/rad]
+    FixtureAxes at = kTranslationalAxes;
   } rig_compliance;
   struct SensorOffset {
     bool enabled = false;
@@ -93,6 +118,9 @@ struct BasicPlantEffects {
         (Vec6<T>() << T(1e-4), T(-1e-4), T(5e-5), T(2e-4), T(-2e-4), T(1e-4))
             .finished();
     T scale = T(1.03);
+    // m = scale * (y + mixing * y) + offset: per-channel gain errors on the
+    // diagonal, cross-axis couplings off it.
+    Mat6<T> mixing = Mat6<T>::Zero();
   } sensor_offset;
 
   bool any() const {
@@ -113,10 +141,14 @@ struct BasicPlantEffects {
                                  progressive_stiffness.at};
     out.actuator_lag = {actuator_lag.enabled, U(actuator_lag.tau),
                         U(actuator_lag.dead_time)};
-    out.rig_compliance = {rig_compliance.enabled, U(rig_compliance.k)};
+    out.rig_compliance = {rig_compliance.enabled, U(rig_compliance.k),
+                          U(rig_compliance.k_rot), rig_compliance.at};
     out.sensor_offset.enabled = sensor_offset.enabled;
     for (int k = 0; k < 6; ++k) {
       out.sensor_offset.offset(k) = U(sensor_offset.offset(k));
+      for (int j = 0; j < 6; ++j) {
+        out.sensor_offset.mixing(k, j) = U(sensor_offset.mixing(k, j));
+      }
     }
     out.sensor_offset.scale = U(sensor_offset.scale);
     return out;
@@ -127,9 +159,10 @@ using PlantEffects = BasicPlantEffects<double>;
 
 // Turns on one effect from "NAME" or "NAME:key=value,key=value" (keys as in
 // the table above: d; force, sigma; c3; tau, dead_time; k; x, y, z, toe,
-// camber, caster, scale; and `at` for the bushing effects). Errors are one line
-// naming the offending part (the caller leads them with where the text came
-// from: "--effect ").
+// camber, caster, scale; and `at` for the bushing effects and the rig
+// compliance; k_rot for the rig compliance's rotational axes). Errors are one
+// line naming the offending part (the caller leads them with where the text
+// came from: "--effect ").
 Status ParseEffect(std::string_view text, PlantEffects* effects);
 
 // Where a bushing effect of `e` acts; nullptr for the effects that are not
@@ -150,6 +183,12 @@ inline bool IsBushingEffect(std::string_view effect) {
 // the chassis-side names of kBushingChassisNames); errors are one line.
 Status ParseBushingSet(std::string_view text, BushingSet* set);
 std::string DescribeBushingSet(const BushingSet& set);
+// The same for fixture axes, "fixture:x+fixture:rx".
+Status ParseFixtureAxes(std::string_view text, FixtureAxes* axes);
+std::string DescribeFixtureAxes(const FixtureAxes& axes);
+// The same for sensor channels, "sensor:z+sensor:toe".
+Status ParseSensorChannels(std::string_view text, SensorChannels* channels);
+std::string DescribeSensorChannels(const SensorChannels& channels);
 
 // The enabled effects with all their parameters, in the --effect syntax
 // ("hysteresis:force=150,sigma=4e+07"), for sidecars and messages.

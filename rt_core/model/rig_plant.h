@@ -224,12 +224,20 @@ void BasicRigPlant<T, Model>::UpdateHysteresis() {
 template <typename T, typename Model>
 Vec6<T> BasicRigPlant<T, Model>::Sensed() const {
   Vec6<T> sensed = state_.y;
-  if (effects_.rig_compliance.enabled) {
-    sensed.template head<3>() += wheel_force_ / effects_.rig_compliance.k;
+  const auto& mount = effects_.rig_compliance;
+  if (mount.enabled) {
+    for (int axis = 0; axis < 3; ++axis) {
+      if (mount.at[axis]) sensed(axis) += wheel_force_(axis) / mount.k;
+    }
+    // The moment about the wheel centre of the force acting at z_a above
+    // it, (-z_a F_y, z_a F_x, 0): camber turns about x, caster about y.
+    if (mount.at[3]) sensed(4) -= z_a_ * wheel_force_(1) / mount.k_rot;
+    if (mount.at[4]) sensed(5) += z_a_ * wheel_force_(0) / mount.k_rot;
   }
-  if (effects_.sensor_offset.enabled) {
+  const auto& sensors = effects_.sensor_offset;
+  if (sensors.enabled) {
     sensed =
-        sensed * effects_.sensor_offset.scale + effects_.sensor_offset.offset;
+        (sensed + sensors.mixing * sensed) * sensors.scale + sensors.offset;
   }
   return sensed;
 }

@@ -330,10 +330,12 @@ class Plant:
         y = np.concatenate([x[0:3], cardan_angles(rotation)])
         for e in self.effects:
             if e["kind"] == "fixture":
-                # The clamped body gives under the reaction of the links.
+                # The clamped body gives under the reaction of the links:
+                # it turns by the rotation vector M / k_rot, which moves
+                # camber (about x), caster (about y) and toe (about z).
                 y[0:3] += self.ramp.force(t) / e["k"]
-                y[3:6] += np.cross(self.point,
-                                   self.ramp.force(t)) / e["k_rot"]
+                turn = np.cross(self.point, self.ramp.force(t)) / e["k_rot"]
+                y[3:6] += turn[[2, 0, 1]]
         return y
 
 
