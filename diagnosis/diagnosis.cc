@@ -754,9 +754,14 @@ class DiagnosisRun {
     if (!NarrowsFromAll(ClassOf(global->model))) {
       ExtendPlacement(*global, &placed, &tried);
     }
-    // The lower score; the global form when they tie.
-    const std::string best =
-        placed.score < global->score ? placed.model : global->model;
+    // The lower score; the global form when they tie. A fixture's
+    // placement must improve on the global form (its translational axes):
+    // it has a parameter more where it rotates, and the axes it drops are
+    // often only unloaded.
+    const bool replaces = NarrowsFromAll(ClassOf(global->model))
+                              ? Improves(placed, *global)
+                              : placed.score < global->score;
+    const std::string best = replaces ? placed.model : global->model;
     if (progress_.aborted()) return chosen;
     const bool decided = chosen != nullptr;  // `chosen` dangles after insert
     std::vector<CandidateScore>& ranking = result_->ranking;

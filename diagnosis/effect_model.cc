@@ -608,6 +608,9 @@ void EffectModel::Build(const T* theta, SuspensionParameters<T>* parameters,
                         BasicPlantEffects<T>* effects) const {
   *parameters = nominal_.Cast<T>();
   *effects = BasicPlantEffects<T>();
+  // A sensor error on single channels leaves the others exact.
+  effects->sensor_offset.offset.setZero();
+  effects->sensor_offset.scale = T(1);
   for (int i = 0; i < num_parameters(); ++i) {
     const EffectParameter& p = parameters_[i];
     const T value = T(p.base) + theta[i] * p.scale;

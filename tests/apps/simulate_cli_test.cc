@@ -185,7 +185,7 @@ TEST_F(SimulateCliTest, InconsistentRateAndEffectsFailCleanly) {
       "'force=-3': must be a finite number > 0");
   ExpectCleanFailure(
       RunKcrig("simulate --effect rig_compliance:q=3 --out " + Out()),
-      "unknown parameter of rig_compliance (one of k)");
+      "unknown parameter of rig_compliance (one of k, k_rot, at)");
   ExpectCleanFailure(RunKcrig("simulate --effect wobble --out " + Out()),
                      "unknown effect 'wobble'");
   ExpectCleanFailure(RunKcrig("simulate --config /nonexistent --out " + Out()),

@@ -169,11 +169,29 @@ def run_case(index, kind, arguments, kcrig, config, work):
         return {"index": index, "kind": kind, "error": "size: estimate failed"}
     closed = (diag.get("quantification") or {}).get("gap_closed")
     return {"index": index, "kind": kind, "arguments": arguments,
+            "truth_in_interval": truth_in_interval(arguments, diag),
             "size_sigma": size, "verdict": diag["verdict"],
             "model": diag.get("model", ""), "confidence": diag["confidence"],
             "components": diag.get("components", []), "gap_closed": closed,
             "reason": diag.get("reason", ""),
             "discrepancy": diag.get("discrepancy")}
+
+
+def truth_in_interval(arguments, diag):
+    """For a wrong "known" parameter (--set NAME=VALUE) that the verdict's
+    model frees: whether the true value lies in its 95 % interval; None
+    otherwise."""
+    if arguments[:1] != ["--set"]:
+        return None
+    name, value = arguments[1].split("=")
+    for candidate in diag.get("candidates", []):
+        if candidate["model"] != diag.get("model"):
+            continue
+        for p in candidate["parameters"]:
+            if p["name"] == f"model_parameter.{name}":
+                low, high = p["ci95"]
+                return low <= float(value) <= high
+    return None
 
 
 def effect_size(kcrig, config, case):
@@ -207,11 +225,20 @@ def confidently_wrong(result):
 
 
 def component_hit(result, component):
+    """Whether the verdict names the truth's component: the freed parameter;
+    the bushing or sensor channel (and nothing of another kind); for a
+    fixture, fixture axes only (axes the designs do not load may be left
+    out)."""
     if component is None:
         return None
     if result["kind"] in ("k_spring", "hard_point"):
         return f"model_parameter@{component}" in result["model"]
-    return component in result["components"]
+    named = result["components"]
+    kind = component.split(":")[0]
+    same_kind = bool(named) and all(c.split(":")[0] == kind for c in named)
+    if component == "fixture":
+        return same_kind
+    return component in named and same_kind
 
 
 def rate(hits, goal):
@@ -254,6 +281,10 @@ def summarise(results, components):
     print("wrong parameters >= 3x noise, right parameter named: " +
           rate([bool(component_hit(r, components[r["index"]]))
                 for r in wrong_parameter], 0.8))
+    named = [r for r in wrong_parameter
+             if component_hit(r, components[r["index"]])]
+    print("  named, the true value in its 95 % interval: " +
+          rate([bool(r.get("truth_in_interval")) for r in named], 0.9))
     clean = [r for r in results if r["kind"] == "clean" and "error" not in r]
     print("clean: none " + rate([r["verdict"] == "none" for r in clean],
                                 0.95))

@@ -214,6 +214,40 @@ TEST(PlantEffectsTest, RigComplianceAddsForceOverStiffnessToThePosition) {
   EXPECT_EQ((r.sensed[4000] - r.pose[4000]).tail<3>(), Vec3<double>::Zero());
 }
 
+TEST(PlantEffectsTest, RigComplianceOnRotationalAxesTurnsCamberAndCaster) {
+  // A force at z_a above the wheel centre has the moment (-z_a Fy, z_a Fx,
+  // 0) there; the fixture turns by it over k_rot about x (camber) and y
+  // (caster), and with only rotations placed the positions read true.
+  const Response r = Respond(
+      With("rig_compliance:k_rot=2e5,at=fixture:rx+fixture:ry"), Ramp(4), 4);
+  const double z_a = SourceConfig().experiment.z_a;
+  ASSERT_NE(z_a, 0);
+  for (int k : {1000, 4000}) {
+    const Vec6<double> reading = r.sensed[k] - r.pose[k];
+    const Vec3<double>& f = r.wheel_force[k];
+    EXPECT_EQ(reading.head<4>(), (Eigen::Vector4d::Zero()));
+    EXPECT_NEAR(reading(4), -z_a * f(1) / 2e5, 1e-15);
+    EXPECT_NEAR(reading(5), z_a * f(0) / 2e5, 1e-15);
+  }
+  // Well above the angle sensors' noise (0.01 deg).
+  EXPECT_GT(std::abs(r.sensed[4000](4) - r.pose[4000](4)), 3 * 1.7e-4);
+}
+
+TEST(PlantEffectsTest, SensorMixingIsAGainAndACouplingOnOneChannel) {
+  PlantEffects effects;
+  effects.sensor_offset.enabled = true;
+  effects.sensor_offset.offset.setZero();
+  effects.sensor_offset.scale = 1;
+  effects.sensor_offset.mixing(2, 2) = 0.05;   // gain error of z
+  effects.sensor_offset.mixing(2, 0) = -0.02;  // x coupled into z
+  const Response r = Respond(effects, Ramp(4), 4);
+  for (int k : {0, 4000}) {
+    Vec6<double> expected = r.pose[k];
+    expected(2) += 0.05 * r.pose[k](2) - 0.02 * r.pose[k](0);
+    EXPECT_LT((r.sensed[k] - expected).norm(), 1e-15);
+  }
+}
+
 TEST(PlantEffectsTest, SensorOffsetScalesAndShiftsEveryChannel) {
   const Response r = Respond(
       With("sensor_offset:x=1e-4,y=-2e-4,z=0,toe=3e-4,camber=0,caster=0,"
@@ -245,6 +279,15 @@ TEST(PlantEffectsTest, ParsesDefaultsOverridesAndDescribesThem) {
     ASSERT_TRUE(ParseEffect(text, &again).ok());
   }
   EXPECT_EQ(DescribeEffects(again), described);
+  // A rotating mount names its axes and k_rot; a translational one neither.
+  PlantEffects mounts;
+  ASSERT_TRUE(ParseEffect("rig_compliance:k=2e7", &mounts).ok());
+  EXPECT_EQ(DescribeEffects(mounts)[0], "rig_compliance:k=2e+07");
+  ASSERT_TRUE(
+      ParseEffect("rig_compliance:k_rot=3e5,at=fixture:y+fixture:rx", &mounts)
+          .ok());
+  EXPECT_EQ(DescribeEffects(mounts)[0],
+            "rig_compliance:k=2e+07,k_rot=300000,at=fixture:y+fixture:rx");
 
   // A placed effect keeps its place through the description.
   PlantEffects placed;
@@ -275,7 +318,11 @@ TEST(PlantEffectsTest, BadEffectTextIsAOneLineErrorAndChangesNothing) {
       {"hysteresis:at=bushing:X9", "unknown component 'bushing:X9'"},
       {"hysteresis:at=V1", "unknown component 'V1'"},
       {"progressive_stiffness:at=bushing:O1+", "unknown component ''"},
-      {"rig_compliance:at=bushing:V1", "unknown parameter of rig_compliance"},
+      {"rig_compliance:at=bushing:V1",
+       "unknown component 'bushing:V1' (fixture:x, fixture:y, fixture:z, "
+       "fixture:rx or fixture:ry, joined by +)"},
+      {"rig_compliance:at=fixture:rz", "unknown component 'fixture:rz'"},
+      {"rig_compliance:k_rot=0", "must be a finite number > 0"},
       {"hysteresis:force=-1", "must be a finite number > 0"},
       {"actuator_lag:dead_time=-0.1", "must be a finite number >= 0"},
       {"rig_compliance:k=nan", "must be a finite number > 0"},
