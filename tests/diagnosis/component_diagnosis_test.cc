@@ -1,5 +1,6 @@
 // The diagnosis names the component: a bushing effect in one bushing is
-// placed there (diagnosis.h: place_components). Long enough logs to tell a
+// placed there, a fixture's compliance on its axes, a sensor error on its
+// channel (diagnosis.h: place_components). Long enough logs to tell a
 // rate-independent loop from damping: too slow for the sanitizers' CI tier
 // (label ci-heavy).
 #include <algorithm>
@@ -57,6 +58,82 @@ TEST_F(ComponentDiagnosisTest, AWornBushingIsNamedAsOneComponent) {
     if (p.name != "hysteresis.force") continue;
     EXPECT_LT(std::abs(p.value - 600), 4 * p.standard_error + 30) << p.value;
   }
+}
+
+// The plant's `effects` diagnosed from the blind tiers' three ramps.
+DiagnosisResult DiagnosedPlant(const KcrigConfig& config,
+                               const PlantEffects& effects) {
+  auto log = [&](double phi, double z_a, std::uint64_t seed) {
+    return PlantExperiment(config, config.model, effects,
+                           {phi * kDegree, z_a, 4000, 2.0, 0.3, 1.7}, seed);
+  };
+  DiagnosisResult r;
+  const Status status = Diagnose(
+      config.model, {log(85, -0.45, 21), log(20, -0.1, 22)},
+      {log(50, -0.3, 23)}, DiagnosisOptions(), config.experiment.step, &r);
+  EXPECT_TRUE(status.ok()) << status.message();
+  std::printf("  verdict %s (%s): %s\n", r.verdict.c_str(), r.model.c_str(),
+              r.reason.c_str());
+  return r;
+}
+
+// The estimate of `name` in the verdict's model; fails the test without it.
+ParameterEstimate ChosenParameter(const DiagnosisResult& r,
+                                  const std::string& name) {
+  for (const CandidateScore& s : r.ranking) {
+    if (s.model != r.model) continue;
+    for (const ParameterEstimate& p : s.fit.result.parameters) {
+      if (p.name == name) return p;
+    }
+  }
+  ADD_FAILURE() << name << " is not in " << r.model;
+  return {};
+}
+
+// A fixture that gives in translation and turns under the force's moment:
+// the global (translational) form explains it badly; the placement names
+// the fixture's axes, the rotations among them, and recovers k_rot.
+TEST_F(ComponentDiagnosisTest, ARotatingFixtureIsNamedOnItsAxes) {
+  PlantEffects effects;
+  ASSERT_TRUE(ParseEffect("rig_compliance:k=2e7,k_rot=3e5,at=fixture:x+"
+                          "fixture:y+fixture:z+fixture:rx+fixture:ry",
+                          &effects)
+                  .ok());
+  const DiagnosisResult r = DiagnosedPlant(config_, effects);
+  EXPECT_EQ(r.verdict, "rig_compliance") << r.reason;
+  EXPECT_EQ(r.confidence, "high");
+  for (const std::string& c : r.components) {
+    EXPECT_EQ(c.rfind("fixture:", 0), 0u) << c;
+  }
+  for (const char* axis :
+       {"fixture:x", "fixture:y", "fixture:rx", "fixture:ry"}) {
+    EXPECT_NE(std::find(r.components.begin(), r.components.end(), axis),
+              r.components.end())
+        << axis;
+  }
+  const ParameterEstimate p =
+      ChosenParameter(r, "rig_compliance.rotational_compliance");
+  EXPECT_LE(p.ci95_low, 1 / 3e5);
+  EXPECT_GE(p.ci95_high, 1 / 3e5);
+}
+
+// One sensor channel's gain and a coupling from another channel of its
+// kind: named on that channel alone, the gain inside its interval.
+TEST_F(ComponentDiagnosisTest, OneSensorsGainIsNamedOnItsChannel) {
+  PlantEffects effects;
+  effects.sensor_offset.enabled = true;
+  effects.sensor_offset.offset.setZero();
+  effects.sensor_offset.scale = 1;
+  effects.sensor_offset.mixing(4, 4) = 0.04;  // camber reads 4 % high
+  effects.sensor_offset.mixing(4, 5) = 0.03;  // and sees caster
+  const DiagnosisResult r = DiagnosedPlant(config_, effects);
+  EXPECT_EQ(r.verdict, "sensor_offset") << r.reason;
+  EXPECT_EQ(r.model, "sensor_offset@sensor:camber");
+  EXPECT_EQ(r.components, std::vector<std::string>{"sensor:camber"});
+  const ParameterEstimate gain =
+      ChosenParameter(r, "sensor_offset.gain_camber");
+  EXPECT_LE(gain.ci95_low, 0.04);
+  EXPECT_GE(gain.ci95_high, 0.04);
 }
 
 // Wrong "known" parameters (diagnosis.h: model_parameter_pool): logs of a

@@ -66,19 +66,17 @@ inline Experiment SyntheticExperiment(const KcrigConfig& config,
 }
 
 // An experiment of the software rig's plant (`kcrig simulate`'s
-// SimulateRun: `plant` with the unmodelled effect `effect`, "" for none)
-// under `ramp`, with sensor noise from `seed`. Needs kcrig_emulator.
+// SimulateRun: `plant` with the unmodelled `effects`) under `ramp`, with
+// sensor noise from `seed`. Needs kcrig_emulator.
 inline Experiment PlantExperiment(const KcrigConfig& config,
                                   const SuspensionParameters<double>& plant,
-                                  const std::string& effect,
+                                  const PlantEffects& effects,
                                   const RampExcitation<double>& ramp,
                                   std::uint64_t seed) {
   SimulatedRunOptions options;
   options.noise = true;
   options.seed = seed;
-  if (!effect.empty()) {
-    EXPECT_TRUE(ParseEffect(effect, &options.effects).ok()) << effect;
-  }
+  options.effects = effects;
   RunLog log;
   Status status = SimulateRun(plant, ramp, config.experiment, options, &log);
   EXPECT_TRUE(status.ok()) << status.message();
@@ -86,6 +84,19 @@ inline Experiment PlantExperiment(const KcrigConfig& config,
   status = MakeExperiment("plant", log, config.experiment.step, &experiment);
   EXPECT_TRUE(status.ok()) << status.message();
   return experiment;
+}
+
+// The same with the effect given as `--effect` text ("" for none).
+inline Experiment PlantExperiment(const KcrigConfig& config,
+                                  const SuspensionParameters<double>& plant,
+                                  const std::string& effect,
+                                  const RampExcitation<double>& ramp,
+                                  std::uint64_t seed) {
+  PlantEffects effects;
+  if (!effect.empty()) {
+    EXPECT_TRUE(ParseEffect(effect, &effects).ok()) << effect;
+  }
+  return PlantExperiment(config, plant, effects, ramp, seed);
 }
 
 // Truth values that differ per bushing, 3.6e6 .. 4.4e6 N/m.
