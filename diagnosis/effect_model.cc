@@ -115,7 +115,11 @@ std::vector<EffectParameter> ParametersOf(
             {effect, "sigma", "N/m", 0, 4e7, 1e6, 1e9, 4e7, {4e7, 1e7}}};
   }
   if (effect == "progressive_stiffness") {
-    return {{effect, "c3", "N/m^3", 0, 4e11, -2e13, 2e13, 0, {0}}};
+    // Symmetric (c3 d^3, c2 |d| d) and asymmetric (a2 d^2) stiffening:
+    // rubber often stiffens more one way than the other.
+    return {{effect, "c3", "N/m^3", 0, 4e11, -2e13, 2e13, 0, {0}},
+            {effect, "c2", "N/m^2", 0, 1e10, -1e12, 1e12, 0, {0}},
+            {effect, "a2", "N/m^2", 0, 1e10, -1e12, 1e12, 0, {0}}};
   }
   if (effect == "actuator_lag") {
     return {{effect, "tau", "s", 0, 0.05, 2e-4, 0.5, 0.005, {0.03}},
@@ -173,7 +177,10 @@ void SetEffectParameter(const EffectParameter& p, const T& value,
     (n == "force" ? e->hysteresis.force : e->hysteresis.sigma) = value;
   } else if (p.effect == "progressive_stiffness") {
     e->progressive_stiffness.enabled = true;
-    e->progressive_stiffness.c3 = value;
+    auto& stiffening = e->progressive_stiffness;
+    (n == "c3"   ? stiffening.c3
+     : n == "c2" ? stiffening.c2
+                 : stiffening.a2) = value;
   } else if (p.effect == "actuator_lag") {
     e->actuator_lag.enabled = true;
     (n == "tau" ? e->actuator_lag.tau : e->actuator_lag.dead_time) = value;

@@ -25,7 +25,9 @@ std::vector<Key> KeysOf(std::string_view effect, PlantEffects* e) {
             {"sigma", &e->hysteresis.sigma, kPositive}};
   }
   if (effect == "progressive_stiffness") {
-    return {{"c3", &e->progressive_stiffness.c3, kAnyFinite}};
+    return {{"c3", &e->progressive_stiffness.c3, kAnyFinite},
+            {"c2", &e->progressive_stiffness.c2, kAnyFinite},
+            {"a2", &e->progressive_stiffness.a2, kAnyFinite}};
   }
   if (effect == "actuator_lag") {
     return {{"tau", &e->actuator_lag.tau, kPositive},
@@ -232,8 +234,10 @@ std::vector<std::string> DescribeEffects(const PlantEffects& effects) {
     const FixtureAxes& axes = copy.rig_compliance.at;
     const bool rotates = axes[3] || axes[4];
     for (const Key& k : KeysOf(name, &copy)) {
-      // A mount that does not rotate says so by leaving k_rot out.
+      // A mount that does not rotate says so by leaving k_rot out, a
+      // purely cubic stiffening by leaving c2 and a2 out.
       if (k.name == "k_rot" && !rotates) continue;
+      if ((k.name == "c2" || k.name == "a2") && *k.value == 0) continue;
       char value[32];
       std::snprintf(value, sizeof(value), "%.6g", *k.value);
       text += separator + std::string(k.name) + "=" + value;

@@ -14,8 +14,12 @@
 //                          solved exactly per step; rate-independent,
 //                          |h| < F.                     force F [N] = 400,
 //                                                       sigma [N/m] = 4e7
-//   progressive_stiffness  cubic rubber stiffening: every bushing's axial
-//                          force gains c3 (l - l0)^3.   c3 [N/m^3] = 4e11
+//   progressive_stiffness  rubber stiffening: every bushing's axial force
+//                          gains, with d = l - l0, c3 d^3 + c2 |d| d
+//                          (symmetric) + a2 d^2 (asymmetric: stiffer one
+//                          way; stiffening in extension only is c2 = a2).
+//                                                       c3 [N/m^3] = 4e11,
+//                                                       c2, a2 [N/m^2] = 0
 //   actuator_lag           the force acting on the wheel follows the logged
 //                          (load-cell) force through a dead time and a
 //                          first-order lag (load cell at the actuator, fixture
@@ -99,6 +103,8 @@ struct BasicPlantEffects {
   struct ProgressiveStiffness {
     bool enabled = false;
     T c3 = T(4e11);  // [N/m^3]; negative: softening
+    T c2 = T(0);     // [N/m^2]; |d| d, symmetric
+    T a2 = T(0);     // [N/m^2]; d^2: stiffer in extension when positive
     BushingSet at = kEveryBushing;
   } progressive_stiffness;
   struct ActuatorLag {
@@ -136,9 +142,10 @@ struct BasicPlantEffects {
                            bushing_damping.at};
     out.hysteresis = {hysteresis.enabled, U(hysteresis.force),
                       U(hysteresis.sigma), hysteresis.at};
-    out.progressive_stiffness = {progressive_stiffness.enabled,
-                                 U(progressive_stiffness.c3),
-                                 progressive_stiffness.at};
+    out.progressive_stiffness = {
+        progressive_stiffness.enabled, U(progressive_stiffness.c3),
+        U(progressive_stiffness.c2), U(progressive_stiffness.a2),
+        progressive_stiffness.at};
     out.actuator_lag = {actuator_lag.enabled, U(actuator_lag.tau),
                         U(actuator_lag.dead_time)};
     out.rig_compliance = {rig_compliance.enabled, U(rig_compliance.k),
@@ -158,8 +165,8 @@ struct BasicPlantEffects {
 using PlantEffects = BasicPlantEffects<double>;
 
 // Turns on one effect from "NAME" or "NAME:key=value,key=value" (keys as in
-// the table above: d; force, sigma; c3; tau, dead_time; k; x, y, z, toe,
-// camber, caster, scale; and `at` for the bushing effects and the rig
+// the table above: d; force, sigma; c3, c2, a2; tau, dead_time; k; x, y, z,
+// toe, camber, caster, scale; and `at` for the bushing effects and the rig
 // compliance; k_rot for the rig compliance's rotational axes). Errors are one
 // line naming the offending part (the caller leads them with where the text
 // came from: "--effect ").

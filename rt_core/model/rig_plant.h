@@ -125,13 +125,16 @@ BasicRigPlant<T, Model>::BasicRigPlant(
   using std::exp;
   using std::expm1;
   if (effects_.progressive_stiffness.enabled) {
-    std::array<T, kNumBushings> cubic;
-    for (int i = 0; i < kNumBushings; ++i) {
-      cubic[i] = effects_.progressive_stiffness.at[i]
-                     ? effects_.progressive_stiffness.c3
-                     : T(0);
+    const auto& stiffening = effects_.progressive_stiffness;
+    const T per_term[kStiffeningTerms] = {stiffening.c3, stiffening.c2,
+                                          stiffening.a2};
+    typename SuspensionModel<T>::StiffeningCoefficients coefficients{};
+    for (int t = 0; t < kStiffeningTerms; ++t) {
+      for (int i = 0; i < kNumBushings; ++i) {
+        coefficients[t][i] = stiffening.at[i] ? per_term[t] : T(0);
+      }
     }
-    model_.SetProgressiveStiffness(cubic);
+    model_.SetProgressiveStiffness(coefficients);
   }
   size_t delay_steps = 0;
   if (effects_.actuator_lag.enabled) {

@@ -44,6 +44,20 @@ double ValueOf(const T& x) {
   }
 }
 
+// A bushing's progressive stiffening terms per unit coefficient at
+// deflection d = l - l0 and their slopes: d^3 and |d| d stiffen both ways
+// (symmetric), d^2 one way and softens the other (asymmetric; a
+// stiffening in extension only is (d^2 + |d| d) / 2).
+inline constexpr int kStiffeningTerms = 3;
+template <typename T>
+void StiffeningTerms(const T& d, std::array<T, kStiffeningTerms>* terms,
+                     std::array<T, kStiffeningTerms>* slopes) {
+  const double sign = ValueOf(d) < 0 ? -1.0 : 1.0;
+  const T squared = d * d;
+  *terms = {squared * d, sign * squared, squared};
+  *slopes = {T(3) * squared, T(2 * sign) * d, T(2) * d};
+}
+
 // The force the rig applies to the wheel.
 template <typename T>
 struct RigLoad {
@@ -108,7 +122,8 @@ class SuspensionModel {
   // dQ/d of what Q is linear in besides: the effect hooks of each bushing
   // (SetProgressiveStiffness, SetExtraBushingForce) and the load.
   struct HookAndLoadJacobian {
-    Eigen::Matrix<T, 6, kNumBushings> cubic_stiffness;
+    // One matrix per stiffening term (StiffeningTerms).
+    std::array<Eigen::Matrix<T, 6, kNumBushings>, kStiffeningTerms> stiffening;
     Eigen::Matrix<T, 6, kNumBushings> extra_force;
     Eigen::Matrix<T, 6, kNumBushings> extra_stiffness;
     Eigen::Matrix<T, 6, kNumBushings> extra_reference;
@@ -179,8 +194,11 @@ class SuspensionModel {
       }
       if (hook_jacobian != nullptr && i < kNumBushings) {
         const T deflection = length - free_length_[i];
-        hook_jacobian->cubic_stiffness.col(i) =
-            (deflection * deflection * deflection) * a;
+        std::array<T, kStiffeningTerms> terms, slopes;
+        StiffeningTerms(deflection, &terms, &slopes);
+        for (int t = 0; t < kStiffeningTerms; ++t) {
+          hook_jacobian->stiffening[t].col(i) = terms[t] * a;
+        }
         hook_jacobian->extra_force.col(i) = a;
         hook_jacobian->extra_stiffness.col(i) =
             (deflection - extra_.reference[i]) * a;
@@ -239,8 +257,9 @@ class SuspensionModel {
   }
 
   // Unmodelled-effect hooks of the plant (rt_core/model/rig_plant.h); both zero
-  // in the nominal model. A cubic term c3 (l - l0)^3 on each bushing's axial
-  // force (progressive rubber stiffness; in Q and its Jacobian), and an extra
+  // in the nominal model. Stiffening terms on each bushing's axial force
+  // (progressive rubber stiffness; in Q and its Jacobian: StiffeningTerms,
+  // one coefficient per term and bushing), and an extra
   // axial force per bushing, linearised about a reference deflection
   // (hysteresis, whose state the plant updates after each step; the tangent
   // keeps the semi-implicit step stable when it is stiff).
@@ -249,9 +268,10 @@ class SuspensionModel {
     std::array<T, kNumBushings> stiffness{};  // tangent [N/m]
     std::array<T, kNumBushings> reference{};  // deflection l - l0 [m]
   };
-  void SetProgressiveStiffness(
-      const std::array<T, kNumBushings>& cubic_stiffness) {
-    cubic_stiffness_ = cubic_stiffness;
+  using StiffeningCoefficients =
+      std::array<std::array<T, kNumBushings>, kStiffeningTerms>;
+  void SetProgressiveStiffness(const StiffeningCoefficients& coefficients) {
+    stiffening_ = coefficients;
   }
   void SetExtraBushingForce(const ExtraBushingForce& extra) { extra_ = extra; }
 
@@ -331,12 +351,15 @@ class SuspensionModel {
     s.magnitude = e.stiffness * deflection - e.damping * s.a.dot(z);
     s.tangent_stiffness = e.stiffness;
     if (i < kNumBushings) {
-      const T squared = deflection * deflection;
-      s.magnitude += cubic_stiffness_[i] * squared * deflection +
-                     extra_.force[i] +
+      std::array<T, kStiffeningTerms> terms, slopes;
+      StiffeningTerms(deflection, &terms, &slopes);
+      for (int t = 0; t < kStiffeningTerms; ++t) {
+        s.magnitude += stiffening_[t][i] * terms[t];
+        s.tangent_stiffness += stiffening_[t][i] * slopes[t];
+      }
+      s.magnitude += extra_.force[i] +
                      extra_.stiffness[i] * (deflection - extra_.reference[i]);
-      s.tangent_stiffness +=
-          T(3) * cubic_stiffness_[i] * squared + extra_.stiffness[i];
+      s.tangent_stiffness += extra_.stiffness[i];
     }
     return s;
   }
@@ -345,7 +368,7 @@ class SuspensionModel {
   std::array<T, kNumElements> free_length_;
   std::array<Mat3<T>, kNumElements> skew_carrier_point_;
   Mat6<T> mass_matrix_;
-  std::array<T, kNumBushings> cubic_stiffness_{};
+  StiffeningCoefficients stiffening_{};
   ExtraBushingForce extra_;
 };
 

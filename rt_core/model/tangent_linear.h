@@ -75,20 +75,22 @@ class TangentLinearModel {
 
   // The effect hooks of SuspensionModel, on every evaluation it keeps.
   void SetProgressiveStiffness(
-      const std::array<J, kNumBushings>& cubic_stiffness) {
-    std::array<double, kNumBushings> value;
-    std::array<Second, kNumBushings> second;
-    std::array<Dual<double>, kNumBushings> directional;
-    cubic_tangents_ = false;
-    for (int i = 0; i < kNumBushings; ++i) {
-      value[i] = cubic_stiffness[i].a;
-      second[i] = Second(cubic_stiffness[i], J(0.0));
-      directional[i] = Dual<double>(value[i]);
-      cubic_tangents_ = cubic_tangents_ || Carries(cubic_stiffness[i]);
-      hook_tangents_.cubic_stiffness.row(i) = cubic_stiffness[i].v.transpose();
+      const typename SuspensionModel<J>::StiffeningCoefficients& c) {
+    typename SuspensionModel<double>::StiffeningCoefficients value;
+    typename SuspensionModel<Second>::StiffeningCoefficients second;
+    typename SuspensionModel<Dual<double>>::StiffeningCoefficients directional;
+    progressive_tangents_ = false;
+    for (int t = 0; t < kStiffeningTerms; ++t) {
+      for (int i = 0; i < kNumBushings; ++i) {
+        value[t][i] = c[t][i].a;
+        second[t][i] = Second(c[t][i], J(0.0));
+        directional[t][i] = Dual<double>(value[t][i]);
+        progressive_tangents_ = progressive_tangents_ || Carries(c[t][i]);
+        hook_tangents_.stiffening[t].row(i) = c[t][i].v.transpose();
+      }
     }
     values_.SetProgressiveStiffness(value);
-    jets_.SetProgressiveStiffness(cubic_stiffness);
+    jets_.SetProgressiveStiffness(c);
     second_.SetProgressiveStiffness(second);
     directional_.SetProgressiveStiffness(directional);
   }
@@ -249,10 +251,12 @@ class TangentLinearModel {
   // do, and the tangents of what Q and M are linear in: row i the element's
   // (bushings, then the spring-damper), the hooks' row i the bushing's.
   bool hard_point_tangents_ = false;
-  bool cubic_tangents_ = false;
+  bool progressive_tangents_ = false;
   bool extra_tangents_ = false;
   struct HookTangents {
-    Eigen::Matrix<double, kNumBushings, kDirections> cubic_stiffness;
+    std::array<Eigen::Matrix<double, kNumBushings, kDirections>,
+               kStiffeningTerms>
+        stiffening;
     Eigen::Matrix<double, kNumBushings, kDirections> extra_force;
     Eigen::Matrix<double, kNumBushings, kDirections> extra_stiffness;
     Eigen::Matrix<double, kNumBushings, kDirections> extra_reference;
@@ -341,7 +345,7 @@ TangentLinearModel<J>::RightHandSideByDirectionalJacobians(
   GeneralizedForce<D> g_dual;
   typename SuspensionModel<D>::LinearParameterJacobian p_dual;
   typename SuspensionModel<D>::HookAndLoadJacobian hook_dual;
-  const bool hooks = cubic_tangents_ || extra_tangents_ || load_tangents;
+  const bool hooks = progressive_tangents_ || extra_tangents_ || load_tangents;
   directional_.Evaluate(load_dual, y_dual, z_dual, true, &g_dual, &p_dual,
                         hooks ? &hook_dual : nullptr);
 
@@ -368,10 +372,10 @@ TangentLinearModel<J>::RightHandSideByDirectionalJacobians(
       combined(p_dual.damping).eval().lazyProduct(damping_tangents_);
   rhs.noalias() +=
       combined(p_dual.inertia).eval().lazyProduct(inertia_tangents_);
-  if (cubic_tangents_) {
-    rhs.noalias() += combined(hook_dual.cubic_stiffness)
+  for (int t = 0; t < kStiffeningTerms && progressive_tangents_; ++t) {
+    rhs.noalias() += combined(hook_dual.stiffening[t])
                          .eval()
-                         .lazyProduct(hook_tangents_.cubic_stiffness);
+                         .lazyProduct(hook_tangents_.stiffening[t]);
   }
   if (extra_tangents_) {
     rhs.noalias() += combined(hook_dual.extra_force)

@@ -260,7 +260,12 @@ int SeedEffect(const std::string& effect, bool seed_effect,
     seed(&e->hysteresis.sigma);
   } else if (effect == "progressive_stiffness") {
     e->progressive_stiffness.enabled = true;
+    // Symmetric and asymmetric terms, within the deflections of the ramp.
+    e->progressive_stiffness.c2 = Jet8(2e8);
+    e->progressive_stiffness.a2 = Jet8(-3e8);
     seed(&e->progressive_stiffness.c3);
+    seed(&e->progressive_stiffness.c2);
+    seed(&e->progressive_stiffness.a2);
   } else if (effect == "actuator_lag") {
     e->actuator_lag.enabled = true;
     seed(&e->actuator_lag.tau);
