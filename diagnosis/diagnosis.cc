@@ -713,7 +713,8 @@ class DiagnosisRun {
 
   // Stage 6: effects placed on the components they act in
   // (DiagnosisOptions::place_components; PlaceableComponents: bushings,
-  // fixture axes, sensor channels): the chosen one when it is placeable,
+  // fixture axes, actuator axes, sensor channels): the chosen one when it is
+  // placeable,
   // else, with nothing chosen, every placeable effect (a worn bushing is one
   // component: the effect in all five explains it badly, and how badly says
   // little about which effect it is). Placed models start from their
@@ -840,14 +841,18 @@ class DiagnosisRun {
 
   // Forward selection of the components `global`'s effect acts on, from
   // `placed` (its best single component): add the component that improves
-  // the score most while it Improves it, short of all of a bushing effect's
-  // five (that is `global`) and within a candidate's parameters. Every fit
-  // joins `tried`.
+  // the score most while it Improves it, short of every component where
+  // that is `global`, and within a candidate's parameters. Every fit joins
+  // `tried`.
   void ExtendPlacement(const CandidateScore& global, CandidateScore* placed,
                        std::vector<CandidateScore>* tried) {
     const std::string effect = ClassOf(global.model);
+    // A bushing effect's or an actuator lag's global form acts on every
+    // component: the selection stops short of it.
+    const bool global_is_every =
+        IsBushingEffect(effect) || effect == "actuator_lag";
     const size_t most =
-        PlaceableComponents(effect).size() - (IsBushingEffect(effect) ? 1 : 0);
+        PlaceableComponents(effect).size() - (global_is_every ? 1 : 0);
     for (std::vector<std::string> set = ModelComponents(placed->model);
          set.size() < most; set = ModelComponents(placed->model)) {
       std::vector<CandidateScore> scores = FitPlacements(global, set);

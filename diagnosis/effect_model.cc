@@ -349,6 +349,7 @@ std::vector<std::string> SplitModelName(const std::string& name) {
     const std::string part = name.substr(begin, end - begin);
     const bool component = part.rfind(kBushingComponent, 0) == 0 ||
                            part.rfind(kFixtureComponent, 0) == 0 ||
+                           part.rfind(kActuatorComponent, 0) == 0 ||
                            part.rfind(kSensorComponent, 0) == 0;
     if (component && !effects.empty()) {
       effects.back() += "+" + part;
@@ -401,6 +402,12 @@ Status ParsePlacedEffect(const std::string& effect, std::string* name,
     *target = DescribeFixtureAxes(axes);
     return Status::Ok();
   }
+  if (*name == "actuator_lag") {
+    ActuatorAxes axes;
+    KCRIG_RETURN_IF_ERROR(ParseActuatorAxes(place, &axes));
+    *target = DescribeActuatorAxes(axes);
+    return Status::Ok();
+  }
   if (*name == "sensor_offset") {
     SensorChannels channels;
     KCRIG_RETURN_IF_ERROR(ParseSensorChannels(place, &channels));
@@ -410,8 +417,8 @@ Status ParsePlacedEffect(const std::string& effect, std::string* name,
   if (!IsBushingEffect(*name)) {
     return Status::Error(
         "bushing_damping, hysteresis and progressive_stiffness are placed on "
-        "bushings, rig_compliance on fixture axes, sensor_offset on sensor "
-        "channels; " +
+        "bushings, rig_compliance on fixture axes, actuator_lag on actuator "
+        "axes, sensor_offset on sensor channels; " +
         *name + " is not placed");
   }
   return ParseBushingSet(place, at);
@@ -525,6 +532,10 @@ std::vector<std::string> PlaceableComponents(std::string_view effect) {
     for (std::string_view axis : kFixtureAxisNames) {
       components.push_back(std::string(kFixtureComponent) + std::string(axis));
     }
+  } else if (effect == "actuator_lag") {
+    for (std::string_view axis : kActuatorAxisNames) {
+      components.push_back(std::string(kActuatorComponent) + std::string(axis));
+    }
   } else if (effect == "sensor_offset") {
     for (const char* channel : kChannelNames) {
       components.push_back(std::string(kSensorComponent) + channel);
@@ -551,6 +562,9 @@ std::vector<std::string> ModelComponents(const std::string& name) {
       text = ComponentOfParameter(targets[e]);
     } else if (effects[e] == "rig_compliance") {
       text = targets[e].empty() ? DescribeFixtureAxes(kTranslationalAxes)
+                                : targets[e];
+    } else if (effects[e] == "actuator_lag") {
+      text = targets[e].empty() ? DescribeActuatorAxes(kEveryActuator)
                                 : targets[e];
     } else if (effects[e] == "sensor_offset") {
       text = targets[e].empty()
@@ -635,6 +649,9 @@ void EffectModel::Build(const T* theta, SuspensionParameters<T>* parameters,
     }
     if (effects_[e] == "rig_compliance" && !targets_[e].empty()) {
       ParseFixtureAxes(targets_[e], &effects->rig_compliance.at);
+    }
+    if (effects_[e] == "actuator_lag" && !targets_[e].empty()) {
+      ParseActuatorAxes(targets_[e], &effects->actuator_lag.at);
     }
   }
 }

@@ -156,15 +156,15 @@ Status ParseModelName(const std::string& name,
 
 // The components an effect class can be placed on, in the vocabulary's
 // order: the bushings for the bushing effects, the fixture axes for
-// rig_compliance, the sensor channels for sensor_offset; none for the
-// others.
+// rig_compliance, the actuator axes for actuator_lag, the sensor channels
+// for sensor_offset; none for model_parameter.
 std::vector<std::string> PlaceableComponents(std::string_view effect);
 
 // The components a model acts on, each once, in the order of its effects:
 // a placed effect's own, an unplaced one's where its global form acts
-// (every bushing; the translational fixture axes; every sensor channel),
-// a freed parameter's component (ComponentOfParameter). Empty for the
-// nominal model, actuator_lag, or a name that does not parse.
+// (every bushing; the translational fixture axes; every actuator axis; every
+// sensor channel), a freed parameter's component (ComponentOfParameter).
+// Empty for the nominal model or a name that does not parse.
 std::vector<std::string> ModelComponents(const std::string& name);
 
 // What the sensors of the candidate read for one experiment at the physical

@@ -149,6 +149,15 @@ std::string DescribeFixtureAxes(const FixtureAxes& axes) {
   return DescribeComponents(kFixtureComponent, kFixtureAxisNames, axes);
 }
 
+Status ParseActuatorAxes(std::string_view text, ActuatorAxes* axes) {
+  return ParseComponents(text, kActuatorComponent, kActuatorAxisNames,
+                         "actuator:x, actuator:y or actuator:z", axes);
+}
+
+std::string DescribeActuatorAxes(const ActuatorAxes& axes) {
+  return DescribeComponents(kActuatorComponent, kActuatorAxisNames, axes);
+}
+
 Status ParseSensorChannels(std::string_view text, SensorChannels* channels) {
   return ParseComponents(text, kSensorComponent, ChannelNames(),
                          "sensor:x, sensor:y, sensor:z, sensor:toe, "
@@ -186,10 +195,12 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
     const std::string value_text(item.substr(equals + 1));
     BushingSet* at = PlacementOf(name, &parsed);
     const bool fixture = name == "rig_compliance";
-    if (key == "at" && (at != nullptr || fixture)) {
+    const bool actuator = name == "actuator_lag";
+    if (key == "at" && (at != nullptr || fixture || actuator)) {
       const Status status =
-          fixture ? ParseFixtureAxes(value_text, &parsed.rig_compliance.at)
-                  : ParseBushingSet(value_text, at);
+          fixture    ? ParseFixtureAxes(value_text, &parsed.rig_compliance.at)
+          : actuator ? ParseActuatorAxes(value_text, &parsed.actuator_lag.at)
+                     : ParseBushingSet(value_text, at);
       if (!status.ok()) return Status::Error(where + ": " + status.message());
       continue;
     }
@@ -202,7 +213,7 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
       for (const Key& k : keys) {
         allowed += (allowed.empty() ? "" : ", ") + std::string(k.name);
       }
-      if (at != nullptr || fixture) allowed += ", at";
+      if (at != nullptr || fixture || actuator) allowed += ", at";
       return Status::Error(where + ": unknown parameter of " +
                            std::string(name) + " (one of " + allowed + ")");
     }
@@ -249,6 +260,9 @@ std::vector<std::string> DescribeEffects(const PlantEffects& effects) {
     }
     if (name == "rig_compliance" && axes != kTranslationalAxes) {
       text += ",at=" + DescribeFixtureAxes(axes);
+    }
+    if (name == "actuator_lag" && copy.actuator_lag.at != kEveryActuator) {
+      text += ",at=" + DescribeActuatorAxes(copy.actuator_lag.at);
     }
     out.push_back(text);
   }

@@ -46,7 +46,8 @@
 // The three bushing effects act in every bushing unless `at` places them
 // (`at=bushing:V1`, `at=bushing:O1+bushing:O2`): a worn bushing is one
 // component, not the whole axle. rig_compliance acts on the translational
-// axes unless `at` places it (`at=fixture:x+fixture:rx`).
+// axes unless `at` places it (`at=fixture:x+fixture:rx`), actuator_lag on
+// every force axis unless `at` places it (`at=actuator:y`: one actuator).
 #ifndef KCRIG_RT_CORE_MODEL_PLANT_EFFECTS_H_
 #define KCRIG_RT_CORE_MODEL_PLANT_EFFECTS_H_
 
@@ -79,6 +80,14 @@ inline constexpr std::array<std::string_view, kNumFixtureAxes>
 using FixtureAxes = std::array<bool, kNumFixtureAxes>;
 inline constexpr FixtureAxes kTranslationalAxes = {true, true, true, false,
                                                    false};
+// The actuators' axes an actuator lag acts on, as components ("actuator:x";
+// the rig's force channels).
+inline constexpr int kNumActuatorAxes = 3;
+inline constexpr std::string_view kActuatorComponent = "actuator:";
+inline constexpr std::array<std::string_view, kNumActuatorAxes>
+    kActuatorAxisNames = {"x", "y", "z"};
+using ActuatorAxes = std::array<bool, kNumActuatorAxes>;
+inline constexpr ActuatorAxes kEveryActuator = {true, true, true};
 // A sensor channel as a component: "sensor:" + kChannelNames.
 inline constexpr std::string_view kSensorComponent = "sensor:";
 using SensorChannels = std::array<bool, 6>;
@@ -111,6 +120,7 @@ struct BasicPlantEffects {
     bool enabled = false;
     T tau = T(0.05);        // first-order time constant [s]
     T dead_time = T(0.01);  // [s]
+    ActuatorAxes at = kEveryActuator;
   } actuator_lag;
   struct RigCompliance {
     bool enabled = false;
@@ -147,7 +157,7 @@ struct BasicPlantEffects {
         U(progressive_stiffness.c2), U(progressive_stiffness.a2),
         progressive_stiffness.at};
     out.actuator_lag = {actuator_lag.enabled, U(actuator_lag.tau),
-                        U(actuator_lag.dead_time)};
+                        U(actuator_lag.dead_time), actuator_lag.at};
     out.rig_compliance = {rig_compliance.enabled, U(rig_compliance.k),
                           U(rig_compliance.k_rot), rig_compliance.at};
     out.sensor_offset.enabled = sensor_offset.enabled;
@@ -193,6 +203,9 @@ std::string DescribeBushingSet(const BushingSet& set);
 // The same for fixture axes, "fixture:x+fixture:rx".
 Status ParseFixtureAxes(std::string_view text, FixtureAxes* axes);
 std::string DescribeFixtureAxes(const FixtureAxes& axes);
+// The same for actuator axes, "actuator:x+actuator:y".
+Status ParseActuatorAxes(std::string_view text, ActuatorAxes* axes);
+std::string DescribeActuatorAxes(const ActuatorAxes& axes);
 // The same for sensor channels, "sensor:z+sensor:toe".
 Status ParseSensorChannels(std::string_view text, SensorChannels* channels);
 std::string DescribeSensorChannels(const SensorChannels& channels);

@@ -188,6 +188,9 @@ void BasicRigPlant<T, Model>::Step(const Vec3<T>& force) {
     wheel_force_ = delayed - (delayed - previous_delayed_) * lag_ramp_ +
                    (wheel_force_ - previous_delayed_) * lag_decay_;
     previous_delayed_ = delayed;
+    for (int axis = 0; axis < kNumActuatorAxes; ++axis) {
+      if (!effects_.actuator_lag.at[axis]) wheel_force_(axis) = force(axis);
+    }
   } else {
     wheel_force_ = force;
   }

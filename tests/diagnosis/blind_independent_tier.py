@@ -227,8 +227,8 @@ def confidently_wrong(result):
 def component_hit(result, component):
     """Whether the verdict names the truth's component: the freed parameter;
     the bushing or sensor channel (and nothing of another kind); for a
-    fixture, fixture axes only (axes the designs do not load may be left
-    out)."""
+    fixture or the actuators (every axis in the truth), their axes only
+    (axes the designs do not load may be left out)."""
     if component is None:
         return None
     if result["kind"] in ("k_spring", "hard_point"):
@@ -236,7 +236,7 @@ def component_hit(result, component):
     named = result["components"]
     kind = component.split(":")[0]
     same_kind = bool(named) and all(c.split(":")[0] == kind for c in named)
-    if component == "fixture":
+    if component in ("fixture", "actuator"):
         return same_kind
     return component in named and same_kind
 

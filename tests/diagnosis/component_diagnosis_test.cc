@@ -117,6 +117,21 @@ TEST_F(ComponentDiagnosisTest, ARotatingFixtureIsNamedOnItsAxes) {
   EXPECT_GE(p.ci95_high, 1 / 3e5);
 }
 
+// One actuator's lag (the lateral one): named on its axis, with its time
+// constant, where the lag of every actuator explains it badly.
+TEST_F(ComponentDiagnosisTest, OneActuatorsLagIsNamedOnItsAxis) {
+  PlantEffects effects;
+  ASSERT_TRUE(ParseEffect("actuator_lag:tau=0.03,dead_time=0.005,at=actuator:y",
+                          &effects)
+                  .ok());
+  const DiagnosisResult r = DiagnosedPlant(config_, effects);
+  EXPECT_EQ(r.verdict, "actuator_lag") << r.reason;
+  EXPECT_EQ(r.model, "actuator_lag@actuator:y");
+  EXPECT_EQ(r.components, std::vector<std::string>{"actuator:y"});
+  const ParameterEstimate tau = ChosenParameter(r, "actuator_lag.tau");
+  EXPECT_LT(std::abs(tau.value - 0.03), 4 * tau.standard_error + 0.003);
+}
+
 // One sensor channel's gain and a coupling from another channel of its
 // kind: named on that channel alone, the gain inside its interval.
 TEST_F(ComponentDiagnosisTest, OneSensorsGainIsNamedOnItsChannel) {

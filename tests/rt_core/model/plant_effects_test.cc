@@ -248,6 +248,14 @@ TEST(PlantEffectsTest, SensorMixingIsAGainAndACouplingOnOneChannel) {
   }
 }
 
+TEST(PlantEffectsTest, AnActuatorLagPlacedOnOneAxisLeavesTheOthers) {
+  const Response r =
+      Respond(With("actuator_lag:tau=0.05,at=actuator:y"), Ramp(4), 4);
+  const Vec3<double> load = Ramp(4)(2.0);
+  EXPECT_EQ(r.wheel_force[2000](0), load(0));
+  EXPECT_GT(std::abs(r.wheel_force[2000](1) - load(1)), 50);
+}
+
 TEST(PlantEffectsTest, SensorOffsetScalesAndShiftsEveryChannel) {
   const Response r = Respond(
       With("sensor_offset:x=1e-4,y=-2e-4,z=0,toe=3e-4,camber=0,caster=0,"
@@ -288,6 +296,14 @@ TEST(PlantEffectsTest, ParsesDefaultsOverridesAndDescribesThem) {
           .ok());
   EXPECT_EQ(DescribeEffects(mounts)[0],
             "rig_compliance:k=2e+07,k_rot=300000,at=fixture:y+fixture:rx");
+  // One actuator, and a stiffening with its asymmetric term.
+  PlantEffects one;
+  ASSERT_TRUE(ParseEffect("actuator_lag:at=actuator:y", &one).ok());
+  ASSERT_TRUE(ParseEffect("progressive_stiffness:a2=3e9", &one).ok());
+  EXPECT_EQ(DescribeEffects(one),
+            (std::vector<std::string>{
+                "progressive_stiffness:c3=4e+11,a2=3e+09",
+                "actuator_lag:tau=0.05,dead_time=0.01,at=actuator:y"}));
 
   // A placed effect keeps its place through the description.
   PlantEffects placed;
