@@ -74,15 +74,21 @@ struct DiagnosisOptions {
   // structure beyond the noise.
   bool consider_pairs = true;
   int pair_pool = 3;
-  // A single bushing effect as the verdict is placed on the bushings it
-  // acts in: forward selection from the best single bushing, adding the
-  // bushing that lowers the score most while it lowers it beyond the noise
+  // A single placeable effect as the verdict (PlaceableComponents: a
+  // bushing effect, rig_compliance, actuator_lag, sensor_offset) is placed
+  // on the components it acts on. Bushings, actuator axes and sensor
+  // channels: forward selection from the best single component, adding the
+  // one that lowers the score most while it lowers it beyond the noise
   // floor's spread and the BIC by min_bic_difference; the placement is the
-  // verdict when it scores lower than the effect in every bushing. With no
-  // verdict, every bushing effect is tried in each single bushing and the
-  // best extended; a placement clearly better than the other effects is the
-  // verdict. Not when the effect in every bushing (or, with no verdict, the
-  // best other candidate) leaves only noise: a placement could only tie.
+  // verdict when it scores lower than the global form. Fixture axes:
+  // backward elimination from every axis, dropping the one whose removal
+  // costs least while the score stays within the noise floor's spread; the
+  // placement is the verdict when it improves on the global (translational)
+  // form as forward selection's steps must. With no verdict, every
+  // placeable effect is placed so and the best placement, clearly better
+  // than the other effects, is the verdict. Not when the global form (or,
+  // with no verdict, the best other candidate) leaves only noise: a
+  // placement could only tie.
   bool place_components = true;
   // Wrong "known" parameters: the model parameters (FreeableModelParameters)
   // whose freeing removes the most of the nominal fit's training
