@@ -71,12 +71,12 @@ std::string Names() {
   return names;
 }
 
-// Parses "PREFIX:A+PREFIX:B" over `names` into flags; `allowed` lists the
-// components for the error.
+// Parses "PREFIX:A+PREFIX:B" over `names` into flags; an unknown
+// component's error lists the known ones.
 template <size_t N>
 Status ParseComponents(std::string_view text, std::string_view prefix,
                        const std::array<std::string_view, N>& names,
-                       std::string_view allowed, std::array<bool, N>* set) {
+                       std::array<bool, N>* set) {
   std::array<bool, N> parsed{};
   while (true) {
     const size_t plus = text.find('+');
@@ -89,8 +89,15 @@ Status ParseComponents(std::string_view text, std::string_view prefix,
       }
     }
     if (found == N) {
+      std::string known;
+      for (size_t i = 0; i < N; ++i) {
+        known += (i == 0       ? ""
+                  : i + 1 == N ? " or "
+                               : ", ") +
+                 std::string(prefix) + std::string(names[i]);
+      }
       return Status::Error("unknown component '" + std::string(component) +
-                           "' (" + std::string(allowed) + ", joined by +)");
+                           "' (" + known + ", joined by +)");
     }
     parsed[found] = true;
     if (plus == std::string_view::npos) break;
@@ -128,10 +135,7 @@ std::array<std::string_view, 6> ChannelNames() {
 }  // namespace
 
 Status ParseBushingSet(std::string_view text, BushingSet* at) {
-  return ParseComponents(text, kBushingComponent, BushingNames(),
-                         "bushing:O1, bushing:O2, bushing:V1, bushing:V2 or "
-                         "bushing:P",
-                         at);
+  return ParseComponents(text, kBushingComponent, BushingNames(), at);
 }
 
 std::string DescribeBushingSet(const BushingSet& at) {
@@ -139,10 +143,7 @@ std::string DescribeBushingSet(const BushingSet& at) {
 }
 
 Status ParseFixtureAxes(std::string_view text, FixtureAxes* axes) {
-  return ParseComponents(text, kFixtureComponent, kFixtureAxisNames,
-                         "fixture:x, fixture:y, fixture:z, fixture:rx or "
-                         "fixture:ry",
-                         axes);
+  return ParseComponents(text, kFixtureComponent, kFixtureAxisNames, axes);
 }
 
 std::string DescribeFixtureAxes(const FixtureAxes& axes) {
@@ -150,8 +151,7 @@ std::string DescribeFixtureAxes(const FixtureAxes& axes) {
 }
 
 Status ParseActuatorAxes(std::string_view text, ActuatorAxes* axes) {
-  return ParseComponents(text, kActuatorComponent, kActuatorAxisNames,
-                         "actuator:x, actuator:y or actuator:z", axes);
+  return ParseComponents(text, kActuatorComponent, kActuatorAxisNames, axes);
 }
 
 std::string DescribeActuatorAxes(const ActuatorAxes& axes) {
@@ -159,10 +159,7 @@ std::string DescribeActuatorAxes(const ActuatorAxes& axes) {
 }
 
 Status ParseSensorChannels(std::string_view text, SensorChannels* channels) {
-  return ParseComponents(text, kSensorComponent, ChannelNames(),
-                         "sensor:x, sensor:y, sensor:z, sensor:toe, "
-                         "sensor:camber or sensor:caster",
-                         channels);
+  return ParseComponents(text, kSensorComponent, ChannelNames(), channels);
 }
 
 std::string DescribeSensorChannels(const SensorChannels& channels) {
