@@ -786,9 +786,11 @@ class DiagnosisRun {
   static std::string ClassOf(const std::string& model) {
     return model.substr(0, model.find('@'));
   }
+  // A single effect's global form (not already placed by hand) that has
+  // components.
   static bool Placeable(const std::string& model) {
-    return model.find('+') == std::string::npos &&
-           !PlaceableComponents(ClassOf(model)).empty();
+    return model.find_first_of("+@") == std::string::npos &&
+           !PlaceableComponents(model).empty();
   }
 
   // A fixture's axes give together (its mounts carry the load in every
@@ -817,10 +819,11 @@ class DiagnosisRun {
 
   // Backward elimination from `placed`: drop the component whose removal
   // costs least while the score stays within the noise floor's spread of
-  // `placed`'s (the data cannot tell the effect there). Every fit joins
-  // `tried`.
+  // the start's (the data cannot tell the effect there; measured from the
+  // start, so that the drops cannot add up). Every fit joins `tried`.
   void NarrowPlacement(const CandidateScore& global, CandidateScore* placed,
                        std::vector<CandidateScore>* tried) {
+    const double start_score = placed->score;
     for (std::vector<std::string> set = ModelComponents(placed->model);
          set.size() > 1; set = ModelComponents(placed->model)) {
       std::vector<std::vector<std::string>> smaller;
@@ -831,8 +834,7 @@ class DiagnosisRun {
       std::vector<CandidateScore> scores = FitSets(global, smaller);
       if (progress_.aborted() || scores.empty()) return;
       tried->insert(tried->end(), scores.begin(), scores.end());
-      if (!scores[0].ok ||
-          scores[0].score - placed->score > rules_.score_noise) {
+      if (!scores[0].ok || scores[0].score - start_score > rules_.score_noise) {
         return;
       }
       *placed = scores[0];
@@ -896,10 +898,12 @@ class DiagnosisRun {
       std::string place;
       for (const std::string& c : set) place += (place.empty() ? "" : "+") + c;
       EffectModel m;
+      // A set that is the global form's is already ranked as `global`.
       if (EffectModel::Create(nominal_, {effect + "@" + place},
                               options_.estimator.lower_scale,
                               options_.estimator.upper_scale, &m)
-              .ok()) {
+              .ok() &&
+          m.Name() != global.model) {
         models.push_back(std::move(m));
       }
     }

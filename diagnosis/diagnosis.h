@@ -259,7 +259,9 @@ struct DiagnosisResult {
   // The verdict's model as fitted, with where its effects act
   // ("hysteresis@bushing:V1"; equal to the verdict when nothing is placed,
   // "" for none and unexplained), and those places in the component
-  // vocabulary (plant_effects.h): each bushing a bushing effect acts in.
+  // vocabulary (plant_effects.h; ModelComponents): the bushings, fixture
+  // axes, actuator axes or sensor channels its effects act on, a freed
+  // parameter's component.
   std::string model;
   std::vector<std::string> components;
   std::string confidence;

@@ -396,16 +396,18 @@ Status ParsePlacedEffect(const std::string& effect, std::string* name,
   }
   if (separator == std::string::npos) return Status::Ok();
   const std::string place = effect.substr(separator + 1);
+  // A place that is the global form's is the global form: one name per
+  // model.
   if (*name == "rig_compliance") {
     FixtureAxes axes;
     KCRIG_RETURN_IF_ERROR(ParseFixtureAxes(place, &axes));
-    *target = DescribeFixtureAxes(axes);
+    if (axes != kTranslationalAxes) *target = DescribeFixtureAxes(axes);
     return Status::Ok();
   }
   if (*name == "actuator_lag") {
     ActuatorAxes axes;
     KCRIG_RETURN_IF_ERROR(ParseActuatorAxes(place, &axes));
-    *target = DescribeActuatorAxes(axes);
+    if (axes != kEveryActuator) *target = DescribeActuatorAxes(axes);
     return Status::Ok();
   }
   if (*name == "sensor_offset") {
@@ -460,8 +462,10 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
   }
   for (size_t e = 0; e < m.effects_.size(); ++e) {
     for (size_t before = 0; before < e; ++before) {
+      // One form per effect; model parameters differ by what they free.
       if (m.effects_[before] == m.effects_[e] &&
-          m.targets_[before] == m.targets_[e]) {
+          (m.effects_[e] != kModelParameter ||
+           m.targets_[before] == m.targets_[e])) {
         return Status::Error("effect '" + effects[e] + "' given twice");
       }
     }
@@ -577,6 +581,21 @@ std::vector<std::string> ModelComponents(const std::string& name) {
       begin = end + 1;
     }
   }
+  // The places in their vocabulary's order (bushings, fixture, actuators,
+  // sensors), then the freed parameters' components.
+  std::vector<std::string> order;
+  for (std::string_view effect :
+       {"hysteresis", "rig_compliance", "actuator_lag", "sensor_offset"}) {
+    const std::vector<std::string> own = PlaceableComponents(effect);
+    order.insert(order.end(), own.begin(), own.end());
+  }
+  auto rank = [&order](const std::string& c) {
+    return std::find(order.begin(), order.end(), c) - order.begin();
+  };
+  std::stable_sort(components.begin(), components.end(),
+                   [&rank](const std::string& a, const std::string& b) {
+                     return rank(a) < rank(b);
+                   });
   return components;
 }
 

@@ -72,8 +72,9 @@ struct EffectParameter {
 };
 
 // Most parameters of one candidate: five bushings plus two effects (the
-// sensor offset has seven).
-inline constexpr int kMaxEffectModelParameters = 14;
+// sensor offset has seven, the stiffening three: 15), or a sensor error on
+// two channels (eight) with a small effect.
+inline constexpr int kMaxEffectModelParameters = 16;
 
 class EffectModel {
  public:

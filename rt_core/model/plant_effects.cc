@@ -178,6 +178,7 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
   std::vector<Key> keys = KeysOf(name, &parsed);
   std::string_view rest =
       colon == std::string_view::npos ? "" : text.substr(colon + 1);
+  bool rotation_given = false;
   while (!rest.empty()) {
     const size_t comma = rest.find(',');
     const std::string_view item = rest.substr(0, comma);
@@ -226,6 +227,13 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
                            kRangeText[match->range]);
     }
     *match->value = value;
+    rotation_given = rotation_given || key == "k_rot";
+  }
+  const FixtureAxes& axes = parsed.rig_compliance.at;
+  if (rotation_given && !axes[3] && !axes[4]) {
+    return Status::Error(std::string(text) +
+                         ": k_rot needs a rotational axis in at "
+                         "(fixture:rx or fixture:ry)");
   }
   *EnabledFlag(name, &parsed) = true;
   *effects = parsed;
@@ -245,6 +253,7 @@ std::vector<std::string> DescribeEffects(const PlantEffects& effects) {
       // A mount that does not rotate says so by leaving k_rot out, a
       // purely cubic stiffening by leaving c2 and a2 out.
       if (k.name == "k_rot" && !rotates) continue;
+      if (k.name == "k" && !axes[0] && !axes[1] && !axes[2]) continue;
       if ((k.name == "c2" || k.name == "a2") && *k.value == 0) continue;
       char value[32];
       std::snprintf(value, sizeof(value), "%.6g", *k.value);

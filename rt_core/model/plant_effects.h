@@ -176,10 +176,11 @@ using PlantEffects = BasicPlantEffects<double>;
 
 // Turns on one effect from "NAME" or "NAME:key=value,key=value" (keys as in
 // the table above: d; force, sigma; c3, c2, a2; tau, dead_time; k; x, y, z,
-// toe, camber, caster, scale; and `at` for the bushing effects and the rig
-// compliance; k_rot for the rig compliance's rotational axes). Errors are one
-// line naming the offending part (the caller leads them with where the text
-// came from: "--effect ").
+// toe, camber, caster, scale; `at` for the bushing effects, the rig
+// compliance and the actuator lag; k_rot for the rig compliance's rotational
+// axes, which it then needs in `at`). Errors are one line naming the
+// offending part (the caller leads them with where the text came from:
+// "--effect ").
 Status ParseEffect(std::string_view text, PlantEffects* effects);
 
 // Where a bushing effect of `e` acts; nullptr for the effects that are not

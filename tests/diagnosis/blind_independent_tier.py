@@ -226,19 +226,21 @@ def confidently_wrong(result):
 
 def component_hit(result, component):
     """Whether the verdict names the truth's component: the freed parameter;
-    the bushing or sensor channel (and nothing of another kind); for a
-    fixture or the actuators (every axis in the truth), their axes only
-    (axes the designs do not load may be left out)."""
+    the bushing or the sensor channel, alone; for the actuators (every axis
+    in the truth) their axes only; for a fixture that gives and turns, its
+    axes only, a rotation among them (axes the designs do not load may be
+    left out)."""
     if component is None:
         return None
     if result["kind"] in ("k_spring", "hard_point"):
         return f"model_parameter@{component}" in result["model"]
     named = result["components"]
-    kind = component.split(":")[0]
-    same_kind = bool(named) and all(c.split(":")[0] == kind for c in named)
-    if component in ("fixture", "actuator"):
-        return same_kind
-    return component in named and same_kind
+    if component == "actuator":
+        return bool(named) and all(c.startswith("actuator:") for c in named)
+    if component == "fixture":
+        return (bool(named) and all(c.startswith("fixture:") for c in named)
+                and any(c in ("fixture:rx", "fixture:ry") for c in named))
+    return named == [component]
 
 
 def rate(hits, goal):

@@ -232,8 +232,9 @@ INSTANTIATE_TEST_SUITE_P(
     });
 
 // Placed candidates: names round-trip (a pair's components and effects both
-// join with '+'), only bushing effects are placed, and on logs of a worn V1
-// the V1 placement fits better than the same effect in O1.
+// join with '+'; a place that is the global form's is the global form),
+// only placeable effects are placed, on their own components, and on logs
+// of a worn V1 the V1 placement fits better than the same effect in O1.
 TEST_F(EffectModelTest, BushingEffectsArePlacedOnComponents) {
   EffectModel model;
   const std::string pair = "hysteresis@bushing:O1+bushing:V1+actuator_lag";
@@ -245,8 +246,29 @@ TEST_F(EffectModelTest, BushingEffectsArePlacedOnComponents) {
   const BushingSet o1_v1 = {true, false, true, false, false};
   EXPECT_EQ(model.placements()[0], o1_v1);
   EXPECT_EQ(model.placements()[1], kEveryBushing);
+  for (const char* name :
+       {"sensor_offset@sensor:z+sensor:toe+rig_compliance@fixture:x+fixture:rx",
+        "progressive_stiffness@bushing:P+actuator_lag@actuator:y"}) {
+    ASSERT_TRUE(
+        EffectModel::CreateNamed(config_.model, name, 0.1, 10, &model).ok())
+        << name;
+    EXPECT_EQ(model.Name(), name);
+  }
+  ASSERT_TRUE(EffectModel::CreateNamed(
+                  config_.model,
+                  "rig_compliance@fixture:x+fixture:y+fixture:z+actuator_lag@"
+                  "actuator:x+actuator:y+actuator:z",
+                  0.1, 10, &model)
+                  .ok());
+  EXPECT_EQ(model.Name(), "rig_compliance+actuator_lag");
+  EXPECT_EQ(
+      ModelComponents("model_parameter@k_spring+hysteresis@bushing:V2+"
+                      "bushing:O1"),
+      (std::vector<std::string>{"bushing:O1", "bushing:V2", "strut:spring"}));
   for (const char* bad :
-       {"actuator_lag@bushing:V1", "hysteresis@bushing:Q", "hysteresis@"}) {
+       {"actuator_lag@bushing:V1", "hysteresis@bushing:Q", "hysteresis@",
+        "sensor_offset@fixture:x", "model_parameter@k_spring@bushing:V1",
+        "sensor_offset+sensor_offset@sensor:z"}) {
     const Status status =
         EffectModel::CreateNamed(config_.model, bad, 0.1, 10, &model);
     EXPECT_FALSE(status.ok()) << bad;

@@ -299,10 +299,10 @@ TEST(PlantEffectsTest, ParsesDefaultsOverridesAndDescribesThem) {
   // One actuator, and a stiffening with its asymmetric term.
   PlantEffects one;
   ASSERT_TRUE(ParseEffect("actuator_lag:at=actuator:y", &one).ok());
-  ASSERT_TRUE(ParseEffect("progressive_stiffness:a2=3e9", &one).ok());
+  ASSERT_TRUE(ParseEffect("progressive_stiffness:c2=1e9,a2=3e9", &one).ok());
   EXPECT_EQ(DescribeEffects(one),
             (std::vector<std::string>{
-                "progressive_stiffness:c3=4e+11,a2=3e+09",
+                "progressive_stiffness:c3=4e+11,c2=1e+09,a2=3e+09",
                 "actuator_lag:tau=0.05,dead_time=0.01,at=actuator:y"}));
 
   // A placed effect keeps its place through the description.
@@ -339,6 +339,8 @@ TEST(PlantEffectsTest, BadEffectTextIsAOneLineErrorAndChangesNothing) {
        "fixture:rx or fixture:ry, joined by +)"},
       {"rig_compliance:at=fixture:rz", "unknown component 'fixture:rz'"},
       {"rig_compliance:k_rot=0", "must be a finite number > 0"},
+      {"rig_compliance:k_rot=3e5",
+       "k_rot needs a rotational axis in at (fixture:rx or fixture:ry)"},
       {"hysteresis:force=-1", "must be a finite number > 0"},
       {"actuator_lag:dead_time=-0.1", "must be a finite number >= 0"},
       {"rig_compliance:k=nan", "must be a finite number > 0"},
