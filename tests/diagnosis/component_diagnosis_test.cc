@@ -60,17 +60,21 @@ TEST_F(ComponentDiagnosisTest, AWornBushingIsNamedAsOneComponent) {
   }
 }
 
-// The plant's `effects` diagnosed from the blind tiers' three ramps.
+// A plant of parameters `truth` with `effects` diagnosed from the blind
+// tiers' three ramps (noise seeds first_seed, + 1, + 2).
 DiagnosisResult DiagnosedPlant(const KcrigConfig& config,
-                               const PlantEffects& effects) {
+                               const SuspensionParameters<double>& truth,
+                               const PlantEffects& effects,
+                               std::uint64_t first_seed) {
   auto log = [&](double phi, double z_a, std::uint64_t seed) {
-    return PlantExperiment(config, config.model, effects,
+    return PlantExperiment(config, truth, effects,
                            {phi * kDegree, z_a, 4000, 2.0, 0.3, 1.7}, seed);
   };
   DiagnosisResult r;
   const Status status = Diagnose(
-      config.model, {log(85, -0.45, 21), log(20, -0.1, 22)},
-      {log(50, -0.3, 23)}, DiagnosisOptions(), config.experiment.step, &r);
+      config.model, {log(85, -0.45, first_seed), log(20, -0.1, first_seed + 1)},
+      {log(50, -0.3, first_seed + 2)}, DiagnosisOptions(),
+      config.experiment.step, &r);
   EXPECT_TRUE(status.ok()) << status.message();
   std::printf("  verdict %s (%s): %s\n", r.verdict.c_str(), r.model.c_str(),
               r.reason.c_str());
@@ -99,7 +103,7 @@ TEST_F(ComponentDiagnosisTest, ARotatingFixtureIsNamedOnItsAxes) {
                           "fixture:y+fixture:z+fixture:rx+fixture:ry",
                           &effects)
                   .ok());
-  const DiagnosisResult r = DiagnosedPlant(config_, effects);
+  const DiagnosisResult r = DiagnosedPlant(config_, config_.model, effects, 21);
   EXPECT_EQ(r.verdict, "rig_compliance") << r.reason;
   EXPECT_EQ(r.confidence, "high");
   for (const std::string& c : r.components) {
@@ -124,7 +128,7 @@ TEST_F(ComponentDiagnosisTest, OneActuatorsLagIsNamedOnItsAxis) {
   ASSERT_TRUE(ParseEffect("actuator_lag:tau=0.03,dead_time=0.005,at=actuator:y",
                           &effects)
                   .ok());
-  const DiagnosisResult r = DiagnosedPlant(config_, effects);
+  const DiagnosisResult r = DiagnosedPlant(config_, config_.model, effects, 21);
   EXPECT_EQ(r.verdict, "actuator_lag") << r.reason;
   EXPECT_EQ(r.model, "actuator_lag@actuator:y");
   EXPECT_EQ(r.components, std::vector<std::string>{"actuator:y"});
@@ -141,7 +145,7 @@ TEST_F(ComponentDiagnosisTest, OneSensorsGainIsNamedOnItsChannel) {
   effects.sensor_offset.scale = 1;
   effects.sensor_offset.mixing(4, 4) = 0.04;  // camber reads 4 % high
   effects.sensor_offset.mixing(4, 5) = 0.03;  // and sees caster
-  const DiagnosisResult r = DiagnosedPlant(config_, effects);
+  const DiagnosisResult r = DiagnosedPlant(config_, config_.model, effects, 21);
   EXPECT_EQ(r.verdict, "sensor_offset") << r.reason;
   EXPECT_EQ(r.model, "sensor_offset@sensor:camber");
   EXPECT_EQ(r.components, std::vector<std::string>{"sensor:camber"});
@@ -158,18 +162,7 @@ class WrongParameterTest : public ComponentDiagnosisTest {
   DiagnosisResult Diagnosed(const std::string& name, double value) {
     SuspensionParameters<double> truth = config_.model;
     *FindParameter(&truth, name) = value;
-    auto log = [&](double phi, double z_a, std::uint64_t seed) {
-      return PlantExperiment(config_, truth, "",
-                             {phi * kDegree, z_a, 4000, 2.0, 0.3, 1.7}, seed);
-    };
-    DiagnosisResult r;
-    const Status status = Diagnose(
-        config_.model, {log(85, -0.45, 11), log(20, -0.1, 12)},
-        {log(50, -0.3, 13)}, DiagnosisOptions(), config_.experiment.step, &r);
-    EXPECT_TRUE(status.ok()) << status.message();
-    std::printf("  verdict %s (%s): %s\n", r.verdict.c_str(), r.model.c_str(),
-                r.reason.c_str());
-    return r;
+    return DiagnosedPlant(config_, truth, PlantEffects(), 11);
   }
 };
 
