@@ -808,13 +808,26 @@ class DiagnosisRun {
                       std::vector<CandidateScore>* tried) {
     const std::string effect = ClassOf(global.model);
     std::vector<CandidateScore> scores =
-        NarrowsFromAll(effect) ? FitSets(global, {PlaceableComponents(effect)})
+        NarrowsFromAll(effect) ? FitSets(global, {LoadedComponents(effect)})
                                : FitPlacements(global, {});
     tried->insert(tried->end(), scores.begin(), scores.end());
     if (scores.empty() || !scores[0].ok) return false;
     *start = scores[0];
-    if (NarrowsFromAll(effect)) NarrowPlacement(global, start, tried);
+    // On every axis the effect explains nothing: fewer axes cannot either.
+    if (NarrowsFromAll(effect) && Improves(*start, result_->nominal)) {
+      NarrowPlacement(global, start, tried);
+    }
     return true;
+  }
+
+  // The components of `effect` the training logs load (LoadsComponent):
+  // the others' placements would only tie.
+  std::vector<std::string> LoadedComponents(const std::string& effect) const {
+    std::vector<std::string> loaded;
+    for (const std::string& c : PlaceableComponents(effect)) {
+      if (LoadsComponent(training_, c)) loaded.push_back(c);
+    }
+    return loaded;
   }
 
   // Backward elimination from `placed`: drop the component whose removal
@@ -854,7 +867,7 @@ class DiagnosisRun {
     const bool global_is_every =
         IsBushingEffect(effect) || effect == "actuator_lag";
     const size_t most =
-        PlaceableComponents(effect).size() - (global_is_every ? 1 : 0);
+        LoadedComponents(effect).size() - (global_is_every ? 1 : 0);
     for (std::vector<std::string> set = ModelComponents(placed->model);
          set.size() < most; set = ModelComponents(placed->model)) {
       std::vector<CandidateScore> scores = FitPlacements(global, set);
@@ -869,8 +882,7 @@ class DiagnosisRun {
   std::vector<CandidateScore> FitPlacements(
       const CandidateScore& global, const std::vector<std::string>& set) {
     std::vector<std::vector<std::string>> larger;
-    for (const std::string& added :
-         PlaceableComponents(ClassOf(global.model))) {
+    for (const std::string& added : LoadedComponents(ClassOf(global.model))) {
       if (std::find(set.begin(), set.end(), added) != set.end()) continue;
       larger.push_back(set);
       larger.back().push_back(added);

@@ -76,13 +76,15 @@ struct DiagnosisOptions {
   int pair_pool = 3;
   // A single placeable effect as the verdict (PlaceableComponents: a
   // bushing effect, rig_compliance, actuator_lag, sensor_offset) is placed
-  // on the components it acts on. Bushings, actuator axes and sensor
+  // on the components it acts on, those the training logs load
+  // (LoadsComponent). Bushings, actuator axes and sensor
   // channels: forward selection from the best single component, adding the
   // one that lowers the score most while it lowers it beyond the noise
   // floor's spread and the BIC by min_bic_difference; the placement is the
   // verdict when it scores lower than the global form. Fixture axes:
   // backward elimination from every axis, dropping the one whose removal
-  // costs least while the score stays within the noise floor's spread; the
+  // costs least while the score stays within the noise floor's spread (not
+  // when every axis does not improve on the nominal model); the
   // placement is the verdict when it improves on the global (translational)
   // form as forward selection's steps must. With no verdict, every
   // placeable effect is placed so and the best placement, clearly better

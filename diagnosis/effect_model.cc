@@ -548,6 +548,27 @@ std::vector<std::string> PlaceableComponents(std::string_view effect) {
   return components;
 }
 
+bool LoadsComponent(const std::vector<Experiment>& logs,
+                    std::string_view component) {
+  const bool fixture = component.rfind(kFixtureComponent, 0) == 0;
+  if (!fixture && component.rfind(kActuatorComponent, 0) != 0) return true;
+  std::string_view axis = component.substr(
+      (fixture ? kFixtureComponent : kActuatorComponent).size());
+  // A rotation about x turns under F_y, about y under F_x.
+  const bool rotation = axis.size() == 2 && axis[0] == 'r';
+  if (rotation) axis = axis[1] == 'x' ? "y" : "x";
+  const int k = axis == "x" ? 0 : axis == "y" ? 1 : 2;
+  for (const Experiment& log : logs) {
+    double largest = 0, along = 0;
+    for (const Vec3<double>& f : log.forces) {
+      largest = std::max(largest, f.cwiseAbs().maxCoeff());
+      along = std::max(along, std::abs(f(k)));
+    }
+    if (along > 0.01 * largest && (!rotation || log.z_a != 0)) return true;
+  }
+  return false;
+}
+
 std::vector<std::string> ModelComponents(const std::string& name) {
   std::vector<std::string> effects, targets, components;
   std::vector<BushingSet> places;

@@ -161,6 +161,15 @@ Status ParseModelName(const std::string& name,
 // for sensor_offset; none for model_parameter.
 std::vector<std::string> PlaceableComponents(std::string_view effect);
 
+// Whether `logs` load `component`: a fixture or actuator axis is loaded by
+// its force (a fixture rotation by the moment about the wheel centre: the
+// force across it at a nonzero acting height) beyond 1 % of the largest
+// force on the wheel in some log. An effect on an axis no log loads shows
+// nowhere, so its placement there could only tie with the placement
+// without it. Bushings and sensor channels are always loaded.
+bool LoadsComponent(const std::vector<Experiment>& logs,
+                    std::string_view component);
+
 // The components a model acts on, each once, in the order of its effects:
 // a placed effect's own, an unplaced one's where its global form acts
 // (every bushing; the translational fixture axes; every actuator axis; every

@@ -293,6 +293,39 @@ TEST_F(EffectModelTest, BushingEffectsArePlacedOnComponents) {
   EXPECT_LT(cost[0], cost[1]);
 }
 
+// The ramps push the wheel in x and y at the acting height: no fixture or
+// actuator axis under z carries load, nor a rotation at zero height, nor an
+// axis whose force is noise below 1 % of the largest.
+TEST(LoadsComponentTest, OnlyAxesTheForcesReachAreLoaded) {
+  Experiment log;
+  log.z_a = 0.3;
+  log.forces = {Vec3<double>(0, 0, 0), Vec3<double>(-800, 1500, 0),
+                Vec3<double>(-1600, 3000, 0)};
+  const std::vector<Experiment> logs = {log};
+  for (const char* loaded :
+       {"fixture:x", "fixture:y", "fixture:rx", "fixture:ry", "actuator:x",
+        "actuator:y", "bushing:O1", "sensor:z", "sensor:caster"}) {
+    EXPECT_TRUE(LoadsComponent(logs, loaded)) << loaded;
+  }
+  for (const char* unloaded : {"fixture:z", "actuator:z"}) {
+    EXPECT_FALSE(LoadsComponent(logs, unloaded)) << unloaded;
+  }
+  Experiment noisy = log;
+  noisy.forces[1](2) = 25;  // 0.8 % of 3 kN: noise
+  EXPECT_FALSE(LoadsComponent({noisy}, "actuator:z"));
+  noisy.forces[1](2) = 150;  // 5 %: load
+  EXPECT_TRUE(LoadsComponent({log, noisy}, "actuator:z"));
+  Experiment at_centre = log;
+  at_centre.z_a = 0;
+  EXPECT_FALSE(LoadsComponent({at_centre}, "fixture:rx"));
+  EXPECT_FALSE(LoadsComponent({at_centre}, "fixture:ry"));
+  at_centre.forces[2](0) = 0;  // only F_y at the height: turns about x
+  EXPECT_TRUE(LoadsComponent({at_centre, log}, "fixture:ry"));
+  log.forces[1](0) = log.forces[2](0) = 0;
+  EXPECT_FALSE(LoadsComponent({log}, "fixture:ry"));
+  EXPECT_TRUE(LoadsComponent({log}, "fixture:rx"));
+}
+
 // Wrong "known" parameters: model_parameter frees a parameter the nominal
 // model holds fixed, names round-trip, only freeable parameters are taken,
 // and on logs of a spring 27 % stiffer than configured the screening puts
