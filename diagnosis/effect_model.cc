@@ -441,6 +441,13 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
     if (!status.ok()) {
       return Status::Error("'" + effect + "': " + status.message());
     }
+    const std::string& target = m.targets_.back();
+    if (m.effects_.back() == "rig_compliance" && !target.empty()) {
+      ParseFixtureAxes(target, &m.fixture_axes_);
+    }
+    if (m.effects_.back() == "actuator_lag" && !target.empty()) {
+      ParseActuatorAxes(target, &m.actuator_axes_);
+    }
   }
   const long plant_effects =
       std::count_if(m.effects_.begin(), m.effects_.end(),
@@ -687,12 +694,11 @@ void EffectModel::Build(const T* theta, SuspensionParameters<T>* parameters,
     if (BushingSet* at = PlacementOf(effects_[e], effects)) {
       *at = placements_[e];
     }
-    if (effects_[e] == "rig_compliance" && !targets_[e].empty()) {
-      ParseFixtureAxes(targets_[e], &effects->rig_compliance.at);
+    if (effects_[e] == "rig_compliance") {
+      effects->rig_compliance.at = fixture_axes_;
     }
-    if (effects_[e] == "actuator_lag" && !targets_[e].empty()) {
-      ParseActuatorAxes(targets_[e], &effects->actuator_lag.at);
-    }
+    if (effects_[e] == "actuator_lag")
+      effects->actuator_lag.at = actuator_axes_;
   }
 }
 template void EffectModel::Build<double>(const double*,

@@ -143,6 +143,9 @@ class EffectModel {
   std::vector<std::string> effects_;
   std::vector<BushingSet> placements_;
   std::vector<std::string> targets_;
+  // Where rig_compliance and actuator_lag act (their targets, parsed once).
+  FixtureAxes fixture_axes_ = kTranslationalAxes;
+  ActuatorAxes actuator_axes_ = kEveryActuator;
   std::vector<EffectParameter> parameters_;
   double max_dead_time_ = 0;
 };
