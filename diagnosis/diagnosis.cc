@@ -866,8 +866,8 @@ class DiagnosisRun {
     // component: the selection stops short of it.
     const bool global_is_every =
         IsBushingEffect(effect) || effect == "actuator_lag";
-    const size_t most =
-        LoadedComponents(effect).size() - (global_is_every ? 1 : 0);
+    const size_t loaded = LoadedComponents(effect).size();
+    const size_t most = global_is_every && loaded > 0 ? loaded - 1 : loaded;
     for (std::vector<std::string> set = ModelComponents(placed->model);
          set.size() < most; set = ModelComponents(placed->model)) {
       std::vector<CandidateScore> scores = FitPlacements(global, set);

@@ -697,8 +697,9 @@ void EffectModel::Build(const T* theta, SuspensionParameters<T>* parameters,
     if (effects_[e] == "rig_compliance") {
       effects->rig_compliance.at = fixture_axes_;
     }
-    if (effects_[e] == "actuator_lag")
+    if (effects_[e] == "actuator_lag") {
       effects->actuator_lag.at = actuator_axes_;
+    }
   }
 }
 template void EffectModel::Build<double>(const double*,
