@@ -173,11 +173,12 @@ std::vector<std::string> PlaceableComponents(std::string_view effect);
 bool LoadsComponent(const std::vector<Experiment>& logs,
                     std::string_view component);
 
-// The components a model acts on, each once, in the order of its effects:
-// a placed effect's own, an unplaced one's where its global form acts
-// (every bushing; the translational fixture axes; every actuator axis; every
-// sensor channel), a freed parameter's component (ComponentOfParameter).
-// Empty for the nominal model or a name that does not parse.
+// The components a model acts on, each once: a placed effect's own, an
+// unplaced one's where its global form acts (every bushing; the
+// translational fixture axes; every actuator axis; every sensor channel),
+// in the vocabulary's order (bushings, fixture, actuators, sensors), then a
+// freed parameter's component (ComponentOfParameter). Empty for the nominal
+// model or a name that does not parse.
 std::vector<std::string> ModelComponents(const std::string& name);
 
 // What the sensors of the candidate read for one experiment at the physical
