@@ -10,6 +10,7 @@
 #include "ceres/ceres.h"
 #include "ceres/jet.h"
 #include "estimator/least_squares.h"
+#include "estimator/sensitivity_plant.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/rig_plant.h"
 
@@ -264,8 +265,8 @@ class EffectResidual : public ceres::CostFunction {
     // most 5 + 2 + 1 parameters), and the rest. Each size is a whole
     // tangent-linear plant to compile (minutes under the sanitizers), and
     // a padded direction costs little.
-    if (model_->num_parameters() <= 8) {
-      return Fill<ceres::Jet<double, 8>>(theta.data(), residuals, jacobians);
+    if (model_->num_parameters() <= SensitivityJet::DIMENSION) {
+      return Fill<SensitivityJet>(theta.data(), residuals, jacobians);
     }
     return Fill<ceres::Jet<double, kMaxEffectModelParameters>>(
         theta.data(), residuals, jacobians);

@@ -4,10 +4,9 @@
 #include <type_traits>
 #include <utility>
 
-#include "ceres/jet.h"
+#include "estimator/sensitivity_plant.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/simulation.h"
-#include "rt_core/model/tangent_linear.h"
 
 namespace kcrig {
 namespace {
@@ -143,8 +142,9 @@ bool TrajectoryResidual::EvaluateAllColumns(
   const int n = static_cast<int>(parameter_indices_.size());
   std::vector<double*> columns(n);
   for (int i = 0; i < n; ++i) columns[i] = cached_jacobian_[i].data();
-  return SimulateAndFill<ceres::Jet<double, kMaxEstimatedParameters>>(
-      parameters, cached_residuals_.data(), columns.data());
+  static_assert(SensitivityJet::DIMENSION == kMaxEstimatedParameters);
+  return SimulateAndFill<SensitivityJet>(parameters, cached_residuals_.data(),
+                                         columns.data());
 }
 
 }  // namespace kcrig

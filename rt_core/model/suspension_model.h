@@ -86,19 +86,7 @@ class SuspensionModel {
 
   // Element lengths at the design position (y = 0) become the free lengths,
   // so the design position is the equilibrium under zero rig force.
-  explicit SuspensionModel(const SuspensionParameters<T>& parameters)
-      : parameters_(parameters) {
-    for (int i = 0; i < kNumElements; ++i) {
-      const AxialElement<T>& e = Element(i);
-      free_length_[i] = (e.chassis_point - e.carrier_point).norm();
-      skew_carrier_point_[i] = Skew<T>(e.carrier_point);
-    }
-    mass_matrix_.setZero();
-    mass_matrix_.template topLeftCorner<3, 3>() =
-        Mat3<T>::Identity() * parameters_.mass;
-    mass_matrix_.template bottomRightCorner<3, 3>() =
-        parameters_.inertia.asDiagonal();
-  }
+  explicit SuspensionModel(const SuspensionParameters<T>& parameters);
 
   const SuspensionParameters<T>& parameters() const { return parameters_; }
   const Mat6<T>& mass_matrix() const { return mass_matrix_; }
@@ -150,111 +138,7 @@ class SuspensionModel {
       const RigLoad<T>& load, const Vec6<T>& y, const Vec6<T>& z,
       bool with_jacobians, GeneralizedForce<T>* out,
       LinearParameterJacobian* parameter_jacobian = nullptr,
-      HookAndLoadJacobian* hook_jacobian = nullptr) const {
-    const Vec3<T> r = y.template head<3>();
-    const Vec3<T> angles = y.template tail<3>();
-    const Vec3<T> v = z.template head<3>();
-    const Vec3<T> omega = z.template tail<3>();
-    const CardanAngles<T> cardan(angles);
-    const Mat3<T> rot = cardan.Rotation();
-    const Mat3<T> rot_t = rot.transpose();
-
-    Mat6<T> dq_dq;  // with respect to (r, theta)
-    if (with_jacobians) {
-      dq_dq.setZero();
-      out->dq_dz.setZero();
-    }
-    const Vec3<T> load_body = rot_t * load.force;
-    out->q.template head<3>() = load.force;
-    out->q.template tail<3>() = load.point.cross(load_body);
-    if (with_jacobians) {
-      dq_dq.template block<3, 3>(3, 3) =
-          SkewTimes<T>(load.point, Skew<T>(load_body));
-    }
-    if (hook_jacobian != nullptr) {
-      hook_jacobian->load_force << Mat3<T>::Identity(),
-          Skew<T>(load.point) * rot_t;
-      hook_jacobian->load_point << Mat3<T>::Zero(), -Skew<T>(load_body);
-    }
-
-    for (int i = 0; i < kNumElements; ++i) {
-      const AxialElement<T>& e = Element(i);
-      const Vec3<T>& b = e.carrier_point;
-      const ElementState element = StateOf(i, r, rot, rot_t, z);
-      const T& length = element.length;
-      const Vec3<T>& u = element.u;
-      const Vec3<T>& u_body = element.u_body;
-      const Vec6<T>& a = element.a;
-      const T& magnitude = element.magnitude;
-      const Vec3<T> w = omega.cross(b);  // carrier-point velocity, body frame
-      out->q += magnitude * a;
-      if (parameter_jacobian != nullptr) {
-        parameter_jacobian->stiffness.col(i) = (length - free_length_[i]) * a;
-        parameter_jacobian->damping.col(i) = -a.dot(z) * a;
-      }
-      if (hook_jacobian != nullptr && i < kNumBushings) {
-        const T deflection = length - free_length_[i];
-        std::array<T, kStiffeningTerms> terms, slopes;
-        StiffeningTerms(deflection, &terms, &slopes);
-        for (int t = 0; t < kStiffeningTerms; ++t) {
-          hook_jacobian->stiffening[t].col(i) = terms[t] * a;
-        }
-        hook_jacobian->extra_force.col(i) = a;
-        hook_jacobian->extra_stiffness.col(i) =
-            (deflection - extra_.reference[i]) * a;
-        hook_jacobian->extra_reference.col(i) = -extra_.stiffness[i] * a;
-      }
-      if (!with_jacobians) continue;
-
-      const Vec3<T> point_velocity = v + rot * w;
-      const Vec3<T> e_world =
-          (point_velocity - u * u.dot(point_velocity)) / length;
-      Vec6<T> g;
-      g << e_world, b.cross(rot_t * e_world) - w.cross(u_body);
-      const Vec6<T> dmagnitude_dq =
-          e.damping * g - element.tangent_stiffness * a;
-      const Vec6<T> damped_a = e.damping * a;
-      // Rank-one updates as plain loops: Eigen's generic outer product costs
-      // several times more per Jet multiply.
-      for (int col = 0; col < 6; ++col) {
-        for (int row = 0; row < 6; ++row) {
-          dq_dq(row, col) += a(row) * dmagnitude_dq(col);
-          out->dq_dz(row, col) -= damped_a(row) * a(col);
-        }
-      }
-
-      const Mat3<T>& skew_b = skew_carrier_point_[i];
-      const T m_over_l = magnitude / length;
-      // W_b B = B - u_b (u_b^T B), and u_b^T B = (u_b x b)^T.
-      const Mat3<T> w_body_b = skew_b - u_body * u_body.cross(b).transpose();
-      const Mat3<T> h12 = (rot * w_body_b) * m_over_l;
-      dq_dq.template block<3, 3>(0, 0) -=
-          m_over_l * (Mat3<T>::Identity() - u * u.transpose());
-      dq_dq.template block<3, 3>(0, 3) += h12;
-      dq_dq.template block<3, 3>(3, 0) += h12.transpose();
-      dq_dq.template block<3, 3>(3, 3) +=
-          SkewTimes<T>(b, m_over_l * w_body_b + magnitude * Skew<T>(u_body));
-    }
-
-    // Gyroscopic moment of the body-frame Euler equations.
-    const Vec3<T> angular_momentum = parameters_.inertia.cwiseProduct(omega);
-    out->q.template tail<3>() -= omega.cross(angular_momentum);
-    if (parameter_jacobian != nullptr) {
-      for (int k = 0; k < 3; ++k) {
-        Vec3<T> spin = Vec3<T>::Zero();
-        spin(k) = omega(k);
-        parameter_jacobian->inertia.col(k) << T(0), T(0), T(0),
-            -omega.cross(spin);
-      }
-    }
-    if (!with_jacobians) return;
-    out->dq_dz.template block<3, 3>(3, 3) -=
-        Skew<T>(omega) * Mat3<T>(parameters_.inertia.asDiagonal()) -
-        Skew<T>(angular_momentum);
-    out->dq_dy.template leftCols<3>() = dq_dq.template leftCols<3>();
-    out->dq_dy.template rightCols<3>() =
-        dq_dq.template rightCols<3>() * cardan.RateMatrix();
-  }
+      HookAndLoadJacobian* hook_jacobian = nullptr) const;
 
   // Unmodelled-effect hooks of the plant (rt_core/model/rig_plant.h); both zero
   // in the nominal model. Stiffening terms on each bushing's axial force
@@ -371,6 +255,135 @@ class SuspensionModel {
   StiffeningCoefficients stiffening_{};
   ExtraBushingForce extra_;
 };
+
+template <typename T>
+SuspensionModel<T>::SuspensionModel(const SuspensionParameters<T>& parameters)
+    : parameters_(parameters) {
+  for (int i = 0; i < kNumElements; ++i) {
+    const AxialElement<T>& e = Element(i);
+    free_length_[i] = (e.chassis_point - e.carrier_point).norm();
+    skew_carrier_point_[i] = Skew<T>(e.carrier_point);
+  }
+  mass_matrix_.setZero();
+  mass_matrix_.template topLeftCorner<3, 3>() =
+      Mat3<T>::Identity() * parameters_.mass;
+  mass_matrix_.template bottomRightCorner<3, 3>() =
+      parameters_.inertia.asDiagonal();
+}
+
+template <typename T>
+void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
+                                  const Vec6<T>& z, bool with_jacobians,
+                                  GeneralizedForce<T>* out,
+                                  LinearParameterJacobian* parameter_jacobian,
+                                  HookAndLoadJacobian* hook_jacobian) const {
+  const Vec3<T> r = y.template head<3>();
+  const Vec3<T> angles = y.template tail<3>();
+  const Vec3<T> v = z.template head<3>();
+  const Vec3<T> omega = z.template tail<3>();
+  const CardanAngles<T> cardan(angles);
+  const Mat3<T> rot = cardan.Rotation();
+  const Mat3<T> rot_t = rot.transpose();
+
+  Mat6<T> dq_dq;  // with respect to (r, theta)
+  if (with_jacobians) {
+    dq_dq.setZero();
+    out->dq_dz.setZero();
+  }
+  const Vec3<T> load_body = rot_t * load.force;
+  out->q.template head<3>() = load.force;
+  out->q.template tail<3>() = load.point.cross(load_body);
+  if (with_jacobians) {
+    dq_dq.template block<3, 3>(3, 3) =
+        SkewTimes<T>(load.point, Skew<T>(load_body));
+  }
+  if (hook_jacobian != nullptr) {
+    hook_jacobian->load_force << Mat3<T>::Identity(),
+        Skew<T>(load.point) * rot_t;
+    hook_jacobian->load_point << Mat3<T>::Zero(), -Skew<T>(load_body);
+  }
+
+  for (int i = 0; i < kNumElements; ++i) {
+    const AxialElement<T>& e = Element(i);
+    const Vec3<T>& b = e.carrier_point;
+    const ElementState element = StateOf(i, r, rot, rot_t, z);
+    const T& length = element.length;
+    const Vec3<T>& u = element.u;
+    const Vec3<T>& u_body = element.u_body;
+    const Vec6<T>& a = element.a;
+    const T& magnitude = element.magnitude;
+    const Vec3<T> w = omega.cross(b);  // carrier-point velocity, body frame
+    out->q += magnitude * a;
+    if (parameter_jacobian != nullptr) {
+      parameter_jacobian->stiffness.col(i) = (length - free_length_[i]) * a;
+      parameter_jacobian->damping.col(i) = -a.dot(z) * a;
+    }
+    if (hook_jacobian != nullptr && i < kNumBushings) {
+      const T deflection = length - free_length_[i];
+      std::array<T, kStiffeningTerms> terms, slopes;
+      StiffeningTerms(deflection, &terms, &slopes);
+      for (int t = 0; t < kStiffeningTerms; ++t) {
+        hook_jacobian->stiffening[t].col(i) = terms[t] * a;
+      }
+      hook_jacobian->extra_force.col(i) = a;
+      hook_jacobian->extra_stiffness.col(i) =
+          (deflection - extra_.reference[i]) * a;
+      hook_jacobian->extra_reference.col(i) = -extra_.stiffness[i] * a;
+    }
+    if (!with_jacobians) continue;
+
+    const Vec3<T> point_velocity = v + rot * w;
+    const Vec3<T> e_world =
+        (point_velocity - u * u.dot(point_velocity)) / length;
+    Vec6<T> g;
+    g << e_world, b.cross(rot_t * e_world) - w.cross(u_body);
+    const Vec6<T> dmagnitude_dq = e.damping * g - element.tangent_stiffness * a;
+    const Vec6<T> damped_a = e.damping * a;
+    // Rank-one updates as plain loops: Eigen's generic outer product costs
+    // several times more per Jet multiply.
+    for (int col = 0; col < 6; ++col) {
+      for (int row = 0; row < 6; ++row) {
+        dq_dq(row, col) += a(row) * dmagnitude_dq(col);
+        out->dq_dz(row, col) -= damped_a(row) * a(col);
+      }
+    }
+
+    const Mat3<T>& skew_b = skew_carrier_point_[i];
+    const T m_over_l = magnitude / length;
+    // W_b B = B - u_b (u_b^T B), and u_b^T B = (u_b x b)^T.
+    const Mat3<T> w_body_b = skew_b - u_body * u_body.cross(b).transpose();
+    const Mat3<T> h12 = (rot * w_body_b) * m_over_l;
+    dq_dq.template block<3, 3>(0, 0) -=
+        m_over_l * (Mat3<T>::Identity() - u * u.transpose());
+    dq_dq.template block<3, 3>(0, 3) += h12;
+    dq_dq.template block<3, 3>(3, 0) += h12.transpose();
+    dq_dq.template block<3, 3>(3, 3) +=
+        SkewTimes<T>(b, m_over_l * w_body_b + magnitude * Skew<T>(u_body));
+  }
+
+  // Gyroscopic moment of the body-frame Euler equations.
+  const Vec3<T> angular_momentum = parameters_.inertia.cwiseProduct(omega);
+  out->q.template tail<3>() -= omega.cross(angular_momentum);
+  if (parameter_jacobian != nullptr) {
+    for (int k = 0; k < 3; ++k) {
+      Vec3<T> spin = Vec3<T>::Zero();
+      spin(k) = omega(k);
+      parameter_jacobian->inertia.col(k) << T(0), T(0), T(0),
+          -omega.cross(spin);
+    }
+  }
+  if (!with_jacobians) return;
+  out->dq_dz.template block<3, 3>(3, 3) -=
+      Skew<T>(omega) * Mat3<T>(parameters_.inertia.asDiagonal()) -
+      Skew<T>(angular_momentum);
+  out->dq_dy.template leftCols<3>() = dq_dq.template leftCols<3>();
+  out->dq_dy.template rightCols<3>() =
+      dq_dq.template rightCols<3>() * cardan.RateMatrix();
+}
+
+// Compiled once (suspension_model.cc): the real-time loop and every tool
+// step it.
+extern template class SuspensionModel<double>;
 
 }  // namespace kcrig
 

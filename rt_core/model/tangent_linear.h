@@ -430,6 +430,10 @@ TangentLinearModel<J>::RightHandSideByDuals(const StepPoint& point,
   return rhs - MassTangentTimes(point.dz);
 }
 
+// Every tangent-linear model's directional Jacobians, compiled once
+// (tangent_linear.cc).
+extern template class SuspensionModel<Dual<double>>;
+
 // The overloads SimulateTrajectory finds for a TangentLinearModel.
 template <typename J>
 Status SolveStaticEquilibrium(const TangentLinearModel<J>& model,

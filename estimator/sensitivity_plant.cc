@@ -1,0 +1,10 @@
+#include "estimator/sensitivity_plant.h"
+
+namespace kcrig {
+
+template class SuspensionModel<SensitivityJet>;
+template class SuspensionModel<Dual<SensitivityJet>>;
+template class TangentLinearModel<SensitivityJet>;
+template class BasicRigPlant<SensitivityJet>;
+
+}  // namespace kcrig
