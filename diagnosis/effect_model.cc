@@ -9,6 +9,7 @@
 #include "base/parallel_for.h"
 #include "ceres/ceres.h"
 #include "ceres/jet.h"
+#include "estimator/jacobian_cache.h"
 #include "estimator/least_squares.h"
 #include "estimator/sensitivity_plant.h"
 #include "rt_core/model/excitation.h"
@@ -265,11 +266,15 @@ class EffectResidual : public ceres::CostFunction {
     // most 5 + 2 + 1 parameters), and the rest. Each size is a whole
     // tangent-linear plant to compile (minutes under the sanitizers), and
     // a padded direction costs little.
-    if (model_->num_parameters() <= SensitivityJet::DIMENSION) {
-      return Fill<SensitivityJet>(theta.data(), residuals, jacobians);
-    }
-    return Fill<ceres::Jet<double, kMaxEffectModelParameters>>(
-        theta.data(), residuals, jacobians);
+    return cache_.Evaluate(
+        parameters, model_->num_parameters(), num_residuals(), residuals,
+        jacobians, [&](double* all_residuals, double** columns) {
+          if (model_->num_parameters() <= SensitivityJet::DIMENSION) {
+            return Fill<SensitivityJet>(theta.data(), all_residuals, columns);
+          }
+          return Fill<ceres::Jet<double, kMaxEffectModelParameters>>(
+              theta.data(), all_residuals, columns);
+        });
   }
 
  private:
@@ -309,6 +314,8 @@ class EffectResidual : public ceres::CostFunction {
   const Experiment* experiment_;
   double step_;
   std::vector<double> lower_, upper_;  // theta bounds
+  // The Jacobian Ceres evaluated last, for the uncertainty analysis.
+  mutable JacobianCache cache_;
 };
 
 // The box of the scaled parameters theta.

@@ -105,46 +105,17 @@ bool TrajectoryResidual::Evaluate(double const* const* parameters,
   if (jacobians == nullptr) {
     return SimulateAndFill<double>(parameters, residuals, nullptr);
   }
-  const size_t n = parameter_indices_.size();
-  const size_t m = static_cast<size_t>(num_residuals());
-  std::lock_guard<std::mutex> lock(cache_mutex_);
-  bool cached = cached_parameters_.size() == n;
-  for (size_t i = 0; cached && i < n; ++i) {
-    cached = cached_parameters_[i] == parameters[i][0];
-  }
-  if (!cached) {
-    // Evaluate into the cache with every column requested.
-    cached_residuals_.assign(m, 0.0);
-    cached_jacobian_.assign(n, std::vector<double>(m, 0.0));
-    if (!EvaluateAllColumns(parameters)) {
-      cached_parameters_.clear();
-      return false;
-    }
-    cached_parameters_.assign(n, 0.0);
-    for (size_t i = 0; i < n; ++i) cached_parameters_[i] = parameters[i][0];
-  }
-  std::copy(cached_residuals_.begin(), cached_residuals_.end(), residuals);
-  for (size_t i = 0; i < n; ++i) {
-    if (jacobians[i] != nullptr) {
-      std::copy(cached_jacobian_[i].begin(), cached_jacobian_[i].end(),
-                jacobians[i]);
-    }
-  }
-  return true;
-}
-
-bool TrajectoryResidual::EvaluateAllColumns(
-    double const* const* parameters) const {
   // One tangent-linear trajectory carries every direction; its cost hardly
   // grows with their number, so one Jet size serves every count (each size
   // is a whole tangent-linear model to compile: minutes under the
   // sanitizers).
-  const int n = static_cast<int>(parameter_indices_.size());
-  std::vector<double*> columns(n);
-  for (int i = 0; i < n; ++i) columns[i] = cached_jacobian_[i].data();
   static_assert(SensitivityJet::DIMENSION == kMaxEstimatedParameters);
-  return SimulateAndFill<SensitivityJet>(parameters, cached_residuals_.data(),
-                                         columns.data());
+  return cache_.Evaluate(
+      parameters, static_cast<int>(parameter_indices_.size()), num_residuals(),
+      residuals, jacobians, [&](double* all_residuals, double** columns) {
+        return SimulateAndFill<SensitivityJet>(parameters, all_residuals,
+                                               columns);
+      });
 }
 
 }  // namespace kcrig

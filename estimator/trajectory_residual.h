@@ -14,12 +14,12 @@
 #ifndef KCRIG_ESTIMATOR_TRAJECTORY_RESIDUAL_H_
 #define KCRIG_ESTIMATOR_TRAJECTORY_RESIDUAL_H_
 
-#include <mutex>
 #include <string>
 #include <vector>
 
 #include "ceres/cost_function.h"
 #include "estimator/experiment.h"
+#include "estimator/jacobian_cache.h"
 #include "rt_core/model/suspension_parameters.h"
 
 namespace kcrig {
@@ -53,9 +53,6 @@ class TrajectoryResidual : public ceres::CostFunction {
   bool SimulateAndFill(double const* const* parameters, double* residuals,
                        double** jacobians) const;
 
-  // The residuals and every Jacobian column into the cache.
-  bool EvaluateAllColumns(double const* const* parameters) const;
-
   const SuspensionParameters<double>* nominal_;
   std::vector<int> parameter_indices_;
   std::vector<int> channels_;
@@ -64,14 +61,8 @@ class TrajectoryResidual : public ceres::CostFunction {
   double lower_scale_;
   double upper_scale_;
 
-  // The last residuals and Jacobian columns with the parameters they were
-  // evaluated at. Ceres evaluates the Jacobian at every accepted point, and
-  // the covariance analysis asks again at the final one: that second
-  // trajectory with sensitivities is served from here.
-  mutable std::mutex cache_mutex_;
-  mutable std::vector<double> cached_parameters_;
-  mutable std::vector<double> cached_residuals_;
-  mutable std::vector<std::vector<double>> cached_jacobian_;
+  // The Jacobian Ceres evaluated last, for the uncertainty analysis.
+  mutable JacobianCache cache_;
 };
 
 }  // namespace kcrig
