@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Quick start (2): installs the dependencies, builds Release and the
-# AddressSanitizer + UBSan preset, and runs the test suite under both, then
+# Quick start (2): installs the dependencies, builds Release (g++) and the
+# AddressSanitizer + UBSan preset (clang), and runs the test suite under both, then
 # the libFuzzer targets (clang) for a short time each.
 #   scripts/test.sh          CI tier (labels ci, ci-statistical, ci-heavy,
 #                            ci-realtime, ci-vcan, ci-loopback); under the

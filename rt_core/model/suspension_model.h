@@ -25,7 +25,7 @@
 // rotation, the element states): a double step a third faster, the
 // tangent-linear step a quarter (model_bench). Not under the sanitizers,
 // where it would only slow the build.
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(KCRIG_SANITIZED)
 #define KCRIG_INLINE_CALLEES
 #else
 #define KCRIG_INLINE_CALLEES [[gnu::flatten]]

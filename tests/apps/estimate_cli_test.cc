@@ -221,7 +221,7 @@ TEST_F(EstimateCliTest, OutputsNeverReplaceAnInputOrASpecialFile) {
 // the machine must not let through one that then exhausts it. The growth
 // between a 10 s and a 40 s log at 1 kHz is measured, so fixed costs cancel.
 TEST_F(EstimateCliTest, PeakMemoryPerSampleIsWhatTheCheckAssumes) {
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(KCRIG_SANITIZED)
   GTEST_SKIP() << "under AddressSanitizer the resident set measures the "
                   "sanitizer's shadow and quarantine, not the fit";
 #endif
