@@ -143,8 +143,7 @@ void BM_MinpackLmderForwardDifference(benchmark::State& state) {
   const Setup& s = GetSetup();
   EstimatorOptions options;
   TrajectoryResidual residual(&s.config.model, s.indices, options.channels,
-                              &s.experiments[0], s.config.experiment.step,
-                              options.lower_scale, options.upper_scale);
+                              &s.experiments[0], s.config.experiment.step);
   g_residual = &residual;
   int m = residual.num_residuals(), n = kNumBushings;
   std::vector<double> x, fvec(m), fjac(static_cast<size_t>(m) * n), diag(n),
@@ -178,8 +177,7 @@ void BM_CeresNumericDiffLM(benchmark::State& state) {
   const Setup& s = GetSetup();
   EstimatorOptions options;
   TrajectoryResidual residual(&s.config.model, s.indices, options.channels,
-                              &s.experiments[0], s.config.experiment.step,
-                              options.lower_scale, options.upper_scale);
+                              &s.experiments[0], s.config.experiment.step);
   std::vector<double> x;
   int iterations = 0;
   for (auto _ : state) {

@@ -130,7 +130,7 @@ Status InformationEvaluator::JacobianColumns(
   const Experiment experiment = MakeExperiment(design);
   const TrajectoryResidual residual(&nominal_, parameter_indices_,
                                     {0, 1, 2, 3, 4, 5}, &experiment,
-                                    experiment_.step, kLowerScale, kUpperScale);
+                                    experiment_.step);
   const int n = num_parameters();
   const int m = residual.num_residuals();
   std::vector<double> values = scaled_values_;

@@ -235,17 +235,12 @@ bool SimulateSensed(const EffectModel& model, const T* theta,
 // The weighted residuals (sensed - measured) / sigma of one experiment over
 // all six channels, zero for unobserved samples, with one parameter block
 // of size 1 per theta; the Jacobian is exact (a Jet of 8 or 14 directions,
-// the unused ones zero).
+// the unused ones zero). Evaluated inside theta's box only (the problem's).
 class EffectResidual : public ceres::CostFunction {
  public:
   EffectResidual(const EffectModel* model, const Experiment* experiment,
-                 double step, std::vector<double> lower,
-                 std::vector<double> upper)
-      : model_(model),
-        experiment_(experiment),
-        step_(step),
-        lower_(std::move(lower)),
-        upper_(std::move(upper)) {
+                 double step)
+      : model_(model), experiment_(experiment), step_(step) {
     for (int i = 0; i < model->num_parameters(); ++i) {
       mutable_parameter_block_sizes()->push_back(1);
     }
@@ -257,7 +252,6 @@ class EffectResidual : public ceres::CostFunction {
     std::vector<double> theta(model_->num_parameters());
     for (int i = 0; i < model_->num_parameters(); ++i) {
       theta[i] = parameters[i][0];
-      if (!(theta[i] >= lower_[i] && theta[i] <= upper_[i])) return false;
     }
     if (jacobians == nullptr) {
       return Fill<double>(theta.data(), residuals, nullptr);
@@ -313,7 +307,6 @@ class EffectResidual : public ceres::CostFunction {
   const EffectModel* model_;
   const Experiment* experiment_;
   double step_;
-  std::vector<double> lower_, upper_;  // theta bounds
   // The Jacobian Ceres evaluated last, for the uncertainty analysis.
   mutable JacobianCache cache_;
 };
@@ -338,7 +331,7 @@ class EffectProblem : public LeastSquaresProblem {
                 const std::vector<double>& upper)
       : LeastSquaresProblem(lower, upper) {
     for (const Experiment& e : experiments) {
-      AddResidualBlock(new EffectResidual(&model, &e, step, lower, upper));
+      AddResidualBlock(new EffectResidual(&model, &e, step));
     }
   }
 };
@@ -764,7 +757,7 @@ Status WeightedJacobian(const EffectModel& model,
   std::vector<double*> columns(n);
   long row = 0;
   for (const Experiment& e : experiments) {
-    EffectResidual residual(&model, &e, integrator_step, lower, upper);
+    EffectResidual residual(&model, &e, integrator_step);
     for (int i = 0; i < n; ++i) columns[i] = &(*jacobian)(row, i);
     if (!residual.Evaluate(parameters.data(), residuals->data() + row,
                            columns.data())) {

@@ -28,6 +28,7 @@ class JacobianCache {
   bool Holds(double const* const* parameters, int num_parameters) const;
 
   std::mutex mutex_;
+  bool filled_ = false;  // by a successful evaluation at parameters_
   std::vector<double> parameters_;
   std::vector<double> residuals_;
   std::vector<std::vector<double>> columns_;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <utility>
 
 #include "ceres/ceres.h"
@@ -9,18 +10,23 @@
 namespace kcrig {
 namespace {
 
-// The caller's IterationCallback as Ceres' own, which can abort the solve.
+// Rounds of the active set: a round follows only when the data pull a
+// parameter back from its bound, which few faces of the box ever do.
+constexpr int kMaxActiveSetRounds = 4;
+
+// The caller's IterationCallback as Ceres' own, which can abort the solve;
+// the iterations count on across the rounds.
 class CallbackAdapter : public ceres::IterationCallback {
  public:
-  explicit CallbackAdapter(const LeastSquaresOptions& options)
-      : options_(options) {}
+  CallbackAdapter(const LeastSquaresOptions& options, int first_iteration)
+      : options_(options), first_iteration_(first_iteration) {}
 
   ceres::CallbackReturnType operator()(
       const ceres::IterationSummary& iteration) override {
     IterationSummary summary;
+    summary.done = first_iteration_ + iteration.iteration;
     summary.stage =
-        options_.stage + ": iteration " + std::to_string(iteration.iteration);
-    summary.done = iteration.iteration;
+        options_.stage + ": iteration " + std::to_string(summary.done);
     summary.total = options_.max_iterations;
     return options_.callback(summary) == CallbackReturn::kAbort
                ? ceres::SOLVER_ABORT
@@ -29,6 +35,50 @@ class CallbackAdapter : public ceres::IterationCallback {
 
  private:
   const LeastSquaresOptions& options_;
+  int first_iteration_;
+};
+
+void Project(const std::vector<double>& lower, const std::vector<double>& upper,
+             std::vector<double>* x) {
+  for (size_t i = 0; i < x->size(); ++i) {
+    (*x)[i] = std::clamp((*x)[i], lower[i], upper[i]);
+  }
+}
+
+// A residual block evaluated at the projection of its parameters onto the
+// box, with a zero Jacobian column for a parameter beyond its bound (there
+// it has no effect).
+class ProjectedResidual : public ceres::CostFunction {
+ public:
+  ProjectedResidual(ceres::CostFunction* inner, std::vector<double> lower,
+                    std::vector<double> upper)
+      : inner_(inner), lower_(std::move(lower)), upper_(std::move(upper)) {
+    *mutable_parameter_block_sizes() = inner->parameter_block_sizes();
+    set_num_residuals(inner->num_residuals());
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    std::vector<double> projected(lower_.size());
+    for (size_t i = 0; i < projected.size(); ++i) {
+      if (!std::isfinite(parameters[i][0])) return false;
+      projected[i] = parameters[i][0];
+    }
+    Project(lower_, upper_, &projected);
+    std::vector<const double*> blocks;
+    for (const double& p : projected) blocks.push_back(&p);
+    if (!inner_->Evaluate(blocks.data(), residuals, jacobians)) return false;
+    for (size_t i = 0; jacobians != nullptr && i < projected.size(); ++i) {
+      if (jacobians[i] != nullptr && projected[i] != parameters[i][0]) {
+        std::fill_n(jacobians[i], num_residuals(), 0.0);
+      }
+    }
+    return true;
+  }
+
+ private:
+  std::unique_ptr<ceres::CostFunction> inner_;
+  std::vector<double> lower_, upper_;
 };
 
 }  // namespace
@@ -46,8 +96,9 @@ LeastSquaresProblem::~LeastSquaresProblem() = default;
 void LeastSquaresProblem::AddResidualBlock(ceres::CostFunction* residual) {
   std::vector<double*> blocks;
   for (double& x : x_) blocks.push_back(&x);
-  problem_->AddResidualBlock(residual, nullptr, blocks);
-  residual_blocks_.push_back(residual);
+  auto* projected = new ProjectedResidual(residual, lower_, upper_);
+  problem_->AddResidualBlock(projected, nullptr, blocks);
+  residual_blocks_.push_back(projected);
 }
 
 Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
@@ -56,9 +107,39 @@ Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
                                      LeastSquaresSummary* summary) {
   *summary = LeastSquaresSummary();
   x_ = *x;
+  Project(lower_, upper_, &x_);
+  std::vector<bool> held(x_.size(), false), frozen(x_.size());
+  for (int round = 0; round < kMaxActiveSetRounds; ++round) {
+    for (size_t i = 0; i < x_.size(); ++i) {
+      frozen[i] = (!fixed.empty() && fixed[i]) || held[i];
+    }
+    LeastSquaresSummary part;
+    KCRIG_RETURN_IF_ERROR(Solve(options, frozen, summary->iterations,
+                                options.max_iterations - summary->iterations,
+                                &part));
+    summary->iterations += part.iterations;
+    summary->cost = part.cost;
+    summary->converged = part.converged;
+    summary->message = part.message;
+    const std::vector<double> unprojected = x_;
+    Project(lower_, upper_, &x_);
+    bool another_round = false;
+    if (!NextActiveSet(fixed, unprojected, &held, &another_round) ||
+        !another_round || summary->iterations >= options.max_iterations) {
+      break;
+    }
+  }
+  *x = x_;
+  return Status::Ok();
+}
+
+Status LeastSquaresProblem::Solve(const LeastSquaresOptions& options,
+                                  const std::vector<bool>& frozen,
+                                  int first_iteration, int max_iterations,
+                                  LeastSquaresSummary* summary) {
   int free = 0;
   for (size_t i = 0; i < x_.size(); ++i) {
-    if (!fixed.empty() && fixed[i]) {
+    if (frozen[i]) {
       problem_->SetParameterBlockConstant(&x_[i]);
     } else {
       problem_->SetParameterBlockVariable(&x_[i]);
@@ -66,7 +147,7 @@ Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
     }
   }
   if (free == 0) {
-    if (!Evaluate(*x, &summary->cost, nullptr, nullptr)) {
+    if (!Evaluate(std::vector<double>(x_), &summary->cost, nullptr, nullptr)) {
       return Status::Error("the model cannot be evaluated at these parameters");
     }
     summary->converged = true;
@@ -76,7 +157,7 @@ Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
   solver.minimizer_type = ceres::TRUST_REGION;
   solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   solver.linear_solver_type = ceres::DENSE_QR;
-  solver.max_num_iterations = options.max_iterations;
+  solver.max_num_iterations = max_iterations;
   solver.function_tolerance = options.function_tolerance;
   solver.gradient_tolerance = options.gradient_tolerance;
   solver.parameter_tolerance = options.parameter_tolerance;
@@ -85,7 +166,7 @@ Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
   solver.num_threads =
       std::max(1, std::min(options.num_threads, problem_->NumResidualBlocks()));
   solver.logging_type = ceres::SILENT;
-  CallbackAdapter adapter(options);
+  CallbackAdapter adapter(options, first_iteration);
   if (options.callback) solver.callbacks.push_back(&adapter);
   ceres::Solver::Summary ceres_summary;
   ceres::Solve(solver, problem_.get(), &ceres_summary);
@@ -96,12 +177,51 @@ Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
       !std::isfinite(ceres_summary.final_cost)) {
     return Status::Error(options.stage + " failed: " + ceres_summary.message);
   }
-  *x = x_;
   summary->cost = ceres_summary.final_cost;
   summary->iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
   summary->converged = ceres_summary.termination_type == ceres::CONVERGENCE;
   summary->message = ceres_summary.message;
   return Status::Ok();
+}
+
+bool LeastSquaresProblem::NextActiveSet(const std::vector<bool>& fixed,
+                                        const std::vector<double>& unprojected,
+                                        std::vector<bool>* held,
+                                        bool* another_round) {
+  *another_round = false;
+  const std::vector<bool> was_held = *held;
+  held->assign(x_.size(), false);
+  auto on_a_face = [&](size_t i) {
+    return (fixed.empty() || !fixed[i]) &&
+           (x_[i] == lower_[i] || x_[i] == upper_[i]);
+  };
+  bool any = false;
+  for (size_t i = 0; i < x_.size(); ++i) any = any || on_a_face(i);
+  if (!any) return true;
+  // The gradient J^T f of the cost, one-sided (from inside) at the bounds;
+  // Ceres evaluated the Jacobian here last, and the residuals cache it.
+  Eigen::VectorXd residuals;
+  Eigen::MatrixXd jacobian;
+  if (!Evaluate(std::vector<double>(x_), nullptr, &residuals, &jacobian)) {
+    return false;
+  }
+  const Eigen::VectorXd gradient = jacobian.transpose() * residuals;
+  for (size_t i = 0; i < x_.size(); ++i) {
+    if (!on_a_face(i)) continue;
+    const double g = gradient(static_cast<Eigen::Index>(i));
+    const bool at_lower = x_[i] == lower_[i];
+    const bool at_upper = x_[i] == upper_[i];
+    if (at_lower && at_upper) {  // a box of zero width
+      (*held)[i] = true;
+      continue;
+    }
+    (*held)[i] = (at_lower && g > 0) || (at_upper && g < 0);
+    const bool pulled_in = (at_lower && g < 0) || (at_upper && g > 0);
+    // Held, or beyond the bound (a zero column): the solve did not move it.
+    const bool kept_by_the_box = was_held[i] || unprojected[i] != x_[i];
+    *another_round = *another_round || (pulled_in && kept_by_the_box);
+  }
+  return true;
 }
 
 bool LeastSquaresProblem::Evaluate(const std::vector<double>& x, double* cost,

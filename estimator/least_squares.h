@@ -1,9 +1,17 @@
 // The one weighted nonlinear least-squares fit of the offline half, for the
 // trajectory residual of eq. (6) (fit_problem.h) and the diagnosis' effect
 // models alike: the Ceres problem on a box with one parameter block per
-// parameter (any of them can be held), Levenberg-Marquardt that an
-// IterationCallback can stop, the dense weighted Jacobian anywhere, and the
-// rule for a parameter that ended on its bound.
+// parameter (any of them can be held), projected Levenberg-Marquardt with
+// an active set that an IterationCallback can stop, the dense weighted
+// Jacobian anywhere, and the rule for a parameter that ended on its bound.
+//
+// The box is kept by projection: every residual is evaluated at the
+// projection of the parameters onto it, with a zero Jacobian column for a
+// parameter beyond its bound. A step that would cross a bound lands on it
+// instead of being rejected whole (which stalled the fit of the others, or
+// made it crawl towards the bound in ever smaller steps); a parameter the
+// data push outward stays on its bound, and the next round of the solve
+// holds it there (released again when the gradient turns inward).
 #ifndef KCRIG_ESTIMATOR_LEAST_SQUARES_H_
 #define KCRIG_ESTIMATOR_LEAST_SQUARES_H_
 
@@ -48,29 +56,29 @@ struct LeastSquaresSummary {
 
 class LeastSquaresProblem {
  public:
-  // The box lower[i] <= x_i <= upper[i]. The residuals enforce it (a point
-  // outside is an invalid step, see trajectory_residual.h); here it only
-  // decides AtBound.
+  // The box lower[i] <= x_i <= upper[i] (lower[i] <= upper[i]).
   LeastSquaresProblem(std::vector<double> lower, std::vector<double> upper);
   virtual ~LeastSquaresProblem();
   LeastSquaresProblem(const LeastSquaresProblem&) = delete;
   LeastSquaresProblem& operator=(const LeastSquaresProblem&) = delete;
 
   // Adds `residual` (owned), which takes one parameter block of size 1 per
-  // parameter, in order.
+  // parameter, in order; it is only ever evaluated inside the box.
   void AddResidualBlock(ceres::CostFunction* residual);
 
   int num_parameters() const { return static_cast<int>(x_.size()); }
 
-  // Levenberg-Marquardt from *x over the parameters whose `fixed` entry is
-  // false (empty: all free); writes the solution to *x.
+  // Levenberg-Marquardt from *x (projected onto the box) over the
+  // parameters whose `fixed` entry is false (empty: all free); writes the
+  // solution, inside the box, to *x. `summary` adds up the rounds.
   Status Minimize(const LeastSquaresOptions& options,
                   const std::vector<bool>& fixed, std::vector<double>* x,
                   LeastSquaresSummary* summary);
 
-  // At `x`: the cost 0.5 |f|^2, the weighted residuals f and their dense
-  // Jacobian, each output optional (null); false when the model cannot be
-  // evaluated there.
+  // At the projection of `x` onto the box: the cost 0.5 |f|^2, the weighted
+  // residuals f and their dense Jacobian (zero columns for the parameters
+  // beyond their bounds), each output optional (null); false when the model
+  // cannot be evaluated there.
   bool Evaluate(const std::vector<double>& x, double* cost,
                 Eigen::VectorXd* residuals, Eigen::MatrixXd* jacobian);
 
@@ -80,6 +88,19 @@ class LeastSquaresProblem {
   bool AtBound(int i, double x_i) const;
 
  private:
+  // One Levenberg-Marquardt solve from x_ over the parameters not `frozen`,
+  // at most `max_iterations`, its iterations reported from `first_iteration`.
+  Status Solve(const LeastSquaresOptions& options,
+               const std::vector<bool>& frozen, int first_iteration,
+               int max_iterations, LeastSquaresSummary* summary);
+  // After a solve that ended at `unprojected`, with x_ its projection: which
+  // parameters the data push out of the box (*held), and whether a round
+  // must follow because one that was held, or beyond its bound, is now
+  // pulled back in. False when the model cannot be evaluated at x_.
+  bool NextActiveSet(const std::vector<bool>& fixed,
+                     const std::vector<double>& unprojected,
+                     std::vector<bool>* held, bool* another_round);
+
   std::vector<double> lower_, upper_;
   std::vector<double> x_;  // the parameter blocks Ceres works on
   std::unique_ptr<ceres::Problem> problem_;

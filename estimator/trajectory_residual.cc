@@ -35,15 +35,12 @@ SuspensionParameters<T> ScaledParameters(
 TrajectoryResidual::TrajectoryResidual(
     const SuspensionParameters<double>* nominal,
     std::vector<int> parameter_indices, std::vector<int> channels,
-    const Experiment* experiment, double integrator_step, double lower_scale,
-    double upper_scale)
+    const Experiment* experiment, double integrator_step)
     : nominal_(nominal),
       parameter_indices_(std::move(parameter_indices)),
       channels_(std::move(channels)),
       experiment_(experiment),
-      integrator_step_(integrator_step),
-      lower_scale_(lower_scale),
-      upper_scale_(upper_scale) {
+      integrator_step_(integrator_step) {
   for (size_t i = 0; i < parameter_indices_.size(); ++i) {
     mutable_parameter_block_sizes()->push_back(1);
   }
@@ -98,10 +95,6 @@ bool TrajectoryResidual::SimulateAndFill(double const* const* parameters,
 
 bool TrajectoryResidual::Evaluate(double const* const* parameters,
                                   double* residuals, double** jacobians) const {
-  for (size_t i = 0; i < parameter_indices_.size(); ++i) {
-    const double s = parameters[i][0];
-    if (!(s >= lower_scale_ && s <= upper_scale_)) return false;
-  }
   if (jacobians == nullptr) {
     return SimulateAndFill<double>(parameters, residuals, nullptr);
   }

@@ -6,11 +6,7 @@
 // through the whole trajectory; no finite differences).
 // Parameters are scaled, s_i = p_i / p_i,nominal, one parameter block of
 // size 1 each so that any of them can be held constant (profiles).
-//
-// The box lower <= s_i <= upper is enforced here: a point outside it is an
-// invalid step, which makes the trust region shrink. (Ceres' own bounds run
-// a projected line search that evaluates the Jacobian, i.e. a whole
-// trajectory with sensitivities, once more per iteration.)
+// The box of s is LeastSquaresProblem's: it evaluates this only inside.
 #ifndef KCRIG_ESTIMATOR_TRAJECTORY_RESIDUAL_H_
 #define KCRIG_ESTIMATOR_TRAJECTORY_RESIDUAL_H_
 
@@ -35,8 +31,7 @@ class TrajectoryResidual : public ceres::CostFunction {
   TrajectoryResidual(const SuspensionParameters<double>* nominal,
                      std::vector<int> parameter_indices,
                      std::vector<int> channels, const Experiment* experiment,
-                     double integrator_step, double lower_scale,
-                     double upper_scale);
+                     double integrator_step);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -58,8 +53,6 @@ class TrajectoryResidual : public ceres::CostFunction {
   std::vector<int> channels_;
   const Experiment* experiment_;
   double integrator_step_;
-  double lower_scale_;
-  double upper_scale_;
 
   // The Jacobian Ceres evaluated last, for the uncertainty analysis.
   mutable JacobianCache cache_;

@@ -47,16 +47,19 @@ for preset in release asan; do
     # The vcan tier runs beside the Release tier: its guest is paced by
     # guest time (scripts/vcan_vm.sh), so a busy host makes it longer, never
     # late, and its one vCPU would leave the other core idle if it ran
-    # alone. A failed case runs once more, as below.
+    # alone. A failed case runs once more, as below. In a session of its
+    # own, so that an interrupted script takes it and its guest down too.
     vcan_log=build/vcan_tier.log
-    ctest --preset "$preset" -L ci-vcan --repeat until-pass:2 \
+    setsid ctest --preset "$preset" -L ci-vcan --repeat until-pass:2 \
       >"$vcan_log" 2>&1 &
     vcan_pid=$!
+    trap 'kill -- -"$vcan_pid" 2>/dev/null' EXIT
     tier_status=0
     ctest --preset "$preset" -L ci -LE 'realtime|vcan|loopback' ||
       tier_status=$?
     vcan_status=0
     wait "$vcan_pid" || vcan_status=$?
+    trap - EXIT
     echo "== release: vcan tier (beside the tier above)"
     cat "$vcan_log"
     if ((tier_status != 0 || vcan_status != 0)); then exit 1; fi

@@ -17,9 +17,8 @@ FitProblem::FitProblem(const SuspensionParameters<double>& nominal,
           std::vector<double>(indices.size(), options.lower_scale),
           std::vector<double>(indices.size(), options.upper_scale)) {
   for (const Experiment& experiment : experiments) {
-    AddResidualBlock(new TrajectoryResidual(
-        &nominal, indices, options.channels, &experiment, integrator_step,
-        options.lower_scale, options.upper_scale));
+    AddResidualBlock(new TrajectoryResidual(&nominal, indices, options.channels,
+                                            &experiment, integrator_step));
   }
 }
 
