@@ -420,8 +420,8 @@ def rows(d):
 
     (two, two_name), (one, one_name) = diagnosis(2, 2), diagnosis(1, 2)
     row("full diagnosis: two 4 s logs (2 s ramp + 2 s return, hysteresis "
-        "150 N), nominal fit, six candidates, cross-validation, localisation, "
-        "drift",
+        "150 N in every bushing), no hold-out: every candidate, "
+        "cross-validation, localisation, drift",
         "%s on two threads" % duration(two.seconds) if two
         else d.why_not("diagnosis_bench", two_name),
         "same on one thread",
@@ -432,6 +432,26 @@ def rows(d):
         "%s on two threads" % duration(long_logs.seconds) if long_logs
         else d.why_not("diagnosis_bench", long_name),
         note=verdict_note(long_logs))
+
+    def component_note(b):
+        note = "target ≤ 15 s (#19)"
+        if b and b.counter("correct") is not None:
+            note += "; verdict %s, component %s" % (
+                "hysteresis (right)" if b.counter("correct") else "NOT hysteresis (wrong)",
+                "bushing:V1 (right)" if b.counter("right_component") else "NOT bushing:V1 (wrong)")
+            if b.counter("high_confidence") is not None:
+                note += ", confidence %s" % ("high" if b.counter("high_confidence") else "low")
+        return note
+
+    component = "BM_ComponentDiagnosisWithHoldout/candidate_threads:%d"
+    two_c, one_c = (d.get("diagnosis_bench", component % k) for k in (2, 1))
+    row("component-level diagnosis: two 4 s logs and one hold-out, hysteresis "
+        "250 N in bushing V1 only: every component candidate",
+        "%s on two threads" % duration(two_c.seconds) if two_c
+        else d.why_not("diagnosis_bench", component % 2),
+        "same on one thread",
+        duration(one_c.seconds) if one_c else d.why_not("diagnosis_bench", component % 1),
+        ratio(two_c and two_c.seconds, one_c and one_c.seconds), component_note(two_c))
 
     one_rank = d.get("diagnosis_bench", "BM_ValidateOnRanks/ranks:1")
     two_ranks = d.get("diagnosis_bench", "BM_ValidateOnRanks/ranks:2")
