@@ -108,7 +108,13 @@ Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
   *summary = LeastSquaresSummary();
   x_ = *x;
   Project(lower_, upper_, &x_);
+  // The start's own faces: a parameter the data push out from its start is
+  // held from the first round (free, every step would move it outward and
+  // the solve could stall on rejected steps). The Jacobian evaluated here
+  // is the one Ceres starts from (the residuals cache it).
   std::vector<bool> held(x_.size(), false), frozen(x_.size());
+  bool another_round = false;
+  NextActiveSet(fixed, x_, &held, &another_round);
   for (int round = 0; round < kMaxActiveSetRounds; ++round) {
     for (size_t i = 0; i < x_.size(); ++i) {
       frozen[i] = (!fixed.empty() && fixed[i]) || held[i];
@@ -123,11 +129,16 @@ Status LeastSquaresProblem::Minimize(const LeastSquaresOptions& options,
     summary->message = part.message;
     const std::vector<double> unprojected = x_;
     Project(lower_, upper_, &x_);
-    bool another_round = false;
     if (!NextActiveSet(fixed, unprojected, &held, &another_round) ||
         !another_round || summary->iterations >= options.max_iterations) {
+      another_round = false;
       break;
     }
+  }
+  if (another_round) {  // the rounds ran out with the active set unsettled
+    summary->converged = false;
+    summary->message = "the active set of the box did not settle in " +
+                       std::to_string(kMaxActiveSetRounds) + " rounds";
   }
   *x = x_;
   return Status::Ok();
@@ -199,7 +210,8 @@ bool LeastSquaresProblem::NextActiveSet(const std::vector<bool>& fixed,
   for (size_t i = 0; i < x_.size(); ++i) any = any || on_a_face(i);
   if (!any) return true;
   // The gradient J^T f of the cost, one-sided (from inside) at the bounds;
-  // Ceres evaluated the Jacobian here last, and the residuals cache it.
+  // the Jacobian is the one Ceres evaluated here last, or starts from (the
+  // residuals cache it).
   Eigen::VectorXd residuals;
   Eigen::MatrixXd jacobian;
   if (!Evaluate(std::vector<double>(x_), nullptr, &residuals, &jacobian)) {
@@ -219,7 +231,11 @@ bool LeastSquaresProblem::NextActiveSet(const std::vector<bool>& fixed,
     const bool pulled_in = (at_lower && g < 0) || (at_upper && g > 0);
     // Held, or beyond the bound (a zero column): the solve did not move it.
     const bool kept_by_the_box = was_held[i] || unprojected[i] != x_[i];
-    *another_round = *another_round || (pulled_in && kept_by_the_box);
+    // Free on its bound to the end: its outward steps may have stalled the
+    // solve of the others.
+    const bool newly_held = (*held)[i] && !was_held[i] && !kept_by_the_box;
+    *another_round =
+        *another_round || (pulled_in && kept_by_the_box) || newly_held;
   }
   return true;
 }

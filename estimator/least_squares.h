@@ -93,10 +93,12 @@ class LeastSquaresProblem {
   Status Solve(const LeastSquaresOptions& options,
                const std::vector<bool>& frozen, int first_iteration,
                int max_iterations, LeastSquaresSummary* summary);
-  // After a solve that ended at `unprojected`, with x_ its projection: which
-  // parameters the data push out of the box (*held), and whether a round
-  // must follow because one that was held, or beyond its bound, is now
-  // pulled back in. False when the model cannot be evaluated at x_.
+  // At x_, the projection of `unprojected` where a solve ended (or the
+  // start): which parameters the data push out of the box (*held, which
+  // comes in as the set the solve held), and whether a round must follow:
+  // one that was held or beyond its bound is now pulled back in, or one
+  // stayed free on its bound while pushed out. False when the model cannot
+  // be evaluated at x_.
   bool NextActiveSet(const std::vector<bool>& fixed,
                      const std::vector<double>& unprojected,
                      std::vector<bool>* held, bool* another_round);

@@ -185,7 +185,8 @@ run() {
   keep_list=$(IFS=,; echo "${keep[*]}")
   local console=$scratch/console
   local status=0
-  timeout "${KCRIG_VM_TIMEOUT:-900}" qemu-system-x86_64 -accel tcg -icount shift=1,sleep=off \
+  # In the caller's process group, so that killing that group ends the guest.
+  timeout --foreground "${KCRIG_VM_TIMEOUT:-900}" qemu-system-x86_64 -accel tcg -icount shift=1,sleep=off \
     -m 1536 -smp 1 -nographic -no-reboot -nic none \
     -kernel "$cache/vmlinuz" -initrd "$cache/initramfs.cpio.gz" \
     -append "console=ttyS0 quiet loglevel=3 panic=-1 kcrig_job=$scratch/job.sh kcrig_scratch=$scratch kcrig_keep=$keep_list" \

@@ -105,6 +105,55 @@ TEST(LeastSquaresProblemTest, AStartOnABoundPushedOutwardStillFitsTheRest) {
   EXPECT_TRUE(fit.summary.converged) << fit.summary.message;
 }
 
+TEST(LeastSquaresProblemTest,
+     AStartOnABoundWithTheRestNearlyFittedDoesNotStall) {
+  // x1 is 0.01 from its optimum: a free x0 pushed outward on every step
+  // would leave almost no decrease the model predicts, and Ceres would
+  // call the start converged.
+  const Fit fit = Solve(2, Linear, {0, 1.99}, {0, -10}, {10, 10});
+  EXPECT_EQ(fit.x[0], 0.0);
+  EXPECT_NEAR(fit.x[1], 2.0, 1e-5);  // a stall leaves 1.99
+  EXPECT_TRUE(fit.summary.converged) << fit.summary.message;
+}
+
+// f = (x0 - 1, x1 - 2 + 0.5 x0): the optimum (1, 1.5) lies beyond x0 <= 0;
+// on the bound the best x1 is 2.
+void BeyondTheUpperBound(double x0, double x1, double* f, double* d0,
+                         double* d1) {
+  Linear(x0 - 2, x1 + 1, f, d0, d1);
+}
+
+TEST(LeastSquaresProblemTest, EndsOnAnUpperBoundTheDataPushAgainst) {
+  for (const std::vector<double>& start :
+       {std::vector<double>{-3, 0}, {0, 1.99}}) {
+    const Fit fit = Solve(2, BeyondTheUpperBound, start, {-10, -10}, {0, 10});
+    EXPECT_EQ(fit.x[0], 0.0);
+    EXPECT_NEAR(fit.x[1], 2.0, 1e-5);
+    EXPECT_TRUE(fit.at_bound[0]);
+    EXPECT_TRUE(fit.summary.converged) << fit.summary.message;
+  }
+}
+
+// f = (x0 + 1 - x1, 10 (x1 - 2)): optimum (1, 2) inside the box. From
+// (0, 0) the data push x0 below its bound, so it is held; once x1 has
+// moved, they pull it back in and the next round frees it.
+void HeldThenReleased(double x0, double x1, double* f, double* d0, double* d1) {
+  f[0] = x0 + 1 - x1;
+  f[1] = 10 * (x1 - 2);
+  d0[0] = 1;
+  d0[1] = 0;
+  d1[0] = -1;
+  d1[1] = 10;
+}
+
+TEST(LeastSquaresProblemTest, AHeldParameterIsReleasedWhenPulledBackIn) {
+  const Fit fit = Solve(2, HeldThenReleased, {0, 0}, {0, -10}, {10, 10});
+  EXPECT_NEAR(fit.x[0], 1.0, 1e-9);
+  EXPECT_NEAR(fit.x[1], 2.0, 1e-9);
+  EXPECT_FALSE(fit.at_bound[0]);
+  EXPECT_TRUE(fit.summary.converged) << fit.summary.message;
+}
+
 // f = (x0 - x1^2, 10 (x1 - 1)): optimum (1, 1) inside the box. From
 // (5, 3) the Gauss-Newton step sends x0 to 2*3 - 9 = -3, beyond x0 >= 0;
 // once x1 has settled, the data pull x0 back in.
