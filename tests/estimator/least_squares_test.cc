@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <functional>
 #include <utility>
@@ -74,15 +75,20 @@ Fit Solve(int num_residuals, TwoParameterResidual::Function f,
   return fit;
 }
 
+// Writes two residuals f and their derivatives d0 (by x0), d1 (by x1).
+void Set(double* f, double* d0, double* d1, std::array<double, 2> f_value,
+         std::array<double, 2> d0_value, std::array<double, 2> d1_value) {
+  for (int r = 0; r < 2; ++r) {
+    f[r] = f_value[r];
+    d0[r] = d0_value[r];
+    d1[r] = d1_value[r];
+  }
+}
+
 // f = (x0 + 1, x1 - 2 + 0.5 x0): the unconstrained optimum (-1, 2.5) lies
 // beyond x0 >= 0; on the bound the best x1 is 2.
 void Linear(double x0, double x1, double* f, double* d0, double* d1) {
-  f[0] = x0 + 1;
-  f[1] = x1 - 2 + 0.5 * x0;
-  d0[0] = 1;
-  d0[1] = 0.5;
-  d1[0] = 0;
-  d1[1] = 1;
+  Set(f, d0, d1, {x0 + 1, x1 - 2 + 0.5 * x0}, {1, 0.5}, {0, 1});
 }
 
 TEST(LeastSquaresProblemTest, EndsOnTheBoundTheDataPushAgainst) {
@@ -138,12 +144,7 @@ TEST(LeastSquaresProblemTest, EndsOnAnUpperBoundTheDataPushAgainst) {
 // (0, 0) the data push x0 below its bound, so it is held; once x1 has
 // moved, they pull it back in and the next round frees it.
 void HeldThenReleased(double x0, double x1, double* f, double* d0, double* d1) {
-  f[0] = x0 + 1 - x1;
-  f[1] = 10 * (x1 - 2);
-  d0[0] = 1;
-  d0[1] = 0;
-  d1[0] = -1;
-  d1[1] = 10;
+  Set(f, d0, d1, {x0 + 1 - x1, 10 * (x1 - 2)}, {1, 0}, {-1, 10});
 }
 
 TEST(LeastSquaresProblemTest, AHeldParameterIsReleasedWhenPulledBackIn) {
@@ -158,12 +159,7 @@ TEST(LeastSquaresProblemTest, AHeldParameterIsReleasedWhenPulledBackIn) {
 // (5, 3) the Gauss-Newton step sends x0 to 2*3 - 9 = -3, beyond x0 >= 0;
 // once x1 has settled, the data pull x0 back in.
 void Curved(double x0, double x1, double* f, double* d0, double* d1) {
-  f[0] = x0 - x1 * x1;
-  f[1] = 10 * (x1 - 1);
-  d0[0] = 1;
-  d0[1] = 0;
-  d1[0] = -2 * x1;
-  d1[1] = 10;
+  Set(f, d0, d1, {x0 - x1 * x1, 10 * (x1 - 1)}, {1, 0}, {-2 * x1, 10});
 }
 
 TEST(LeastSquaresProblemTest, AParameterPushedOutEarlyIsReleased) {
