@@ -67,26 +67,36 @@ IterationCallback Trace() {
   };
 }
 
+// Diagnoses `training` (and `holdout`) on state.range(0) candidate threads
+// each iteration; the verdict's counters and label. False when it failed.
+bool RunDiagnosis(benchmark::State& state, const Setup& setup,
+                  const std::vector<Experiment>& training,
+                  const std::vector<Experiment>& holdout,
+                  DiagnosisResult* result) {
+  DiagnosisOptions options;
+  options.num_threads = static_cast<int>(state.range(0));
+  options.callback = Trace();
+  for (auto _ : state) {
+    if (!Diagnose(setup.config.model, training, holdout, options,
+                  setup.config.experiment.step, result)
+             .ok()) {
+      state.SkipWithError("diagnosis failed");
+      return false;
+    }
+  }
+  state.counters["correct"] = result->verdict == "hysteresis";
+  state.counters["high_confidence"] = result->confidence == "high";
+  state.SetLabel(result->verdict + " " + result->model + ": " + result->reason);
+  state.counters["candidates"] = static_cast<double>(result->ranking.size());
+  return true;
+}
+
 void BM_FullDiagnosis(benchmark::State& state) {
   static const Setup short_logs(2.0, "hysteresis:force=150", 2),
       long_logs(4.0, "hysteresis:force=150", 2);
   const Setup& setup = state.range(1) == 2 ? short_logs : long_logs;
-  DiagnosisOptions options;
-  options.num_threads = static_cast<int>(state.range(0));
-  options.callback = Trace();
   DiagnosisResult result;
-  for (auto _ : state) {
-    if (!Diagnose(setup.config.model, setup.logs, {}, options,
-                  setup.config.experiment.step, &result)
-             .ok()) {
-      state.SkipWithError("diagnosis failed");
-      return;
-    }
-  }
-  state.counters["correct"] = result.verdict == "hysteresis";
-  state.counters["high_confidence"] = result.confidence == "high";
-  state.SetLabel(result.verdict + ": " + result.reason);
-  state.counters["candidates"] = static_cast<double>(result.ranking.size());
+  RunDiagnosis(state, setup, setup.logs, {}, &result);
 }
 BENCHMARK(BM_FullDiagnosis)
     ->ArgNames({"candidate_threads", "half_s"})
@@ -105,24 +115,11 @@ void BM_ComponentDiagnosisWithHoldout(benchmark::State& state) {
   static const Setup setup(2.0, "hysteresis:force=250,at=bushing:V1", 3);
   const std::vector<Experiment> training(setup.logs.begin(),
                                          setup.logs.begin() + 2);
-  DiagnosisOptions options;
-  options.num_threads = static_cast<int>(state.range(0));
-  options.callback = Trace();
   DiagnosisResult result;
-  for (auto _ : state) {
-    if (!Diagnose(setup.config.model, training, {setup.logs[2]}, options,
-                  setup.config.experiment.step, &result)
-             .ok()) {
-      state.SkipWithError("diagnosis failed");
-      return;
-    }
+  if (RunDiagnosis(state, setup, training, {setup.logs[2]}, &result)) {
+    state.counters["right_component"] =
+        result.components == std::vector<std::string>{"bushing:V1"};
   }
-  state.counters["correct"] = result.verdict == "hysteresis";
-  state.counters["right_component"] =
-      result.components == std::vector<std::string>{"bushing:V1"};
-  state.counters["high_confidence"] = result.confidence == "high";
-  state.SetLabel(result.verdict + " " + result.model + ": " + result.reason);
-  state.counters["candidates"] = static_cast<double>(result.ranking.size());
 }
 BENCHMARK(BM_ComponentDiagnosisWithHoldout)
     ->ArgName("candidate_threads")

@@ -408,11 +408,13 @@ def rows(d):
         name = "BM_FullDiagnosis/candidate_threads:%d/half_s:%d" % (threads, half)
         return d.get("diagnosis_bench", name), name
 
-    def verdict_note(b):
-        note = "target ≤ 10 s for two 4 s logs"
+    def verdict_note(b, note="target ≤ 10 s for two 4 s logs"):
         if b and b.counter("correct") is not None:
             note += "; verdict %s" % ("hysteresis (right)" if b.counter("correct")
                                       else "NOT hysteresis (wrong)")
+            if b.counter("right_component") is not None:
+                note += ", component %s" % ("bushing:V1 (right)" if b.counter("right_component")
+                                            else "NOT bushing:V1 (wrong)")
             if b.counter("high_confidence") is not None:
                 note += ", confidence %s" % (
                     "high" if b.counter("high_confidence") else "low")
@@ -433,16 +435,6 @@ def rows(d):
         else d.why_not("diagnosis_bench", long_name),
         note=verdict_note(long_logs))
 
-    def component_note(b):
-        note = "target ≤ 15 s (#19)"
-        if b and b.counter("correct") is not None:
-            note += "; verdict %s, component %s" % (
-                "hysteresis (right)" if b.counter("correct") else "NOT hysteresis (wrong)",
-                "bushing:V1 (right)" if b.counter("right_component") else "NOT bushing:V1 (wrong)")
-            if b.counter("high_confidence") is not None:
-                note += ", confidence %s" % ("high" if b.counter("high_confidence") else "low")
-        return note
-
     component = "BM_ComponentDiagnosisWithHoldout/candidate_threads:%d"
     two_c, one_c = (d.get("diagnosis_bench", component % k) for k in (2, 1))
     row("component-level diagnosis: two 4 s logs and one hold-out, hysteresis "
@@ -451,7 +443,8 @@ def rows(d):
         else d.why_not("diagnosis_bench", component % 2),
         "same on one thread",
         duration(one_c.seconds) if one_c else d.why_not("diagnosis_bench", component % 1),
-        ratio(two_c and two_c.seconds, one_c and one_c.seconds), component_note(two_c))
+        ratio(two_c and two_c.seconds, one_c and one_c.seconds),
+        verdict_note(two_c, "target ≤ 15 s (#19)"))
 
     one_rank = d.get("diagnosis_bench", "BM_ValidateOnRanks/ranks:1")
     two_ranks = d.get("diagnosis_bench", "BM_ValidateOnRanks/ranks:2")
