@@ -149,6 +149,13 @@ void HeldThenReleased(double x0, double x1, double* f, double* d0, double* d1) {
 
 TEST(LeastSquaresProblemTest, AHeldParameterIsReleasedWhenPulledBackIn) {
   const Fit fit = Solve(2, HeldThenReleased, {0, 0}, {0, -10}, {10, 10});
+  // Held first: x1 moved while x0 stayed on its bound (free, one
+  // Gauss-Newton step would have gone straight to the optimum).
+  bool held_first = false;
+  for (const std::vector<double>& x : fit.visited) {
+    held_first = held_first || (x[0] == 0.0 && x[1] > 0.5);
+  }
+  EXPECT_TRUE(held_first);
   EXPECT_NEAR(fit.x[0], 1.0, 1e-9);
   EXPECT_NEAR(fit.x[1], 2.0, 1e-9);
   EXPECT_FALSE(fit.at_bound[0]);
