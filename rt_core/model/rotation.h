@@ -46,6 +46,7 @@ Mat3<T> SkewTimes(const Vec3<T>& a, const Eigen::MatrixBase<Derived>& m) {
 template <typename T>
 class CardanAngles {
  public:
+  CardanAngles() = default;
   explicit CardanAngles(const Vec3<T>& angles) {
     using std::cos;
     using std::sin;
@@ -73,6 +74,17 @@ class CardanAngles {
     Mat3<T> g;
     g << -sth * cph, cth, T(0), sph, T(0), T(1), cth * cph, sth, T(0);
     return g;
+  }
+
+  // dG along a change d_angles of the angles.
+  Mat3<T> RateMatrixDerivative(const Vec3<T>& d_angles) const {
+    const T &cph = c_[1], &sph = s_[1], &cth = c_[2], &sth = s_[2];
+    const T &d_phi = d_angles(1), &d_theta = d_angles(2);
+    Mat3<T> dg;
+    dg << sth * sph * d_phi - cth * cph * d_theta, -sth * d_theta, T(0),
+        cph * d_phi, T(0), T(0), -cth * sph * d_phi - sth * cph * d_theta,
+        cth * d_theta, T(0);
+    return dg;
   }
 
   // G^-1, singular only at camber = +-90 deg (gimbal lock), far outside any

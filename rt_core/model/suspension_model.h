@@ -133,12 +133,31 @@ class SuspensionModel {
   //
   // With `parameter_jacobian` (and `hook_jacobian`), also dQ/dp for the
   // parameters (and the hooks and load) Q is linear in, from the same
-  // element states.
+  // element states. With `with_jacobians` and `point`, also what
+  // DifferentiateJacobians reuses at this point.
+  struct PointState;
   KCRIG_INLINE_CALLEES void Evaluate(
       const RigLoad<T>& load, const Vec6<T>& y, const Vec6<T>& z,
       bool with_jacobians, GeneralizedForce<T>* out,
       LinearParameterJacobian* parameter_jacobian = nullptr,
-      HookAndLoadJacobian* hook_jacobian = nullptr) const;
+      HookAndLoadJacobian* hook_jacobian = nullptr,
+      PointState* point = nullptr) const;
+
+  // The derivatives along w = (w_y, w_z) of Q's Jacobians at the point
+  // Evaluate kept: what Evaluate in Dual scalars at y + eps w_y,
+  // z + eps w_z returns in the dual parts of dq_dy, dq_dz and the parameter
+  // and hook Jacobians, in closed form from the second derivatives of each
+  // element's state (the tangent-linear step's second-order term,
+  // tangent_linear.h). The load is held fixed.
+  struct JacobianDerivatives {
+    Mat6<T> dq_dy;
+    Mat6<T> dq_dz;
+    LinearParameterJacobian parameters;
+    HookAndLoadJacobian hooks;  // only with `with_hooks`
+  };
+  KCRIG_INLINE_CALLEES void DifferentiateJacobians(
+      const PointState& point, const Vec6<T>& w_y, const Vec6<T>& w_z,
+      bool with_hooks, JacobianDerivatives* out) const;
 
   // Unmodelled-effect hooks of the plant (rt_core/model/rig_plant.h); both zero
   // in the nominal model. Stiffening terms on each bushing's axial force
@@ -222,6 +241,33 @@ class SuspensionModel {
     T tangent_stiffness;
   };
 
+  // What the Jacobians of an element's force m a are built from (see
+  // Evaluate): the element's velocity terms e and g, dm/dq and W_b B.
+  struct ElementJacobianState {
+    ElementState element;
+    Vec3<T> w;  // omega x b, the carrier point's velocity about r
+    Vec3<T> point_velocity;
+    T u_dot_point_velocity;
+    Vec3<T> e_world;
+    Vec3<T> e_body;
+    Vec6<T> dmagnitude_dq;
+    Vec3<T> u_body_cross_b;
+    Mat3<T> w_body_b;
+  };
+
+ public:
+  // Evaluate's state at one point, for DifferentiateJacobians there.
+  struct PointState {
+    Vec6<T> z;
+    Vec3<T> load_point;
+    Vec3<T> load_body;
+    CardanAngles<T> cardan;
+    Mat3<T> rotation;
+    Eigen::Matrix<T, 6, 3> dq_dtheta;  // dQ/d(body rotation), before G
+    std::array<ElementJacobianState, kNumElements> elements;
+  };
+
+ private:
   ElementState StateOf(int i, const Vec3<T>& r, const Mat3<T>& rot,
                        const Mat3<T>& rot_t, const Vec6<T>& z) const {
     const AxialElement<T>& e = Element(i);
@@ -276,7 +322,8 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
                                   const Vec6<T>& z, bool with_jacobians,
                                   GeneralizedForce<T>* out,
                                   LinearParameterJacobian* parameter_jacobian,
-                                  HookAndLoadJacobian* hook_jacobian) const {
+                                  HookAndLoadJacobian* hook_jacobian,
+                                  PointState* point) const {
   const Vec3<T> r = y.template head<3>();
   const Vec3<T> angles = y.template tail<3>();
   const Vec3<T> v = z.template head<3>();
@@ -306,13 +353,16 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
   for (int i = 0; i < kNumElements; ++i) {
     const AxialElement<T>& e = Element(i);
     const Vec3<T>& b = e.carrier_point;
-    const ElementState element = StateOf(i, r, rot, rot_t, z);
+    ElementJacobianState j;
+    j.element = StateOf(i, r, rot, rot_t, z);
+    const ElementState& element = j.element;
     const T& length = element.length;
     const Vec3<T>& u = element.u;
     const Vec3<T>& u_body = element.u_body;
     const Vec6<T>& a = element.a;
     const T& magnitude = element.magnitude;
-    const Vec3<T> w = omega.cross(b);  // carrier-point velocity, body frame
+    j.w = omega.cross(b);  // carrier-point velocity, body frame
+    const Vec3<T>& w = j.w;
     out->q += magnitude * a;
     if (parameter_jacobian != nullptr) {
       parameter_jacobian->stiffness.col(i) = (length - free_length_[i]) * a;
@@ -332,12 +382,14 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
     }
     if (!with_jacobians) continue;
 
-    const Vec3<T> point_velocity = v + rot * w;
-    const Vec3<T> e_world =
-        (point_velocity - u * u.dot(point_velocity)) / length;
+    j.point_velocity = v + rot * w;
+    j.u_dot_point_velocity = u.dot(j.point_velocity);
+    j.e_world = (j.point_velocity - u * j.u_dot_point_velocity) / length;
+    j.e_body = rot_t * j.e_world;
     Vec6<T> g;
-    g << e_world, b.cross(rot_t * e_world) - w.cross(u_body);
-    const Vec6<T> dmagnitude_dq = e.damping * g - element.tangent_stiffness * a;
+    g << j.e_world, b.cross(j.e_body) - w.cross(u_body);
+    j.dmagnitude_dq = e.damping * g - element.tangent_stiffness * a;
+    const Vec6<T>& dmagnitude_dq = j.dmagnitude_dq;
     const Vec6<T> damped_a = e.damping * a;
     // Rank-one updates as plain loops: Eigen's generic outer product costs
     // several times more per Jet multiply.
@@ -351,7 +403,10 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
     const Mat3<T>& skew_b = skew_carrier_point_[i];
     const T m_over_l = magnitude / length;
     // W_b B = B - u_b (u_b^T B), and u_b^T B = (u_b x b)^T.
-    const Mat3<T> w_body_b = skew_b - u_body * u_body.cross(b).transpose();
+    j.u_body_cross_b = u_body.cross(b);
+    j.w_body_b = skew_b - u_body * j.u_body_cross_b.transpose();
+    const Mat3<T>& w_body_b = j.w_body_b;
+    if (point != nullptr) point->elements[i] = j;
     const Mat3<T> h12 = (rot * w_body_b) * m_over_l;
     dq_dq.template block<3, 3>(0, 0) -=
         m_over_l * (Mat3<T>::Identity() - u * u.transpose());
@@ -373,12 +428,159 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
     }
   }
   if (!with_jacobians) return;
+  if (point != nullptr) {
+    point->z = z;
+    point->load_point = load.point;
+    point->load_body = load_body;
+    point->cardan = cardan;
+    point->rotation = rot;
+    point->dq_dtheta = dq_dq.template rightCols<3>();
+  }
   out->dq_dz.template block<3, 3>(3, 3) -=
       Skew<T>(omega) * Mat3<T>(parameters_.inertia.asDiagonal()) -
       Skew<T>(angular_momentum);
   out->dq_dy.template leftCols<3>() = dq_dq.template leftCols<3>();
   out->dq_dy.template rightCols<3>() =
       dq_dq.template rightCols<3>() * cardan.RateMatrix();
+}
+
+template <typename T>
+void SuspensionModel<T>::DifferentiateJacobians(
+    const PointState& point, const Vec6<T>& w_y, const Vec6<T>& w_z,
+    bool with_hooks, JacobianDerivatives* out) const {
+  // d denotes the derivative along w; the rotation moves by
+  // dR = R [d_theta]x with the body-frame d_theta = G d(angles).
+  const Vec6<T>& z = point.z;
+  const Vec3<T> omega = z.template tail<3>();
+  const Vec3<T> d_r = w_y.template head<3>();
+  const Vec3<T> d_v = w_z.template head<3>();
+  const Vec3<T> d_omega = w_z.template tail<3>();
+  const Mat3<T>& rot = point.rotation;
+  const Mat3<T> rot_t = rot.transpose();
+  const Mat3<T> rate = point.cardan.RateMatrix();
+  const Vec3<T> d_theta = rate * w_y.template tail<3>();
+
+  Mat6<T> d_dq_dq = Mat6<T>::Zero();  // with respect to (r, theta)
+  // The rank-one parts summed over the elements as products of these
+  // columns (a, da, dm/dq, d(dm/dq) and the damped da) after the loop.
+  Mat6<T> a_all, d_a_all, dm_dq_all, d_dm_dq_all, damped_d_a_all;
+  const Vec3<T> d_load_body = -d_theta.cross(point.load_body);
+  d_dq_dq.template block<3, 3>(3, 3) =
+      SkewTimes<T>(point.load_point, Skew<T>(d_load_body));
+  if (with_hooks) {
+    out->hooks.load_force << Mat3<T>::Zero(),
+        -SkewTimes<T>(point.load_point, Skew<T>(d_theta)) * rot_t;
+    out->hooks.load_point << Mat3<T>::Zero(), -Skew<T>(d_load_body);
+  }
+
+  for (int i = 0; i < kNumElements; ++i) {
+    const AxialElement<T>& e = Element(i);
+    const Vec3<T>& b = e.carrier_point;
+    const ElementJacobianState& j = point.elements[i];
+    const ElementState& s = j.element;
+    const T& l = s.length;
+    const Vec3<T>& u = s.u;
+    const Vec3<T>& u_body = s.u_body;
+    const Vec6<T>& a = s.a;
+    const T deflection = l - free_length_[i];
+
+    // The element's state and its derivative along w.
+    const Vec3<T> d_vector = -d_r - rot * d_theta.cross(b);
+    const T d_l = u.dot(d_vector);
+    const Vec3<T> d_u = (d_vector - u * d_l) / l;
+    const Vec3<T> d_u_body = rot_t * d_u - d_theta.cross(u_body);
+    Vec6<T> d_a;
+    d_a << d_u, b.cross(d_u_body);
+    const T rate_along_a = a.dot(z);
+    const T d_rate_along_a = d_a.dot(z) + a.dot(w_z);
+    const T d_m = s.tangent_stiffness * d_l - e.damping * d_rate_along_a;
+    T d_tangent_stiffness = T(0);
+    std::array<T, kStiffeningTerms> terms{}, slopes{};
+    if (i < kNumBushings) {
+      StiffeningTerms(deflection, &terms, &slopes);
+      const double sign = ValueOf(deflection) < 0 ? -1.0 : 1.0;
+      const std::array<T, kStiffeningTerms> curvatures = {T(6) * deflection,
+                                                          T(2 * sign), T(2)};
+      for (int t = 0; t < kStiffeningTerms; ++t) {
+        d_tangent_stiffness += stiffening_[t][i] * curvatures[t] * d_l;
+      }
+    }
+
+    out->parameters.stiffness.col(i) = d_l * a + deflection * d_a;
+    out->parameters.damping.col(i) = -d_rate_along_a * a - rate_along_a * d_a;
+    if (with_hooks && i < kNumBushings) {
+      for (int t = 0; t < kStiffeningTerms; ++t) {
+        out->hooks.stiffening[t].col(i) = slopes[t] * d_l * a + terms[t] * d_a;
+      }
+      out->hooks.extra_force.col(i) = d_a;
+      out->hooks.extra_stiffness.col(i) =
+          d_l * a + (deflection - extra_.reference[i]) * d_a;
+      out->hooks.extra_reference.col(i) = -extra_.stiffness[i] * d_a;
+    }
+
+    // dQ/dz = -d a a^T, dQ/dq = a (d g - k a)^T + m H: the rank-one parts.
+    const Vec3<T> d_w = d_omega.cross(b);
+    const Vec3<T> d_point_velocity = d_v + rot * (d_theta.cross(j.w) + d_w);
+    const Vec3<T> d_e_world =
+        (d_point_velocity - d_u * j.u_dot_point_velocity -
+         u * (d_u.dot(j.point_velocity) + u.dot(d_point_velocity)) -
+         j.e_world * d_l) /
+        l;
+    const Vec3<T> d_e_body = rot_t * d_e_world - d_theta.cross(j.e_body);
+    Vec6<T> d_g;
+    d_g << d_e_world,
+        b.cross(d_e_body) - d_w.cross(u_body) - j.w.cross(d_u_body);
+    a_all.col(i) = a;
+    d_a_all.col(i) = d_a;
+    damped_d_a_all.col(i) = e.damping * d_a;
+    dm_dq_all.col(i) = j.dmagnitude_dq;
+    d_dm_dq_all.col(i) =
+        e.damping * d_g - d_tangent_stiffness * a - s.tangent_stiffness * d_a;
+
+    // Then m H.
+    const T m_over_l = s.magnitude / l;
+    const T d_m_over_l = (d_m - m_over_l * d_l) / l;
+    const Mat3<T> d_w_body_b = -d_u_body * j.u_body_cross_b.transpose() -
+                               u_body * d_u_body.cross(b).transpose();
+    const Mat3<T> d_h12 =
+        rot * (SkewTimes<T>(d_theta, j.w_body_b) * m_over_l +
+               d_w_body_b * m_over_l + j.w_body_b * d_m_over_l);
+    const Mat3<T> d_u_u = d_u * u.transpose();
+    d_dq_dq.template block<3, 3>(0, 0) -=
+        d_m_over_l * (Mat3<T>::Identity() - u * u.transpose()) -
+        m_over_l * (d_u_u + d_u_u.transpose());
+    d_dq_dq.template block<3, 3>(0, 3) += d_h12;
+    d_dq_dq.template block<3, 3>(3, 0) += d_h12.transpose();
+    d_dq_dq.template block<3, 3>(3, 3) += SkewTimes<T>(
+        b, d_m_over_l * j.w_body_b + m_over_l * d_w_body_b +
+               d_m * Skew<T>(u_body) + s.magnitude * Skew<T>(d_u_body));
+  }
+  d_dq_dq.noalias() += d_a_all.lazyProduct(dm_dq_all.transpose());
+  d_dq_dq.noalias() += a_all.lazyProduct(d_dm_dq_all.transpose());
+  const Mat6<T> damped = damped_d_a_all.lazyProduct(a_all.transpose());
+  Mat6<T>& d_dq_dz = out->dq_dz;
+  d_dq_dz = -(damped + damped.transpose());
+
+  // The gyroscopic moment's Jacobians.
+  const Vec3<T>& inertia = parameters_.inertia;
+  const Vec3<T> d_angular_momentum = inertia.cwiseProduct(d_omega);
+  d_dq_dz.template block<3, 3>(3, 3) -=
+      Skew<T>(d_omega) * Mat3<T>(inertia.asDiagonal()) -
+      Skew<T>(d_angular_momentum);
+  for (int k = 0; k < 3; ++k) {
+    Vec3<T> spin = Vec3<T>::Zero(), d_spin = Vec3<T>::Zero();
+    spin(k) = omega(k);
+    d_spin(k) = d_omega(k);
+    out->parameters.inertia.col(k) << T(0), T(0), T(0),
+        -d_omega.cross(spin) - omega.cross(d_spin);
+  }
+
+  // dq_dy = [dq_dq_left, dq_dq_right G]: G moves too.
+  out->dq_dy.template leftCols<3>() = d_dq_dq.template leftCols<3>();
+  out->dq_dy.template rightCols<3>() =
+      d_dq_dq.template rightCols<3>() * rate +
+      point.dq_dtheta *
+          point.cardan.RateMatrixDerivative(w_y.template tail<3>());
 }
 
 // Compiled once (suspension_model.cc): the real-time loop and every tool

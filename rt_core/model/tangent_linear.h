@@ -14,9 +14,10 @@
 // right-hand side comes one of two ways:
 //  - when only what Q or M is linear in carries tangents (stiffness,
 //    damping, mass, inertia, the effect hooks and the load: the estimator's
-//    and the diagnosis' usual case): one evaluation of Q's Jacobians in
-//    Dual<double> along w gives D(dQ/dy)[w], D(dQ/dz)[w] and, with the
-//    Jacobians of those linear inputs, D(dQ/dp)[w]; by the symmetry of
+//    and the diagnosis' usual case): the derivatives along w of Q's
+//    Jacobians in closed form (SuspensionModel::DifferentiateJacobians)
+//    give D(dQ/dy)[w], D(dQ/dz)[w] and, with the Jacobians of those linear
+//    inputs, D(dQ/dp)[w]; by the symmetry of
 //    second derivatives d(DQ[w]) = D(dQ/dx)[w] dx + D(dQ/dp)[w] dp, a
 //    product per input (cost nearly independent of N);
 //  - otherwise (hard points) one evaluation of Q in Dual<J> scalars gives
@@ -48,9 +49,7 @@ class TangentLinearModel {
   explicit TangentLinearModel(const SuspensionParameters<J>& parameters)
       : values_(ValuesOf(parameters)),
         jets_(parameters),
-        second_(Lift(parameters)),
-        directional_(Mapped<Dual<double>>(
-            parameters, [](const J& x) { return Dual<double>(x.a); })) {
+        second_(Lift(parameters)) {
     for (int i = 0; i <= kNumBushings; ++i) {
       const AxialElement<J>& e =
           i < kNumBushings ? parameters.bushings[i] : parameters.spring;
@@ -66,6 +65,9 @@ class TangentLinearModel {
     for (int k = 0; k < 3; ++k) {
       inertia_tangents_.row(k) = parameters.inertia(k).v.transpose();
     }
+    stiffness_carries_ = AnyTangent(stiffness_tangents_);
+    damping_carries_ = AnyTangent(damping_tangents_);
+    inertia_carries_ = AnyTangent(inertia_tangents_);
   }
 
   // Length change of each bushing's link at pose y, with tangents.
@@ -78,13 +80,11 @@ class TangentLinearModel {
       const typename SuspensionModel<J>::StiffeningCoefficients& c) {
     typename SuspensionModel<double>::StiffeningCoefficients value;
     typename SuspensionModel<Second>::StiffeningCoefficients second;
-    typename SuspensionModel<Dual<double>>::StiffeningCoefficients directional;
     progressive_tangents_ = false;
     for (int t = 0; t < kStiffeningTerms; ++t) {
       for (int i = 0; i < kNumBushings; ++i) {
         value[t][i] = c[t][i].a;
         second[t][i] = Second(c[t][i], J(0.0));
-        directional[t][i] = Dual<double>(value[t][i]);
         progressive_tangents_ = progressive_tangents_ || Carries(c[t][i]);
         hook_tangents_.stiffening[t].row(i) = c[t][i].v.transpose();
       }
@@ -92,13 +92,11 @@ class TangentLinearModel {
     values_.SetProgressiveStiffness(value);
     jets_.SetProgressiveStiffness(c);
     second_.SetProgressiveStiffness(second);
-    directional_.SetProgressiveStiffness(directional);
   }
   void SetExtraBushingForce(
       const typename SuspensionModel<J>::ExtraBushingForce& extra) {
     typename SuspensionModel<double>::ExtraBushingForce value;
     typename SuspensionModel<Second>::ExtraBushingForce second;
-    typename SuspensionModel<Dual<double>>::ExtraBushingForce directional;
     extra_tangents_ = false;
     for (int i = 0; i < kNumBushings; ++i) {
       value.force[i] = extra.force[i].a;
@@ -107,9 +105,6 @@ class TangentLinearModel {
       second.force[i] = Second(extra.force[i], J(0.0));
       second.stiffness[i] = Second(extra.stiffness[i], J(0.0));
       second.reference[i] = Second(extra.reference[i], J(0.0));
-      directional.force[i] = value.force[i];
-      directional.stiffness[i] = value.stiffness[i];
-      directional.reference[i] = value.reference[i];
       extra_tangents_ = extra_tangents_ || Carries(extra.force[i]) ||
                         Carries(extra.stiffness[i]) ||
                         Carries(extra.reference[i]);
@@ -120,7 +115,6 @@ class TangentLinearModel {
     values_.SetExtraBushingForce(value);
     jets_.SetExtraBushingForce(extra);
     second_.SetExtraBushingForce(second);
-    directional_.SetExtraBushingForce(directional);
   }
 
   // Static equilibrium Q(y, 0) = 0: Newton in double, then the tangents from
@@ -163,10 +157,21 @@ class TangentLinearModel {
     Vec6<double> dz;
     double h;
   };
+  // Q's Jacobians at the predicted point, in double: those of the state
+  // always, those of the linear parameters (and hooks and load) when the
+  // right-hand side is built from them.
+  struct PointJacobians {
+    GeneralizedForce<double> force;
+    typename SuspensionModel<double>::LinearParameterJacobian parameters;
+    typename SuspensionModel<double>::HookAndLoadJacobian hooks;
+    typename SuspensionModel<double>::PointState point;
+    bool load_tangents = false;
+    bool with_hooks = false;
+  };
   // h dQ - dM dz + d(DQ[w]) for every direction (see the top of the file).
   Tangent6 RightHandSideByDirectionalJacobians(
       const StepPoint& point, const RigLoad<J>& load_jet,
-      const GeneralizedForce<double>& g) const;
+      const PointJacobians& values) const;
   Tangent6 RightHandSideByDuals(const StepPoint& point,
                                 const RigLoad<J>& load) const;
   Tangent6 MassTangentTimes(const Vec6<double>& dz) const {
@@ -182,6 +187,10 @@ class TangentLinearModel {
   // a 1e-13 m hard-point tangent times 1e6 N/m is not negligible. NaN
   // carries (the general path then propagates it).
   static bool Carries(const J& x) { return (x.v.array() != 0.0).any(); }
+  template <typename Derived>
+  static bool AnyTangent(const Eigen::MatrixBase<Derived>& tangents) {
+    return (tangents.array() != 0.0).any();
+  }
   static bool HasTangents(const RigLoad<J>& load) {
     for (int k = 0; k < 3; ++k) {
       if (Carries(load.force(k)) || Carries(load.point(k))) return true;
@@ -245,7 +254,6 @@ class TangentLinearModel {
   SuspensionModel<double> values_;
   SuspensionModel<J> jets_;
   SuspensionModel<Second> second_;
-  SuspensionModel<Dual<double>> directional_;
   // Whether a hard point carries a tangent (then the right-hand side comes
   // from Dual<J>, otherwise from directional Jacobians), whether the hooks
   // do, and the tangents of what Q and M are linear in: row i the element's
@@ -265,6 +273,11 @@ class TangentLinearModel {
   Eigen::Matrix<double, kNumBushings + 1, kDirections> damping_tangents_;
   Eigen::Matrix<double, 1, kDirections> mass_tangents_;
   Eigen::Matrix<double, 3, kDirections> inertia_tangents_;
+  // Whether any of those carries a tangent (the estimator's usual fit has
+  // stiffnesses only: the other products are skipped).
+  bool stiffness_carries_ = false;
+  bool damping_carries_ = false;
+  bool inertia_carries_ = false;
 };
 
 template <typename J>
@@ -276,14 +289,25 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
   for (int k = 0; k < 6; ++k) point.z(k) = state->z(k).a;
   Vec6<double> y;
   for (int k = 0; k < 6; ++k) y(k) = state->y(k).a;
+  // G^-1(y) with its tangents, and its values for the value step.
+  const Mat3<J> g_inv_jet =
+      InverseAngularRateMatrix<J>(state->y.template tail<3>());
   const Mat3<double> g_inv =
-      InverseAngularRateMatrix<double>(y.template tail<3>());
+      g_inv_jet.unaryExpr([](const J& x) { return x.a; });
   Vec6<double> y_rate;
   y_rate << point.z.template head<3>(), g_inv * point.z.template tail<3>();
   point.y_predicted = y + h * y_rate;
   const RigLoad<double> load = ValuesOf(load_next);
-  GeneralizedForce<double> g;
-  values_.Evaluate(load, point.y_predicted, point.z, true, &g);
+  PointJacobians values;
+  values.load_tangents = HasTangents(load_next);
+  values.with_hooks =
+      !hard_point_tangents_ &&
+      (progressive_tangents_ || extra_tangents_ || values.load_tangents);
+  values_.Evaluate(load, point.y_predicted, point.z, true, &values.force,
+                   hard_point_tangents_ ? nullptr : &values.parameters,
+                   values.with_hooks ? &values.hooks : nullptr,
+                   hard_point_tangents_ ? nullptr : &values.point);
+  const GeneralizedForce<double>& g = values.force;
   Mat6<double> iteration_matrix = values_.mass_matrix() - h * g.dq_dz;
   iteration_matrix.template leftCols<3>() -=
       (h * h) * g.dq_dy.template leftCols<3>();
@@ -293,8 +317,6 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
   point.dz = lu.solve(h * g.q);
 
   // The tangents of the predicted pose and of w(dz) (through G^-1(y)).
-  const Mat3<J> g_inv_jet =
-      InverseAngularRateMatrix<J>(state->y.template tail<3>());
   Vec6<J> y_rate_jet;
   y_rate_jet << state->z.template head<3>(),
       g_inv_jet * state->z.template tail<3>();
@@ -308,7 +330,7 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
 
   Tangent6 d_dz = hard_point_tangents_ ? RightHandSideByDuals(point, load_next)
                                        : RightHandSideByDirectionalJacobians(
-                                             point, load_next, g);
+                                             point, load_next, values);
   // Column by column: Eigen's fixed-size vector solve is unrolled, its
   // matrix solve takes the blocked general path (a tenth of the step).
   for (int j = 0; j < kDirections; ++j) {
@@ -328,76 +350,60 @@ template <typename J>
 typename TangentLinearModel<J>::Tangent6
 TangentLinearModel<J>::RightHandSideByDirectionalJacobians(
     const StepPoint& point, const RigLoad<J>& load_jet,
-    const GeneralizedForce<double>& g) const {
-  using D = Dual<double>;
-  const bool load_tangents = HasTangents(load_jet);
-  Vec6<D> y_dual;
-  Vec6<D> z_dual;
-  for (int k = 0; k < 6; ++k) {
-    y_dual(k) = D(point.y_predicted(k), point.w(k));
-    z_dual(k) = D(point.z(k), point.h * point.dz(k));
-  }
-  RigLoad<D> load_dual;
-  for (int k = 0; k < 3; ++k) {
-    load_dual.force(k) = D(load_jet.force(k).a);
-    load_dual.point(k) = D(load_jet.point(k).a);
-  }
-  GeneralizedForce<D> g_dual;
-  typename SuspensionModel<D>::LinearParameterJacobian p_dual;
-  typename SuspensionModel<D>::HookAndLoadJacobian hook_dual;
-  const bool hooks = progressive_tangents_ || extra_tangents_ || load_tangents;
-  directional_.Evaluate(load_dual, y_dual, z_dual, true, &g_dual, &p_dual,
-                        hooks ? &hook_dual : nullptr);
+    const PointJacobians& values) const {
+  const GeneralizedForce<double>& g = values.force;
+  const auto& p = values.parameters;
+  const auto& hook = values.hooks;
+  typename SuspensionModel<double>::JacobianDerivatives d;
+  values_.DifferentiateJacobians(values.point, point.w, point.h * point.dz,
+                                 values.with_hooks, &d);
 
   // h dQ + d(DQ[w]) = (h A + A') dx per Jacobian A and its derivative A'
   // along w: one product per Jacobian instead of two.
   const double h = point.h;
-  auto combined = [h](const auto& m) {
-    return m.unaryExpr([h](const D& x) { return h * x.a + x.e; });
-  };
   Eigen::Matrix<double, 3, kDirections> d_w_rotation;
   for (int k = 0; k < 3; ++k) {
     d_w_rotation.row(k) = point.w_rotation(k).v.transpose();
   }
   Tangent6 rhs = -MassTangentTimes(point.dz);
-  rhs.noalias() += combined(g_dual.dq_dy)
-                       .eval()
-                       .lazyProduct(Tangents(point.y_predicted_jet));
   rhs.noalias() +=
-      combined(g_dual.dq_dz).eval().lazyProduct(Tangents(point.z_jet));
+      (h * g.dq_dy + d.dq_dy).lazyProduct(Tangents(point.y_predicted_jet));
+  rhs.noalias() += (h * g.dq_dz + d.dq_dz).lazyProduct(Tangents(point.z_jet));
   rhs.noalias() += g.dq_dy.template rightCols<3>().lazyProduct(d_w_rotation);
-  rhs.noalias() +=
-      combined(p_dual.stiffness).eval().lazyProduct(stiffness_tangents_);
-  rhs.noalias() +=
-      combined(p_dual.damping).eval().lazyProduct(damping_tangents_);
-  rhs.noalias() +=
-      combined(p_dual.inertia).eval().lazyProduct(inertia_tangents_);
+  if (stiffness_carries_) {
+    rhs.noalias() += (h * p.stiffness + d.parameters.stiffness)
+                         .lazyProduct(stiffness_tangents_);
+  }
+  if (damping_carries_) {
+    rhs.noalias() +=
+        (h * p.damping + d.parameters.damping).lazyProduct(damping_tangents_);
+  }
+  if (inertia_carries_) {
+    rhs.noalias() +=
+        (h * p.inertia + d.parameters.inertia).lazyProduct(inertia_tangents_);
+  }
   for (int t = 0; t < kStiffeningTerms && progressive_tangents_; ++t) {
-    rhs.noalias() += combined(hook_dual.stiffening[t])
-                         .eval()
+    rhs.noalias() += (h * hook.stiffening[t] + d.hooks.stiffening[t])
                          .lazyProduct(hook_tangents_.stiffening[t]);
   }
   if (extra_tangents_) {
-    rhs.noalias() += combined(hook_dual.extra_force)
-                         .eval()
+    rhs.noalias() += (h * hook.extra_force + d.hooks.extra_force)
                          .lazyProduct(hook_tangents_.extra_force);
-    rhs.noalias() += combined(hook_dual.extra_stiffness)
-                         .eval()
+    rhs.noalias() += (h * hook.extra_stiffness + d.hooks.extra_stiffness)
                          .lazyProduct(hook_tangents_.extra_stiffness);
-    rhs.noalias() += combined(hook_dual.extra_reference)
-                         .eval()
+    rhs.noalias() += (h * hook.extra_reference + d.hooks.extra_reference)
                          .lazyProduct(hook_tangents_.extra_reference);
   }
-  if (load_tangents) {
+  if (values.load_tangents) {
     Eigen::Matrix<double, 3, kDirections> force_tangents, point_tangents;
     for (int k = 0; k < 3; ++k) {
       force_tangents.row(k) = load_jet.force(k).v.transpose();
       point_tangents.row(k) = load_jet.point(k).v.transpose();
     }
     rhs.noalias() +=
-        combined(hook_dual.load_force).eval().lazyProduct(force_tangents);
+        (h * hook.load_force + d.hooks.load_force).lazyProduct(force_tangents);
     rhs.noalias() +=
-        combined(hook_dual.load_point).eval().lazyProduct(point_tangents);
+        (h * hook.load_point + d.hooks.load_point).lazyProduct(point_tangents);
   }
   return rhs;
 }
@@ -429,10 +435,6 @@ TangentLinearModel<J>::RightHandSideByDuals(const StepPoint& point,
   }
   return rhs - MassTangentTimes(point.dz);
 }
-
-// Every tangent-linear model's directional Jacobians, compiled once
-// (tangent_linear.cc).
-extern template class SuspensionModel<Dual<double>>;
 
 // The overloads SimulateTrajectory finds for a TangentLinearModel.
 template <typename J>

@@ -241,6 +241,107 @@ TEST(TangentLinearTest, OneStepWithHardPointsAndLoadMatchesTheJets) {
       /*load_tangent=*/true, 8);
 }
 
+// Largest |a - b| relative to the largest |a|, over a matrix.
+template <typename A, typename B>
+double RelativeDifference(const A& a, const B& b) {
+  return (a - b).cwiseAbs().maxCoeff() /
+         std::max(a.cwiseAbs().maxCoeff(), 1e-300);
+}
+
+// The closed-form derivatives of Q's Jacobians along w against Evaluate in
+// dual numbers (the reference), at random states, directions, loads and
+// effect hooks, with every element of every Jacobian compared.
+TEST(TangentLinearTest, ClosedFormJacobianDerivativesMatchDualNumbers) {
+  using D = Dual<double>;
+  std::mt19937 random(11);
+  std::normal_distribution<double> normal;
+  const SuspensionParameters<double> nominal = SourceConfig().model;
+  for (int trial = 0; trial < 20; ++trial) {
+    SuspensionModel<double> model(Perturbed(nominal, &random));
+    SuspensionModel<D> dual_model(model.parameters().Cast<D>());
+    typename SuspensionModel<double>::StiffeningCoefficients stiffening;
+    typename SuspensionModel<D>::StiffeningCoefficients dual_stiffening;
+    typename SuspensionModel<double>::ExtraBushingForce extra;
+    typename SuspensionModel<D>::ExtraBushingForce dual_extra;
+    for (int i = 0; i < kNumBushings; ++i) {
+      for (int t = 0; t < kStiffeningTerms; ++t) {
+        stiffening[t][i] = (trial % 2) * 1e9 * normal(random);
+        dual_stiffening[t][i] = stiffening[t][i];
+      }
+      extra.force[i] = 100 * normal(random);
+      extra.stiffness[i] = 1e5 * std::abs(normal(random));
+      extra.reference[i] = 1e-3 * normal(random);
+      dual_extra.force[i] = extra.force[i];
+      dual_extra.stiffness[i] = extra.stiffness[i];
+      dual_extra.reference[i] = extra.reference[i];
+    }
+    model.SetProgressiveStiffness(stiffening);
+    dual_model.SetProgressiveStiffness(dual_stiffening);
+    model.SetExtraBushingForce(extra);
+    dual_model.SetExtraBushingForce(dual_extra);
+
+    Vec6<double> y, z, w_y, w_z;
+    Vec6<D> y_dual, z_dual;
+    for (int k = 0; k < 6; ++k) {
+      y(k) = (k < 3 ? 0.01 : 0.05) * normal(random);
+      z(k) = (k < 3 ? 0.2 : 0.5) * normal(random);
+      w_y(k) = 1e-4 * normal(random);
+      w_z(k) = 1e-2 * normal(random);
+      y_dual(k) = D(y(k), w_y(k));
+      z_dual(k) = D(z(k), w_z(k));
+    }
+    RigLoad<double> load;
+    RigLoad<D> dual_load;
+    for (int k = 0; k < 3; ++k) {
+      load.force(k) = 2000 * normal(random);
+      load.point(k) = 0.1 * normal(random);
+      dual_load.force(k) = load.force(k);
+      dual_load.point(k) = load.point(k);
+    }
+
+    GeneralizedForce<double> g;
+    typename SuspensionModel<double>::PointState point;
+    model.Evaluate(load, y, z, true, &g, nullptr, nullptr, &point);
+    typename SuspensionModel<double>::JacobianDerivatives closed_form;
+    model.DifferentiateJacobians(point, w_y, w_z, true, &closed_form);
+    GeneralizedForce<D> g_dual;
+    typename SuspensionModel<D>::LinearParameterJacobian p_dual;
+    typename SuspensionModel<D>::HookAndLoadJacobian hook_dual;
+    dual_model.Evaluate(dual_load, y_dual, z_dual, true, &g_dual, &p_dual,
+                        &hook_dual);
+    auto e = [](const auto& m) {
+      return m.unaryExpr([](const D& x) { return x.e; }).eval();
+    };
+    const auto& p = closed_form.parameters;
+    const auto& h = closed_form.hooks;
+    const std::vector<std::pair<std::string, double>> differences = {
+        {"dq_dy", RelativeDifference(e(g_dual.dq_dy), closed_form.dq_dy)},
+        {"dq_dz", RelativeDifference(e(g_dual.dq_dz), closed_form.dq_dz)},
+        {"stiffness", RelativeDifference(e(p_dual.stiffness), p.stiffness)},
+        {"damping", RelativeDifference(e(p_dual.damping), p.damping)},
+        {"inertia", RelativeDifference(e(p_dual.inertia), p.inertia)},
+        {"stiffening 0",
+         RelativeDifference(e(hook_dual.stiffening[0]), h.stiffening[0])},
+        {"stiffening 1",
+         RelativeDifference(e(hook_dual.stiffening[1]), h.stiffening[1])},
+        {"stiffening 2",
+         RelativeDifference(e(hook_dual.stiffening[2]), h.stiffening[2])},
+        {"extra force",
+         RelativeDifference(e(hook_dual.extra_force), h.extra_force)},
+        {"extra stiffness",
+         RelativeDifference(e(hook_dual.extra_stiffness), h.extra_stiffness)},
+        {"extra reference",
+         RelativeDifference(e(hook_dual.extra_reference), h.extra_reference)},
+        {"load force",
+         RelativeDifference(e(hook_dual.load_force), h.load_force)},
+        {"load point",
+         RelativeDifference(e(hook_dual.load_point), h.load_point)}};
+    for (const auto& [name, difference] : differences) {
+      EXPECT_LE(difference, 1e-12) << name << ", trial " << trial;
+    }
+  }
+}
+
 // Enables `effect`; c_O1 and, with `seed_effect`, the effect's parameters
 // carry the directions (their number is returned).
 int SeedEffect(const std::string& effect, bool seed_effect,
