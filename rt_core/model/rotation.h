@@ -46,7 +46,7 @@ Mat3<T> SkewTimes(const Vec3<T>& a, const Eigen::MatrixBase<Derived>& m) {
 template <typename T>
 class CardanAngles {
  public:
-  CardanAngles() = default;
+  CardanAngles() = default;  // to be assigned (SuspensionModel::PointState)
   explicit CardanAngles(const Vec3<T>& angles) {
     using std::cos;
     using std::sin;

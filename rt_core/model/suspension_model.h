@@ -45,17 +45,20 @@ double ValueOf(const T& x) {
 }
 
 // A bushing's progressive stiffening terms per unit coefficient at
-// deflection d = l - l0 and their slopes: d^3 and |d| d stiffen both ways
-// (symmetric), d^2 one way and softens the other (asymmetric; a
-// stiffening in extension only is (d^2 + |d| d) / 2).
+// deflection d = l - l0, their slopes and (when asked for) their
+// curvatures: d^3 and |d| d stiffen both ways (symmetric), d^2 one way and
+// softens the other (asymmetric; a stiffening in extension only is
+// (d^2 + |d| d) / 2).
 inline constexpr int kStiffeningTerms = 3;
 template <typename T>
 void StiffeningTerms(const T& d, std::array<T, kStiffeningTerms>* terms,
-                     std::array<T, kStiffeningTerms>* slopes) {
+                     std::array<T, kStiffeningTerms>* slopes,
+                     std::array<T, kStiffeningTerms>* curvatures = nullptr) {
   const double sign = ValueOf(d) < 0 ? -1.0 : 1.0;
   const T squared = d * d;
   *terms = {squared * d, sign * squared, squared};
   *slopes = {T(3) * squared, T(2 * sign) * d, T(2) * d};
+  if (curvatures != nullptr) *curvatures = {T(6) * d, T(2 * sign), T(2)};
 }
 
 // The force the rig applies to the wheel.
@@ -134,7 +137,8 @@ class SuspensionModel {
   // With `parameter_jacobian` (and `hook_jacobian`), also dQ/dp for the
   // parameters (and the hooks and load) Q is linear in, from the same
   // element states. With `with_jacobians` and `point`, also what
-  // DifferentiateJacobians reuses at this point.
+  // DifferentiateJacobians reuses at this point (without `with_jacobians`,
+  // `point` is left as it was).
   struct PointState;
   KCRIG_INLINE_CALLEES void Evaluate(
       const RigLoad<T>& load, const Vec6<T>& y, const Vec6<T>& z,
@@ -148,7 +152,9 @@ class SuspensionModel {
   // z + eps w_z returns in the dual parts of dq_dy, dq_dz and the parameter
   // and hook Jacobians, in closed form from the second derivatives of each
   // element's state (the tangent-linear step's second-order term,
-  // tangent_linear.h). The load is held fixed.
+  // tangent_linear.h). The load is held fixed, and the effect hooks must
+  // be those of that Evaluate. For double only (the tangent-linear step
+  // differentiates in double; Jet models never need it).
   struct JacobianDerivatives {
     Mat6<T> dq_dy;
     Mat6<T> dq_dz;
@@ -157,7 +163,8 @@ class SuspensionModel {
   };
   KCRIG_INLINE_CALLEES void DifferentiateJacobians(
       const PointState& point, const Vec6<T>& w_y, const Vec6<T>& w_z,
-      bool with_hooks, JacobianDerivatives* out) const;
+      bool with_hooks,
+      JacobianDerivatives* out) const requires std::is_floating_point_v<T>;
 
   // Unmodelled-effect hooks of the plant (rt_core/model/rig_plant.h); both zero
   // in the nominal model. Stiffening terms on each bushing's axial force
@@ -242,7 +249,8 @@ class SuspensionModel {
   };
 
   // What the Jacobians of an element's force m a are built from (see
-  // Evaluate): the element's velocity terms e and g, dm/dq and W_b B.
+  // Evaluate): the carrier point's velocity, e (world and body frame),
+  // dm/dq and W_b B.
   struct ElementJacobianState {
     ElementState element;
     Vec3<T> w;  // omega x b, the carrier point's velocity about r
@@ -353,16 +361,13 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
   for (int i = 0; i < kNumElements; ++i) {
     const AxialElement<T>& e = Element(i);
     const Vec3<T>& b = e.carrier_point;
-    ElementJacobianState j;
-    j.element = StateOf(i, r, rot, rot_t, z);
-    const ElementState& element = j.element;
+    const ElementState element = StateOf(i, r, rot, rot_t, z);
     const T& length = element.length;
     const Vec3<T>& u = element.u;
     const Vec3<T>& u_body = element.u_body;
     const Vec6<T>& a = element.a;
     const T& magnitude = element.magnitude;
-    j.w = omega.cross(b);  // carrier-point velocity, body frame
-    const Vec3<T>& w = j.w;
+    const Vec3<T> w = omega.cross(b);  // carrier-point velocity, body frame
     out->q += magnitude * a;
     if (parameter_jacobian != nullptr) {
       parameter_jacobian->stiffness.col(i) = (length - free_length_[i]) * a;
@@ -382,14 +387,14 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
     }
     if (!with_jacobians) continue;
 
-    j.point_velocity = v + rot * w;
-    j.u_dot_point_velocity = u.dot(j.point_velocity);
-    j.e_world = (j.point_velocity - u * j.u_dot_point_velocity) / length;
-    j.e_body = rot_t * j.e_world;
+    const Vec3<T> point_velocity = v + rot * w;
+    const T u_dot_point_velocity = u.dot(point_velocity);
+    const Vec3<T> e_world =
+        (point_velocity - u * u_dot_point_velocity) / length;
+    const Vec3<T> e_body = rot_t * e_world;
     Vec6<T> g;
-    g << j.e_world, b.cross(j.e_body) - w.cross(u_body);
-    j.dmagnitude_dq = e.damping * g - element.tangent_stiffness * a;
-    const Vec6<T>& dmagnitude_dq = j.dmagnitude_dq;
+    g << e_world, b.cross(e_body) - w.cross(u_body);
+    const Vec6<T> dmagnitude_dq = e.damping * g - element.tangent_stiffness * a;
     const Vec6<T> damped_a = e.damping * a;
     // Rank-one updates as plain loops: Eigen's generic outer product costs
     // several times more per Jet multiply.
@@ -403,10 +408,14 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
     const Mat3<T>& skew_b = skew_carrier_point_[i];
     const T m_over_l = magnitude / length;
     // W_b B = B - u_b (u_b^T B), and u_b^T B = (u_b x b)^T.
-    j.u_body_cross_b = u_body.cross(b);
-    j.w_body_b = skew_b - u_body * j.u_body_cross_b.transpose();
-    const Mat3<T>& w_body_b = j.w_body_b;
-    if (point != nullptr) point->elements[i] = j;
+    const Vec3<T> u_body_cross_b = u_body.cross(b);
+    const Mat3<T> w_body_b = skew_b - u_body * u_body_cross_b.transpose();
+    if (point != nullptr) {
+      point->elements[i] = {
+          element, w,      point_velocity, u_dot_point_velocity,
+          e_world, e_body, dmagnitude_dq,  u_body_cross_b,
+          w_body_b};
+    }
     const Mat3<T> h12 = (rot * w_body_b) * m_over_l;
     dq_dq.template block<3, 3>(0, 0) -=
         m_over_l * (Mat3<T>::Identity() - u * u.transpose());
@@ -447,7 +456,8 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
 template <typename T>
 void SuspensionModel<T>::DifferentiateJacobians(
     const PointState& point, const Vec6<T>& w_y, const Vec6<T>& w_z,
-    bool with_hooks, JacobianDerivatives* out) const {
+    bool with_hooks,
+    JacobianDerivatives* out) const requires std::is_floating_point_v<T> {
   // d denotes the derivative along w; the rotation moves by
   // dR = R [d_theta]x with the body-frame d_theta = G d(angles).
   const Vec6<T>& z = point.z;
@@ -495,12 +505,9 @@ void SuspensionModel<T>::DifferentiateJacobians(
     const T d_rate_along_a = d_a.dot(z) + a.dot(w_z);
     const T d_m = s.tangent_stiffness * d_l - e.damping * d_rate_along_a;
     T d_tangent_stiffness = T(0);
-    std::array<T, kStiffeningTerms> terms{}, slopes{};
+    std::array<T, kStiffeningTerms> terms{}, slopes{}, curvatures{};
     if (i < kNumBushings) {
-      StiffeningTerms(deflection, &terms, &slopes);
-      const double sign = ValueOf(deflection) < 0 ? -1.0 : 1.0;
-      const std::array<T, kStiffeningTerms> curvatures = {T(6) * deflection,
-                                                          T(2 * sign), T(2)};
+      StiffeningTerms(deflection, &terms, &slopes, &curvatures);
       for (int t = 0; t < kStiffeningTerms; ++t) {
         d_tangent_stiffness += stiffening_[t][i] * curvatures[t] * d_l;
       }

@@ -289,11 +289,8 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
   for (int k = 0; k < 6; ++k) point.z(k) = state->z(k).a;
   Vec6<double> y;
   for (int k = 0; k < 6; ++k) y(k) = state->y(k).a;
-  // G^-1(y) with its tangents, and its values for the value step.
-  const Mat3<J> g_inv_jet =
-      InverseAngularRateMatrix<J>(state->y.template tail<3>());
   const Mat3<double> g_inv =
-      g_inv_jet.unaryExpr([](const J& x) { return x.a; });
+      InverseAngularRateMatrix<double>(y.template tail<3>());
   Vec6<double> y_rate;
   y_rate << point.z.template head<3>(), g_inv * point.z.template tail<3>();
   point.y_predicted = y + h * y_rate;
@@ -317,6 +314,8 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
   point.dz = lu.solve(h * g.q);
 
   // The tangents of the predicted pose and of w(dz) (through G^-1(y)).
+  const Mat3<J> g_inv_jet =
+      InverseAngularRateMatrix<J>(state->y.template tail<3>());
   Vec6<J> y_rate_jet;
   y_rate_jet << state->z.template head<3>(),
       g_inv_jet * state->z.template tail<3>();
