@@ -3,7 +3,6 @@
 namespace kcrig {
 
 template class SuspensionModel<SensitivityJet>;
-template class SuspensionModel<Dual<SensitivityJet>>;
 template class TangentLinearModel<SensitivityJet>;
 template class BasicRigPlant<SensitivityJet>;
 

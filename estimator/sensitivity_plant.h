@@ -6,7 +6,6 @@
 #define KCRIG_ESTIMATOR_SENSITIVITY_PLANT_H_
 
 #include "ceres/jet.h"
-#include "rt_core/model/dual.h"
 #include "rt_core/model/rig_plant.h"
 #include "rt_core/model/suspension_model.h"
 #include "rt_core/model/tangent_linear.h"
@@ -16,7 +15,6 @@ namespace kcrig {
 using SensitivityJet = ceres::Jet<double, 8>;
 
 extern template class SuspensionModel<SensitivityJet>;
-extern template class SuspensionModel<Dual<SensitivityJet>>;
 extern template class TangentLinearModel<SensitivityJet>;
 extern template class BasicRigPlant<SensitivityJet>;
 

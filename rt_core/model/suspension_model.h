@@ -86,6 +86,7 @@ template <typename T>
 class SuspensionModel {
  public:
   using Scalar = T;
+  static constexpr int kNumElements = kNumBushings + 1;  // + spring-damper
 
   // Element lengths at the design position (y = 0) become the free lengths,
   // so the design position is the equilibrium under zero rig force.
@@ -147,23 +148,37 @@ class SuspensionModel {
       HookAndLoadJacobian* hook_jacobian = nullptr,
       PointState* point = nullptr) const;
 
+  // dQ/d(hard points of element i) at the point Evaluate kept: columns
+  // 0-2 the chassis point's coordinates (rig frame), 3-5 the carrier
+  // point's (carrier frame), the free length moving with them. Q is not
+  // linear in them; element i's term m a is all that depends on them.
+  using HardPointJacobian = Mat6<T>;
+  HardPointJacobian HardPointJacobianOf(const PointState& point,
+                                        int element) const;
+
   // The derivatives along w = (w_y, w_z) of Q's Jacobians at the point
   // Evaluate kept: what Evaluate in Dual scalars at y + eps w_y,
-  // z + eps w_z returns in the dual parts of dq_dy, dq_dz and the parameter
-  // and hook Jacobians, in closed form from the second derivatives of each
-  // element's state (the tangent-linear step's second-order term,
-  // tangent_linear.h). The load is held fixed, and the effect hooks must
-  // be those of that Evaluate. For double only (the tangent-linear step
-  // differentiates in double; Jet models never need it).
+  // z + eps w_z returns in the dual parts of dq_dy, dq_dz and the parameter,
+  // hook and hard-point Jacobians, in closed form from the second
+  // derivatives of each element's state (the tangent-linear step's
+  // second-order term, tangent_linear.h). The load is held fixed, and the
+  // effect hooks must be those of that Evaluate. For double only (the
+  // tangent-linear step differentiates in double; Jet models never need it).
+  struct DerivativeRequest {
+    bool hooks = false;  // JacobianDerivatives::hooks
+    // JacobianDerivatives::hard_points[i] for each element i marked.
+    std::array<bool, kNumElements> hard_points{};
+  };
   struct JacobianDerivatives {
     Mat6<T> dq_dy;
     Mat6<T> dq_dz;
     LinearParameterJacobian parameters;
-    HookAndLoadJacobian hooks;  // only with `with_hooks`
+    HookAndLoadJacobian hooks;
+    std::array<HardPointJacobian, kNumElements> hard_points;
   };
   KCRIG_INLINE_CALLEES void DifferentiateJacobians(
       const PointState& point, const Vec6<T>& w_y, const Vec6<T>& w_z,
-      bool with_hooks,
+      const DerivativeRequest& request,
       JacobianDerivatives* out) const requires std::is_floating_point_v<T>;
 
   // Unmodelled-effect hooks of the plant (rt_core/model/rig_plant.h); both zero
@@ -228,8 +243,6 @@ class SuspensionModel {
   }
 
  private:
-  static constexpr int kNumElements = kNumBushings + 1;  // + spring-damper
-
   const AxialElement<T>& Element(int i) const {
     return i < kNumBushings ? parameters_.bushings[i] : parameters_.spring;
   }
@@ -304,6 +317,9 @@ class SuspensionModel {
 
   SuspensionParameters<T> parameters_;
   std::array<T, kNumElements> free_length_;
+  // (c - b) / l0: the free length's gradient in the chassis point c (and
+  // minus that in the carrier point b).
+  std::array<Vec3<T>, kNumElements> free_direction_;
   std::array<Mat3<T>, kNumElements> skew_carrier_point_;
   Mat6<T> mass_matrix_;
   StiffeningCoefficients stiffening_{};
@@ -316,6 +332,7 @@ SuspensionModel<T>::SuspensionModel(const SuspensionParameters<T>& parameters)
   for (int i = 0; i < kNumElements; ++i) {
     const AxialElement<T>& e = Element(i);
     free_length_[i] = (e.chassis_point - e.carrier_point).norm();
+    free_direction_[i] = (e.chassis_point - e.carrier_point) / free_length_[i];
     skew_carrier_point_[i] = Skew<T>(e.carrier_point);
   }
   mass_matrix_.setZero();
@@ -453,11 +470,50 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
       dq_dq.template rightCols<3>() * cardan.RateMatrix();
 }
 
+// Element i's m a with d = c - r - R b and l0 = |c - b|: along a change
+// dc of the chassis point, dd = dc; along db of the carrier point,
+// dd = -R db, and a = [u; b x u_b] and the carrier point's velocity
+// (rate = a^T z = u^T (v + R (omega x b))) move with b as well. So
+//   dm/dc = kappa (u - n0) - d e,
+//   dm/db = kappa (n0 - u_b) - d (u_b x omega - e_b),
+//   da/dc = [W/l; -(R W_b B)^T/l],
+//   da/db = [-W R/l; -[u_b]x + (W_b B)^T/l],
+// with kappa = dm/dl, n0 = (c - b) / l0 and e, W as in Evaluate.
+template <typename T>
+typename SuspensionModel<T>::HardPointJacobian
+SuspensionModel<T>::HardPointJacobianOf(const PointState& point,
+                                        int element) const {
+  const ElementJacobianState& j = point.elements[element];
+  const ElementState& s = j.element;
+  const Vec3<T>& n0 = free_direction_[element];
+  const T damping = Element(element).damping;
+  const T m_over_l = s.magnitude / s.length;
+  const Vec3<T> omega = point.z.template tail<3>();
+  const Mat3<T> w_over_l =
+      m_over_l * (Mat3<T>::Identity() - s.u * s.u.transpose());
+  const Mat3<T> h12 = (point.rotation * j.w_body_b) * m_over_l;
+  HardPointJacobian out;
+  out.template leftCols<3>() =
+      s.a *
+      (s.tangent_stiffness * (s.u - n0) - damping * j.e_world).transpose();
+  out.template rightCols<3>() =
+      s.a * (s.tangent_stiffness * (n0 - s.u_body) -
+             damping * (s.u_body.cross(omega) - j.e_body))
+                .transpose();
+  out.template block<3, 3>(0, 0) += w_over_l;
+  out.template block<3, 3>(3, 0) -= h12.transpose();
+  out.template block<3, 3>(0, 3) -= w_over_l * point.rotation;
+  out.template block<3, 3>(3, 3) +=
+      m_over_l * j.w_body_b.transpose() - s.magnitude * Skew<T>(s.u_body);
+  return out;
+}
+
 template <typename T>
 void SuspensionModel<T>::DifferentiateJacobians(
     const PointState& point, const Vec6<T>& w_y, const Vec6<T>& w_z,
-    bool with_hooks,
+    const DerivativeRequest& request,
     JacobianDerivatives* out) const requires std::is_floating_point_v<T> {
+  const bool with_hooks = request.hooks;
   // d denotes the derivative along w; the rotation moves by
   // dR = R [d_theta]x with the body-frame d_theta = G d(angles).
   const Vec6<T>& z = point.z;
@@ -561,6 +617,38 @@ void SuspensionModel<T>::DifferentiateJacobians(
     d_dq_dq.template block<3, 3>(3, 3) += SkewTimes<T>(
         b, d_m_over_l * j.w_body_b + m_over_l * d_w_body_b +
                d_m * Skew<T>(u_body) + s.magnitude * Skew<T>(d_u_body));
+    if (!request.hard_points[i]) continue;
+
+    // HardPointJacobianOf, differentiated term by term.
+    const Vec3<T>& n0 = free_direction_[i];
+    const T& kappa = s.tangent_stiffness;
+    HardPointJacobian& d_hard = out->hard_points[i];
+    d_hard.template leftCols<3>() =
+        d_a * (kappa * (u - n0) - e.damping * j.e_world).transpose() +
+        a * (d_tangent_stiffness * (u - n0) + kappa * d_u -
+             e.damping * d_e_world)
+                .transpose();
+    d_hard.template rightCols<3>() =
+        d_a * (kappa * (n0 - u_body) -
+               e.damping * (u_body.cross(omega) - j.e_body))
+                  .transpose() +
+        a * (d_tangent_stiffness * (n0 - u_body) - kappa * d_u_body -
+             e.damping *
+                 (d_u_body.cross(omega) + u_body.cross(d_omega) - d_e_body))
+                .transpose();
+    // d(m W / l), and W R moves by W R [d_theta]x as well.
+    const Mat3<T> d_w_over_l =
+        d_m_over_l * (Mat3<T>::Identity() - u * u.transpose()) -
+        m_over_l * (d_u_u + d_u_u.transpose());
+    d_hard.template block<3, 3>(0, 0) += d_w_over_l;
+    d_hard.template block<3, 3>(3, 0) -= d_h12.transpose();
+    d_hard.template block<3, 3>(0, 3) -=
+        d_w_over_l * rot +
+        m_over_l * ((rot - u * (u.transpose() * rot)) * Skew<T>(d_theta));
+    d_hard.template block<3, 3>(3, 3) += d_m_over_l * j.w_body_b.transpose() +
+                                         m_over_l * d_w_body_b.transpose() -
+                                         d_m * Skew<T>(u_body) -
+                                         s.magnitude * Skew<T>(d_u_body);
   }
   d_dq_dq.noalias() += d_a_all.lazyProduct(dm_dq_all.transpose());
   d_dq_dq.noalias() += a_all.lazyProduct(d_dm_dq_all.transpose());

@@ -11,17 +11,12 @@
 // where d(DQ[w]) is taken with dz held fixed (through the pose, the
 // parameters and G^-1(y)). W is factored once in double and solves all N
 // directions; the state then moves as in the step, in J arithmetic. The
-// right-hand side comes one of two ways:
-//  - when only what Q or M is linear in carries tangents (stiffness,
-//    damping, mass, inertia, the effect hooks and the load: the estimator's
-//    and the diagnosis' usual case): the derivatives along w of Q's
-//    Jacobians in closed form (SuspensionModel::DifferentiateJacobians)
-//    give D(dQ/dy)[w], D(dQ/dz)[w] and, with the Jacobians of those linear
-//    inputs, D(dQ/dp)[w]; by the symmetry of
-//    second derivatives d(DQ[w]) = D(dQ/dx)[w] dx + D(dQ/dp)[w] dp, a
-//    product per input (cost nearly independent of N);
-//  - otherwise (hard points) one evaluation of Q in Dual<J> scalars gives
-//    dQ and d(DQ[w]) for all N directions at once.
+// right-hand side comes from Q's Jacobians in the state and in every input
+// that carries tangents (stiffness, damping, mass, inertia, hard points, the
+// effect hooks and the load) and their derivatives along w in closed form
+// (SuspensionModel::DifferentiateJacobians): by the symmetry of second
+// derivatives d(DQ[w]) = D(dQ/dx)[w] dx + D(dQ/dp)[w] dp, a product per
+// input (cost nearly independent of N).
 //
 // J is a Jet of N directions (value .a, derivatives .v, e.g. ceres::Jet):
 // the same type the Jet reference uses, so the two are interchangeable.
@@ -33,7 +28,6 @@
 
 #include "Eigen/LU"
 #include "base/status.h"
-#include "rt_core/model/dual.h"
 #include "rt_core/model/semi_implicit_euler.h"
 #include "rt_core/model/suspension_model.h"
 
@@ -47,17 +41,15 @@ class TangentLinearModel {
 
   // Parameters with their tangents: parameter p carries dp in its .v.
   explicit TangentLinearModel(const SuspensionParameters<J>& parameters)
-      : values_(ValuesOf(parameters)),
-        jets_(parameters),
-        second_(Lift(parameters)) {
-    for (int i = 0; i <= kNumBushings; ++i) {
+      : values_(ValuesOf(parameters)), jets_(parameters) {
+    for (int i = 0; i < kNumElements; ++i) {
       const AxialElement<J>& e =
           i < kNumBushings ? parameters.bushings[i] : parameters.spring;
       for (int k = 0; k < 3; ++k) {
-        hard_point_tangents_ = hard_point_tangents_ ||
-                               Carries(e.carrier_point(k)) ||
-                               Carries(e.chassis_point(k));
+        hard_point_tangents_[i].row(k) = e.chassis_point(k).v.transpose();
+        hard_point_tangents_[i].row(k + 3) = e.carrier_point(k).v.transpose();
       }
+      hard_points_carry_.hard_points[i] = AnyTangent(hard_point_tangents_[i]);
       stiffness_tangents_.row(i) = e.stiffness.v.transpose();
       damping_tangents_.row(i) = e.damping.v.transpose();
     }
@@ -79,32 +71,25 @@ class TangentLinearModel {
   void SetProgressiveStiffness(
       const typename SuspensionModel<J>::StiffeningCoefficients& c) {
     typename SuspensionModel<double>::StiffeningCoefficients value;
-    typename SuspensionModel<Second>::StiffeningCoefficients second;
     progressive_tangents_ = false;
     for (int t = 0; t < kStiffeningTerms; ++t) {
       for (int i = 0; i < kNumBushings; ++i) {
         value[t][i] = c[t][i].a;
-        second[t][i] = Second(c[t][i], J(0.0));
         progressive_tangents_ = progressive_tangents_ || Carries(c[t][i]);
         hook_tangents_.stiffening[t].row(i) = c[t][i].v.transpose();
       }
     }
     values_.SetProgressiveStiffness(value);
     jets_.SetProgressiveStiffness(c);
-    second_.SetProgressiveStiffness(second);
   }
   void SetExtraBushingForce(
       const typename SuspensionModel<J>::ExtraBushingForce& extra) {
     typename SuspensionModel<double>::ExtraBushingForce value;
-    typename SuspensionModel<Second>::ExtraBushingForce second;
     extra_tangents_ = false;
     for (int i = 0; i < kNumBushings; ++i) {
       value.force[i] = extra.force[i].a;
       value.stiffness[i] = extra.stiffness[i].a;
       value.reference[i] = extra.reference[i].a;
-      second.force[i] = Second(extra.force[i], J(0.0));
-      second.stiffness[i] = Second(extra.stiffness[i], J(0.0));
-      second.reference[i] = Second(extra.reference[i], J(0.0));
       extra_tangents_ = extra_tangents_ || Carries(extra.force[i]) ||
                         Carries(extra.stiffness[i]) ||
                         Carries(extra.reference[i]);
@@ -114,7 +99,6 @@ class TangentLinearModel {
     }
     values_.SetExtraBushingForce(value);
     jets_.SetExtraBushingForce(extra);
-    second_.SetExtraBushingForce(second);
   }
 
   // Static equilibrium Q(y, 0) = 0: Newton in double, then the tangents from
@@ -142,7 +126,7 @@ class TangentLinearModel {
   void Step(const RigLoad<J>& load_next, double h, ModelState<J>* state) const;
 
  private:
-  using Second = Dual<J>;
+  static constexpr int kNumElements = SuspensionModel<double>::kNumElements;
   using Tangent6 = Eigen::Matrix<double, 6, kDirections>;
 
   // What one step's right-hand sides are built from: the predicted point
@@ -158,8 +142,8 @@ class TangentLinearModel {
     double h;
   };
   // Q's Jacobians at the predicted point, in double: those of the state
-  // always, those of the linear parameters (and hooks and load) when the
-  // right-hand side is built from them.
+  // and of the linear parameters always, those of the hooks and load when
+  // they carry tangents.
   struct PointJacobians {
     GeneralizedForce<double> force;
     typename SuspensionModel<double>::LinearParameterJacobian parameters;
@@ -169,11 +153,8 @@ class TangentLinearModel {
     bool with_hooks = false;
   };
   // h dQ - dM dz + d(DQ[w]) for every direction (see the top of the file).
-  Tangent6 RightHandSideByDirectionalJacobians(
-      const StepPoint& point, const RigLoad<J>& load_jet,
-      const PointJacobians& values) const;
-  Tangent6 RightHandSideByDuals(const StepPoint& point,
-                                const RigLoad<J>& load) const;
+  Tangent6 RightHandSide(const StepPoint& point, const RigLoad<J>& load_jet,
+                         const PointJacobians& values) const;
   Tangent6 MassTangentTimes(const Vec6<double>& dz) const {
     Tangent6 out;
     for (int k = 0; k < 3; ++k) out.row(k) = dz(k) * mass_tangents_;
@@ -182,15 +163,15 @@ class TangentLinearModel {
     }
     return out;
   }
-  // Whether x carries any tangent at all: exactly zero, not Eigen's isZero
-  // (|v| <= 1e-12), since the linear path drops what it deems absent, and
-  // a 1e-13 m hard-point tangent times 1e6 N/m is not negligible. NaN
-  // carries (the general path then propagates it).
-  static bool Carries(const J& x) { return (x.v.array() != 0.0).any(); }
+  // Whether any tangent is there at all: exactly zero, not Eigen's isZero
+  // (|v| <= 1e-12), since the products skip what is absent, and a 1e-13 m
+  // hard-point tangent times 1e6 N/m is not negligible. NaN carries (the
+  // products then propagate it).
   template <typename Derived>
   static bool AnyTangent(const Eigen::MatrixBase<Derived>& tangents) {
     return (tangents.array() != 0.0).any();
   }
+  static bool Carries(const J& x) { return AnyTangent(x.v); }
   static bool HasTangents(const RigLoad<J>& load) {
     for (int k = 0; k < 3; ++k) {
       if (Carries(load.force(k)) || Carries(load.point(k))) return true;
@@ -224,9 +205,6 @@ class TangentLinearModel {
       const SuspensionParameters<J>& p) {
     return Mapped<double>(p, [](const J& x) { return x.a; });
   }
-  static SuspensionParameters<Second> Lift(const SuspensionParameters<J>& p) {
-    return Mapped<Second>(p, [](const J& x) { return Second(x, J(0.0)); });
-  }
   static RigLoad<double> ValuesOf(const RigLoad<J>& load) {
     RigLoad<double> out;
     for (int k = 0; k < 3; ++k) {
@@ -253,12 +231,10 @@ class TangentLinearModel {
 
   SuspensionModel<double> values_;
   SuspensionModel<J> jets_;
-  SuspensionModel<Second> second_;
-  // Whether a hard point carries a tangent (then the right-hand side comes
-  // from Dual<J>, otherwise from directional Jacobians), whether the hooks
-  // do, and the tangents of what Q and M are linear in: row i the element's
-  // (bushings, then the spring-damper), the hooks' row i the bushing's.
-  bool hard_point_tangents_ = false;
+  // Whether the hooks carry tangents, and the tangents of the inputs: row i
+  // the element's (bushings, then the spring-damper), the hooks' row i the
+  // bushing's; per element its chassis point (rows 0-2) and carrier point
+  // (rows 3-5), as SuspensionModel::HardPointJacobian orders them.
   bool progressive_tangents_ = false;
   bool extra_tangents_ = false;
   struct HookTangents {
@@ -273,11 +249,15 @@ class TangentLinearModel {
   Eigen::Matrix<double, kNumBushings + 1, kDirections> damping_tangents_;
   Eigen::Matrix<double, 1, kDirections> mass_tangents_;
   Eigen::Matrix<double, 3, kDirections> inertia_tangents_;
+  std::array<Tangent6, kNumElements> hard_point_tangents_;
   // Whether any of those carries a tangent (the estimator's usual fit has
   // stiffnesses only: the other products are skipped).
   bool stiffness_carries_ = false;
   bool damping_carries_ = false;
   bool inertia_carries_ = false;
+  // The elements whose hard points carry tangents (DifferentiateJacobians
+  // differentiates their hard-point Jacobians).
+  typename SuspensionModel<double>::DerivativeRequest hard_points_carry_;
 };
 
 template <typename J>
@@ -298,12 +278,10 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
   PointJacobians values;
   values.load_tangents = HasTangents(load_next);
   values.with_hooks =
-      !hard_point_tangents_ &&
-      (progressive_tangents_ || extra_tangents_ || values.load_tangents);
+      progressive_tangents_ || extra_tangents_ || values.load_tangents;
   values_.Evaluate(load, point.y_predicted, point.z, true, &values.force,
-                   hard_point_tangents_ ? nullptr : &values.parameters,
-                   values.with_hooks ? &values.hooks : nullptr,
-                   hard_point_tangents_ ? nullptr : &values.point);
+                   &values.parameters,
+                   values.with_hooks ? &values.hooks : nullptr, &values.point);
   const GeneralizedForce<double>& g = values.force;
   Mat6<double> iteration_matrix = values_.mass_matrix() - h * g.dq_dz;
   iteration_matrix.template leftCols<3>() -=
@@ -327,9 +305,7 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
     point.w(k + 3) = point.w_rotation(k).a;
   }
 
-  Tangent6 d_dz = hard_point_tangents_ ? RightHandSideByDuals(point, load_next)
-                                       : RightHandSideByDirectionalJacobians(
-                                             point, load_next, values);
+  Tangent6 d_dz = RightHandSide(point, load_next, values);
   // Column by column: Eigen's fixed-size vector solve is unrolled, its
   // matrix solve takes the blocked general path (a tenth of the step).
   for (int j = 0; j < kDirections; ++j) {
@@ -346,16 +322,18 @@ void TangentLinearModel<J>::Step(const RigLoad<J>& load_next, double h,
 }
 
 template <typename J>
-typename TangentLinearModel<J>::Tangent6
-TangentLinearModel<J>::RightHandSideByDirectionalJacobians(
+typename TangentLinearModel<J>::Tangent6 TangentLinearModel<J>::RightHandSide(
     const StepPoint& point, const RigLoad<J>& load_jet,
     const PointJacobians& values) const {
   const GeneralizedForce<double>& g = values.force;
   const auto& p = values.parameters;
   const auto& hook = values.hooks;
+  typename SuspensionModel<double>::DerivativeRequest request =
+      hard_points_carry_;
+  request.hooks = values.with_hooks;
   typename SuspensionModel<double>::JacobianDerivatives d;
   values_.DifferentiateJacobians(values.point, point.w, point.h * point.dz,
-                                 values.with_hooks, &d);
+                                 request, &d);
 
   // h dQ + d(DQ[w]) = (h A + A') dx per Jacobian A and its derivative A'
   // along w: one product per Jacobian instead of two.
@@ -381,6 +359,12 @@ TangentLinearModel<J>::RightHandSideByDirectionalJacobians(
     rhs.noalias() +=
         (h * p.inertia + d.parameters.inertia).lazyProduct(inertia_tangents_);
   }
+  for (int i = 0; i < kNumElements; ++i) {
+    if (!request.hard_points[i]) continue;
+    rhs.noalias() +=
+        (h * values_.HardPointJacobianOf(values.point, i) + d.hard_points[i])
+            .lazyProduct(hard_point_tangents_[i]);
+  }
   for (int t = 0; t < kStiffeningTerms && progressive_tangents_; ++t) {
     rhs.noalias() += (h * hook.stiffening[t] + d.hooks.stiffening[t])
                          .lazyProduct(hook_tangents_.stiffening[t]);
@@ -405,34 +389,6 @@ TangentLinearModel<J>::RightHandSideByDirectionalJacobians(
         (h * hook.load_point + d.hooks.load_point).lazyProduct(point_tangents);
   }
   return rhs;
-}
-
-template <typename J>
-typename TangentLinearModel<J>::Tangent6
-TangentLinearModel<J>::RightHandSideByDuals(const StepPoint& point,
-                                            const RigLoad<J>& load) const {
-  Vec6<Second> y_second;
-  Vec6<Second> z_second;
-  for (int k = 0; k < 3; ++k) {
-    y_second(k) = Second(point.y_predicted_jet(k), J(point.w(k)));
-    y_second(k + 3) = Second(point.y_predicted_jet(k + 3), point.w_rotation(k));
-  }
-  for (int k = 0; k < 6; ++k) {
-    z_second(k) = Second(point.z_jet(k), J(point.h * point.dz(k)));
-  }
-  RigLoad<Second> load_second;
-  for (int k = 0; k < 3; ++k) {
-    load_second.force(k) = Second(load.force(k), J(0.0));
-    load_second.point(k) = Second(load.point(k), J(0.0));
-  }
-  GeneralizedForce<Second> g_second;
-  second_.Evaluate(load_second, y_second, z_second, false, &g_second);
-  Tangent6 rhs;
-  for (int k = 0; k < 6; ++k) {
-    const Second& q = g_second.q(k);
-    rhs.row(k) = (point.h * q.a.v + q.e.v).transpose();
-  }
-  return rhs - MassTangentTimes(point.dz);
 }
 
 // The overloads SimulateTrajectory finds for a TangentLinearModel.

@@ -17,6 +17,7 @@
 #include "gtest/gtest.h"
 #include "rt_core/model/rig_plant.h"
 #include "rt_core/model/simulation.h"
+#include "tests/support/dual.h"
 #include "tests/support/test_config.h"
 
 namespace kcrig {
@@ -235,7 +236,7 @@ TEST(TangentLinearTest, OneStepWithLinearParametersAndLoadMatchesTheJets) {
       /*load_tangent=*/true, 9);
 }
 
-// Hard points and a load tangent: the Dual<Jet> path.
+// Hard points and a load tangent.
 TEST(TangentLinearTest, OneStepWithHardPointsAndLoadMatchesTheJets) {
   ExpectStepsAgree(
       {"c_O2", "d_O2", "V2.x", "U2.y", "Jzz", "mass", "c_V1", "P.z"},
@@ -304,7 +305,9 @@ TEST(TangentLinearTest, ClosedFormJacobianDerivativesMatchDualNumbers) {
     typename SuspensionModel<double>::PointState point;
     model.Evaluate(load, y, z, true, &g, nullptr, nullptr, &point);
     typename SuspensionModel<double>::JacobianDerivatives closed_form;
-    model.DifferentiateJacobians(point, w_y, w_z, true, &closed_form);
+    typename SuspensionModel<double>::DerivativeRequest request;
+    request.hooks = true;
+    model.DifferentiateJacobians(point, w_y, w_z, request, &closed_form);
     GeneralizedForce<D> g_dual;
     typename SuspensionModel<D>::LinearParameterJacobian p_dual;
     typename SuspensionModel<D>::HookAndLoadJacobian hook_dual;
@@ -339,6 +342,102 @@ TEST(TangentLinearTest, ClosedFormJacobianDerivativesMatchDualNumbers) {
          RelativeDifference(e(hook_dual.load_point), h.load_point)}};
     for (const auto& [name, difference] : differences) {
       EXPECT_LE(difference, 1e-12) << name << ", trial " << trial;
+    }
+  }
+}
+
+// The hard-point Jacobians and their derivatives along w in closed form
+// against Evaluate in nested dual numbers: the inner direction a hard-point
+// coordinate, the outer one w, so Q's inner parts are the Jacobian's column
+// and its mixed parts the derivative's. Random states, directions, loads,
+// stiffening and extra forces; every element and coordinate.
+TEST(TangentLinearTest, ClosedFormHardPointJacobiansMatchDualNumbers) {
+  using D = Dual<double>;
+  using DD = Dual<D>;
+  constexpr int kElements = SuspensionModel<double>::kNumElements;
+  std::mt19937 random(12);
+  std::normal_distribution<double> normal;
+  const SuspensionParameters<double> nominal = SourceConfig().model;
+  for (int trial = 0; trial < 10; ++trial) {
+    const SuspensionParameters<double> parameters = Perturbed(nominal, &random);
+    SuspensionModel<double> model(parameters);
+    typename SuspensionModel<double>::StiffeningCoefficients stiffening;
+    typename SuspensionModel<double>::ExtraBushingForce extra;
+    for (int i = 0; i < kNumBushings; ++i) {
+      for (int t = 0; t < kStiffeningTerms; ++t) {
+        stiffening[t][i] = (trial % 2) * 1e9 * normal(random);
+      }
+      extra.force[i] = 100 * normal(random);
+      extra.stiffness[i] = 1e5 * std::abs(normal(random));
+      extra.reference[i] = 1e-3 * normal(random);
+    }
+    model.SetProgressiveStiffness(stiffening);
+    model.SetExtraBushingForce(extra);
+    Vec6<double> y, z, w_y, w_z;
+    for (int k = 0; k < 6; ++k) {
+      y(k) = (k < 3 ? 0.01 : 0.05) * normal(random);
+      z(k) = (k < 3 ? 0.2 : 0.5) * normal(random);
+      w_y(k) = 1e-4 * normal(random);
+      w_z(k) = 1e-2 * normal(random);
+    }
+    RigLoad<double> load;
+    for (int k = 0; k < 3; ++k) {
+      load.force(k) = 2000 * normal(random);
+      load.point(k) = 0.1 * normal(random);
+    }
+    GeneralizedForce<double> g;
+    typename SuspensionModel<double>::PointState point;
+    model.Evaluate(load, y, z, true, &g, nullptr, nullptr, &point);
+    typename SuspensionModel<double>::DerivativeRequest request;
+    request.hard_points.fill(true);
+    typename SuspensionModel<double>::JacobianDerivatives closed_form;
+    model.DifferentiateJacobians(point, w_y, w_z, request, &closed_form);
+
+    // The dual-dual model and inputs, the coordinate seeded per column.
+    typename SuspensionModel<DD>::StiffeningCoefficients dd_stiffening;
+    typename SuspensionModel<DD>::ExtraBushingForce dd_extra;
+    for (int i = 0; i < kNumBushings; ++i) {
+      for (int t = 0; t < kStiffeningTerms; ++t) {
+        dd_stiffening[t][i] = stiffening[t][i];
+      }
+      dd_extra.force[i] = extra.force[i];
+      dd_extra.stiffness[i] = extra.stiffness[i];
+      dd_extra.reference[i] = extra.reference[i];
+    }
+    Vec6<DD> y_dd, z_dd;
+    for (int k = 0; k < 6; ++k) {
+      y_dd(k) = DD(D(y(k)), D(w_y(k)));
+      z_dd(k) = DD(D(z(k)), D(w_z(k)));
+    }
+    RigLoad<DD> load_dd;
+    for (int k = 0; k < 3; ++k) {
+      load_dd.force(k) = load.force(k);
+      load_dd.point(k) = load.point(k);
+    }
+    for (int i = 0; i < kElements; ++i) {
+      Mat6<double> value, derivative;
+      for (int c = 0; c < 6; ++c) {
+        SuspensionParameters<DD> seeded = parameters.Cast<DD>();
+        AxialElement<DD>& e =
+            i < kNumBushings ? seeded.bushings[i] : seeded.spring;
+        DD& coordinate = c < 3 ? e.chassis_point(c) : e.carrier_point(c - 3);
+        coordinate.a.e = 1.0;
+        SuspensionModel<DD> dd_model(seeded);
+        dd_model.SetProgressiveStiffness(dd_stiffening);
+        dd_model.SetExtraBushingForce(dd_extra);
+        GeneralizedForce<DD> g_dd;
+        dd_model.Evaluate(load_dd, y_dd, z_dd, false, &g_dd);
+        for (int r = 0; r < 6; ++r) {
+          value(r, c) = g_dd.q(r).a.e;
+          derivative(r, c) = g_dd.q(r).e.e;
+        }
+      }
+      EXPECT_LE(RelativeDifference(value, model.HardPointJacobianOf(point, i)),
+                1e-12)
+          << "element " << i << ", trial " << trial;
+      EXPECT_LE(RelativeDifference(derivative, closed_form.hard_points[i]),
+                1e-12)
+          << "element " << i << ", trial " << trial;
     }
   }
 }

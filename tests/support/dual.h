@@ -1,12 +1,11 @@
-// A dual number over any scalar S: x = a + e eps with eps^2 = 0. With S a
-// Jet of N directions it carries, besides the value and its N directional
-// derivatives, one more direction and its mixed second derivatives with the
-// N others: exactly what the tangent-linear step needs from the generalized
-// force (tangent_linear.h). Only what the model evaluates is defined.
-// Constructible from a plain number, so the model's constants (T(0), Eigen's
-// Zero and Identity) work for nested scalars too.
-#ifndef KCRIG_RT_CORE_MODEL_DUAL_H_
-#define KCRIG_RT_CORE_MODEL_DUAL_H_
+// A dual number over any scalar S: x = a + e eps with eps^2 = 0; nested
+// (S a Dual itself) it carries a second direction and the mixed second
+// derivative. The tests' reference for the closed-form derivatives of Q's
+// Jacobians (SuspensionModel::DifferentiateJacobians). Only what the model
+// evaluates is defined. Constructible from a plain number, so the model's
+// constants (T(0), Eigen's Zero and Identity) work for nested scalars too.
+#ifndef KCRIG_TESTS_SUPPORT_DUAL_H_
+#define KCRIG_TESTS_SUPPORT_DUAL_H_
 
 #include <cmath>
 #include <limits>
@@ -95,4 +94,4 @@ struct NumTraits<kcrig::Dual<S>> : NumTraits<double> {
 
 }  // namespace Eigen
 
-#endif  // KCRIG_RT_CORE_MODEL_DUAL_H_
+#endif  // KCRIG_TESTS_SUPPORT_DUAL_H_
