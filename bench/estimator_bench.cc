@@ -116,7 +116,8 @@ void Residuals(const double* x, double* f) {
 }
 
 // lmder callback: iflag 1 residuals, 2 Jacobian by forward differences
-// (column-major fjac, as MINPACK expects).
+// (column-major fjac, as MINPACK expects) from the residuals at x that
+// lmder passes in fvec, as lmdif's fdjac2 does: n simulations per Jacobian.
 void LmderCallback(int* m, int* n, double* x, double* fvec, double* fjac,
                    int* ldfjac, int* iflag) {
   if (*iflag == 1) {
@@ -124,8 +125,7 @@ void LmderCallback(int* m, int* n, double* x, double* fvec, double* fjac,
     return;
   }
   if (*iflag != 2) return;
-  std::vector<double> base(*m), shifted(*m);
-  Residuals(x, base.data());
+  std::vector<double> shifted(*m);
   const double eps = std::sqrt(std::numeric_limits<double>::epsilon());
   for (int j = 0; j < *n; ++j) {
     const double saved = x[j];
@@ -134,7 +134,7 @@ void LmderCallback(int* m, int* n, double* x, double* fvec, double* fjac,
     Residuals(x, shifted.data());
     x[j] = saved;
     for (int i = 0; i < *m; ++i) {
-      fjac[j * *ldfjac + i] = (shifted[i] - base[i]) / h;
+      fjac[j * *ldfjac + i] = (shifted[i] - fvec[i]) / h;
     }
   }
 }
