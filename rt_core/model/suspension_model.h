@@ -158,8 +158,9 @@ class SuspensionModel {
 
   // The derivatives along w = (w_y, w_z) of Q's Jacobians at the point
   // Evaluate kept: what Evaluate in Dual scalars at y + eps w_y,
-  // z + eps w_z returns in the dual parts of dq_dy, dq_dz and the parameter,
-  // hook and hard-point Jacobians, in closed form from the second
+  // z + eps w_z returns in the dual parts of dq_dy, dq_dz and the parameter
+  // and hook Jacobians (and HardPointJacobianOf would), in closed form from
+  // the second
   // derivatives of each element's state (the tangent-linear step's
   // second-order term, tangent_linear.h). The load is held fixed, and the
   // effect hooks must be those of that Evaluate. For double only (the
@@ -474,11 +475,12 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
 // dc of the chassis point, dd = dc; along db of the carrier point,
 // dd = -R db, and a = [u; b x u_b] and the carrier point's velocity
 // (rate = a^T z = u^T (v + R (omega x b))) move with b as well. So
-//   dm/dc = kappa (u - n0) - d e,
-//   dm/db = kappa (n0 - u_b) - d (u_b x omega - e_b),
+//   dm/dc = kappa (u - n0) - D e,
+//   dm/db = kappa (n0 - u_b) - D (u_b x omega - e_b),
 //   da/dc = [W/l; -(R W_b B)^T/l],
 //   da/db = [-W R/l; -[u_b]x + (W_b B)^T/l],
-// with kappa = dm/dl, n0 = (c - b) / l0 and e, W as in Evaluate.
+// with kappa = dm/dl, D the damping, n0 = (c - b) / l0 and e, W as in
+// Evaluate.
 template <typename T>
 typename SuspensionModel<T>::HardPointJacobian
 SuspensionModel<T>::HardPointJacobianOf(const PointState& point,
@@ -609,9 +611,10 @@ void SuspensionModel<T>::DifferentiateJacobians(
         rot * (SkewTimes<T>(d_theta, j.w_body_b) * m_over_l +
                d_w_body_b * m_over_l + j.w_body_b * d_m_over_l);
     const Mat3<T> d_u_u = d_u * u.transpose();
-    d_dq_dq.template block<3, 3>(0, 0) -=
+    const Mat3<T> d_w_over_l =  // d(m W / l)
         d_m_over_l * (Mat3<T>::Identity() - u * u.transpose()) -
         m_over_l * (d_u_u + d_u_u.transpose());
+    d_dq_dq.template block<3, 3>(0, 0) -= d_w_over_l;
     d_dq_dq.template block<3, 3>(0, 3) += d_h12;
     d_dq_dq.template block<3, 3>(3, 0) += d_h12.transpose();
     d_dq_dq.template block<3, 3>(3, 3) += SkewTimes<T>(
@@ -636,10 +639,7 @@ void SuspensionModel<T>::DifferentiateJacobians(
              e.damping *
                  (d_u_body.cross(omega) + u_body.cross(d_omega) - d_e_body))
                 .transpose();
-    // d(m W / l), and W R moves by W R [d_theta]x as well.
-    const Mat3<T> d_w_over_l =
-        d_m_over_l * (Mat3<T>::Identity() - u * u.transpose()) -
-        m_over_l * (d_u_u + d_u_u.transpose());
+    // W R moves by W R [d_theta]x as well.
     d_hard.template block<3, 3>(0, 0) += d_w_over_l;
     d_hard.template block<3, 3>(3, 0) -= d_h12.transpose();
     d_hard.template block<3, 3>(0, 3) -=

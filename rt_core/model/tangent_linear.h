@@ -24,7 +24,6 @@
 #define KCRIG_RT_CORE_MODEL_TANGENT_LINEAR_H_
 
 #include <array>
-#include <string>
 
 #include "Eigen/LU"
 #include "base/status.h"
@@ -49,7 +48,7 @@ class TangentLinearModel {
         hard_point_tangents_[i].row(k) = e.chassis_point(k).v.transpose();
         hard_point_tangents_[i].row(k + 3) = e.carrier_point(k).v.transpose();
       }
-      hard_points_carry_.hard_points[i] = AnyTangent(hard_point_tangents_[i]);
+      hard_point_carries_[i] = AnyTangent(hard_point_tangents_[i]);
       stiffness_tangents_.row(i) = e.stiffness.v.transpose();
       damping_tangents_.row(i) = e.damping.v.transpose();
     }
@@ -179,31 +178,26 @@ class TangentLinearModel {
     return false;
   }
 
-  // Every parameter of `p` mapped by `f`.
-  template <typename U, typename F>
-  static SuspensionParameters<U> Mapped(const SuspensionParameters<J>& p, F f) {
-    SuspensionParameters<U> out;
-    out.mass = f(p.mass);
-    for (int k = 0; k < 3; ++k) out.inertia(k) = f(p.inertia(k));
-    auto element = [&](const AxialElement<J>& e) {
-      AxialElement<U> mapped;
+  static SuspensionParameters<double> ValuesOf(
+      const SuspensionParameters<J>& p) {
+    SuspensionParameters<double> out;
+    out.mass = p.mass.a;
+    for (int k = 0; k < 3; ++k) out.inertia(k) = p.inertia(k).a;
+    auto element = [](const AxialElement<J>& e) {
+      AxialElement<double> value;
       for (int k = 0; k < 3; ++k) {
-        mapped.carrier_point(k) = f(e.carrier_point(k));
-        mapped.chassis_point(k) = f(e.chassis_point(k));
+        value.carrier_point(k) = e.carrier_point(k).a;
+        value.chassis_point(k) = e.chassis_point(k).a;
       }
-      mapped.stiffness = f(e.stiffness);
-      mapped.damping = f(e.damping);
-      return mapped;
+      value.stiffness = e.stiffness.a;
+      value.damping = e.damping.a;
+      return value;
     };
     for (int i = 0; i < kNumBushings; ++i) {
       out.bushings[i] = element(p.bushings[i]);
     }
     out.spring = element(p.spring);
     return out;
-  }
-  static SuspensionParameters<double> ValuesOf(
-      const SuspensionParameters<J>& p) {
-    return Mapped<double>(p, [](const J& x) { return x.a; });
   }
   static RigLoad<double> ValuesOf(const RigLoad<J>& load) {
     RigLoad<double> out;
@@ -233,8 +227,7 @@ class TangentLinearModel {
   SuspensionModel<J> jets_;
   // Whether the hooks carry tangents, and the tangents of the inputs: row i
   // the element's (bushings, then the spring-damper), the hooks' row i the
-  // bushing's; per element its chassis point (rows 0-2) and carrier point
-  // (rows 3-5), as SuspensionModel::HardPointJacobian orders them.
+  // bushing's.
   bool progressive_tangents_ = false;
   bool extra_tangents_ = false;
   struct HookTangents {
@@ -245,19 +238,21 @@ class TangentLinearModel {
     Eigen::Matrix<double, kNumBushings, kDirections> extra_stiffness;
     Eigen::Matrix<double, kNumBushings, kDirections> extra_reference;
   } hook_tangents_;
-  Eigen::Matrix<double, kNumBushings + 1, kDirections> stiffness_tangents_;
-  Eigen::Matrix<double, kNumBushings + 1, kDirections> damping_tangents_;
+  Eigen::Matrix<double, kNumElements, kDirections> stiffness_tangents_;
+  Eigen::Matrix<double, kNumElements, kDirections> damping_tangents_;
   Eigen::Matrix<double, 1, kDirections> mass_tangents_;
   Eigen::Matrix<double, 3, kDirections> inertia_tangents_;
+  // Per element: its chassis point's (rows 0-2) and carrier point's
+  // (rows 3-5), as SuspensionModel::HardPointJacobian orders them.
   std::array<Tangent6, kNumElements> hard_point_tangents_;
   // Whether any of those carries a tangent (the estimator's usual fit has
   // stiffnesses only: the other products are skipped).
   bool stiffness_carries_ = false;
   bool damping_carries_ = false;
   bool inertia_carries_ = false;
-  // The elements whose hard points carry tangents (DifferentiateJacobians
-  // differentiates their hard-point Jacobians).
-  typename SuspensionModel<double>::DerivativeRequest hard_points_carry_;
+  // Whether each element's hard points carry a tangent (the right-hand side
+  // then needs its hard-point Jacobian and that Jacobian's derivative).
+  std::array<bool, kNumElements> hard_point_carries_{};
 };
 
 template <typename J>
@@ -328,9 +323,9 @@ typename TangentLinearModel<J>::Tangent6 TangentLinearModel<J>::RightHandSide(
   const GeneralizedForce<double>& g = values.force;
   const auto& p = values.parameters;
   const auto& hook = values.hooks;
-  typename SuspensionModel<double>::DerivativeRequest request =
-      hard_points_carry_;
+  typename SuspensionModel<double>::DerivativeRequest request;
   request.hooks = values.with_hooks;
+  request.hard_points = hard_point_carries_;
   typename SuspensionModel<double>::JacobianDerivatives d;
   values_.DifferentiateJacobians(values.point, point.w, point.h * point.dz,
                                  request, &d);

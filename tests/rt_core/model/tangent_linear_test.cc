@@ -136,7 +136,7 @@ TEST(TangentLinearTest, StiffnessDampingSpringAndMassesMatchTheJets) {
 }
 
 // The load's tangents (amplitude, direction, acting point) with linear
-// parameters only: the directional-Jacobian path.
+// parameters only.
 TEST(TangentLinearTest, TheLoadAndLinearParametersMatchTheJets) {
   for (unsigned seed : {10u, 11u}) {
     ExpectTrajectoriesAgree({"c_O1", "d_V1", "k_spring", "mass", "Jxx"},
@@ -154,7 +154,7 @@ TEST(TangentLinearTest, HardPointsAndTheLoadMatchTheJets) {
 
 // Tangents far below Eigen's isZero threshold (1e-12) are tangents: a
 // 1e-13 m hard-point tangent times a bushing rate of 4e6 N/m moves the
-// wheel. The linear path must not be taken for them.
+// wheel. The products must not skip them.
 TEST(TangentLinearTest, TinyHardPointAndLoadTangentsAreNotDropped) {
   const KcrigConfig config = SourceConfig();
   SuspensionParameters<Jet8> p = Seeded(config.model, {"c_O1"});
@@ -222,14 +222,14 @@ void ExpectStepsAgree(const std::vector<std::string>& names, bool load_tangent,
   }
 }
 
-// Only parameters Q and M are linear in: the directional-Jacobian path.
+// Only parameters Q and M are linear in.
 TEST(TangentLinearTest, OneStepWithLinearParametersMatchesTheJets) {
   ExpectStepsAgree(
       {"c_O2", "d_O2", "c_V1", "k_spring", "d_damper", "Jzz", "mass", "Jxx"},
       /*load_tangent=*/false, 7);
 }
 
-// The load's tangents with linear parameters: the directional path too.
+// The load's tangents with linear parameters.
 TEST(TangentLinearTest, OneStepWithLinearParametersAndLoadMatchesTheJets) {
   ExpectStepsAgree(
       {"c_O2", "d_O2", "c_V1", "k_spring", "d_damper", "Jzz", "mass", "Jxx"},
@@ -442,11 +442,13 @@ TEST(TangentLinearTest, ClosedFormHardPointJacobiansMatchDualNumbers) {
   }
 }
 
-// Enables `effect`; c_O1 and, with `seed_effect`, the effect's parameters
-// carry the directions (their number is returned).
+// Enables `effect`; c_O1, with `seed_effect` the effect's parameters, and
+// the named hard-point coordinates carry the directions (their number is
+// returned).
 int SeedEffect(const std::string& effect, bool seed_effect,
-               const BushingSet& at, BasicPlantEffects<Jet8>* e,
-               SuspensionParameters<Jet8>* p) {
+               const BushingSet& at,
+               const std::vector<std::string>& hard_points,
+               BasicPlantEffects<Jet8>* e, SuspensionParameters<Jet8>* p) {
   int d = 0;
   auto seed_always = [&d](Jet8* x) { x->v[d++] = x->a != 0 ? x->a : 1e-3; };
   auto seed = [&](Jet8* x) {
@@ -480,6 +482,9 @@ int SeedEffect(const std::string& effect, bool seed_effect,
     for (int k = 0; k < 6; ++k) seed(&e->sensor_offset.offset(k));
     seed(&e->sensor_offset.scale);
   }
+  for (const std::string& name : hard_points) {
+    seed_always(FindParameter(p, name));
+  }
   e->bushing_damping.at = e->hysteresis.at = e->progressive_stiffness.at = at;
   return d;
 }
@@ -488,12 +493,14 @@ int SeedEffect(const std::string& effect, bool seed_effect,
 // sensitivities and the Jet reference's over a ramp up and back down
 // (hysteresis reverses), with `effect` enabled (see SeedEffect).
 double WorstPlantDifference(const std::string& effect, bool seed_effect,
-                            const BushingSet& at = kEveryBushing) {
+                            const BushingSet& at = kEveryBushing,
+                            const std::vector<std::string>& hard_points = {}) {
   const KcrigConfig config = SourceConfig();
   const double h = 1e-3;
   SuspensionParameters<Jet8> p = config.model.Cast<Jet8>();
   BasicPlantEffects<Jet8> e = PlantEffects().Cast<Jet8>();
-  const int directions = SeedEffect(effect, seed_effect, at, &e, &p);
+  const int directions =
+      SeedEffect(effect, seed_effect, at, hard_points, &e, &p);
   BasicRigPlant<Jet8> tangent_linear(p, e, h, 0.02);
   BasicRigPlant<Jet8, SuspensionModel<Jet8>> reference(p, e, h, 0.02);
   auto force = [](double t) {
@@ -535,7 +542,7 @@ TEST(TangentLinearTest, EveryPlantEffectMatchesTheJets) {
 }
 
 // An effect acting with fixed parameters (its hooks carry values but no
-// tangents) keeps the linear path for a stiffness, exactly.
+// tangents): a stiffness's sensitivities, exactly.
 TEST(TangentLinearTest, EffectsWithFixedParametersMatchTheJets) {
   for (std::string_view name : kEffectNames) {
     EXPECT_LE(WorstPlantDifference(std::string(name), false), 1e-10) << name;
@@ -549,6 +556,19 @@ TEST(TangentLinearTest, BushingEffectsPlacedInSomeBushingsMatchTheJets) {
   for (const char* name :
        {"bushing_damping", "hysteresis", "progressive_stiffness"}) {
     EXPECT_LE(WorstPlantDifference(name, true, o1_and_p), 1e-10) << name;
+  }
+}
+
+// Hard points with a bushing effect's hooks carrying tangents too (a freed
+// hard point fitted beside an effect): the chassis and carrier points of a
+// bushing with the effect, and the spring's carrier point.
+TEST(TangentLinearTest, HardPointsWithBushingEffectsMatchTheJets) {
+  for (const char* name :
+       {"bushing_damping", "hysteresis", "progressive_stiffness"}) {
+    EXPECT_LE(WorstPlantDifference(name, true, kEveryBushing,
+                                   {"O1.z", "N1.y", "spring_carrier.y"}),
+              1e-10)
+        << name;
   }
 }
 
