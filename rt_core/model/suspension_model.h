@@ -160,10 +160,9 @@ class SuspensionModel {
   // Evaluate kept: what Evaluate in Dual scalars at y + eps w_y,
   // z + eps w_z returns in the dual parts of dq_dy, dq_dz and the parameter
   // and hook Jacobians (and HardPointJacobianOf would), in closed form from
-  // the second
-  // derivatives of each element's state (the tangent-linear step's
-  // second-order term, tangent_linear.h). The load is held fixed, and the
-  // effect hooks must be those of that Evaluate. For double only (the
+  // the second derivatives of each element's state (the tangent-linear
+  // step's second-order term, tangent_linear.h). The load is held fixed, and
+  // the effect hooks must be those of that Evaluate. For double only (the
   // tangent-linear step differentiates in double; Jet models never need it).
   struct DerivativeRequest {
     bool hooks = false;  // JacobianDerivatives::hooks
@@ -314,6 +313,22 @@ class SuspensionModel {
       s.tangent_stiffness += extra_.stiffness[i];
     }
     return s;
+  }
+
+  // dm/dc and dm/db of element i (see HardPointJacobianOf) from the state
+  // Evaluate kept for it at body angular velocity omega.
+  struct HardPointForceGradients {
+    Vec3<T> chassis;
+    Vec3<T> carrier;
+  };
+  HardPointForceGradients ForceGradientsOf(const ElementJacobianState& j, int i,
+                                           const Vec3<T>& omega) const {
+    const ElementState& s = j.element;
+    const Vec3<T>& n0 = free_direction_[i];
+    const T& damping = Element(i).damping;
+    return {s.tangent_stiffness * (s.u - n0) - damping * j.e_world,
+            s.tangent_stiffness * (n0 - s.u_body) -
+                damping * (s.u_body.cross(omega) - j.e_body)};
   }
 
   SuspensionParameters<T> parameters_;
@@ -487,21 +502,15 @@ SuspensionModel<T>::HardPointJacobianOf(const PointState& point,
                                         int element) const {
   const ElementJacobianState& j = point.elements[element];
   const ElementState& s = j.element;
-  const Vec3<T>& n0 = free_direction_[element];
-  const T damping = Element(element).damping;
   const T m_over_l = s.magnitude / s.length;
-  const Vec3<T> omega = point.z.template tail<3>();
   const Mat3<T> w_over_l =
       m_over_l * (Mat3<T>::Identity() - s.u * s.u.transpose());
   const Mat3<T> h12 = (point.rotation * j.w_body_b) * m_over_l;
+  const HardPointForceGradients dm =
+      ForceGradientsOf(j, element, point.z.template tail<3>());
   HardPointJacobian out;
-  out.template leftCols<3>() =
-      s.a *
-      (s.tangent_stiffness * (s.u - n0) - damping * j.e_world).transpose();
-  out.template rightCols<3>() =
-      s.a * (s.tangent_stiffness * (n0 - s.u_body) -
-             damping * (s.u_body.cross(omega) - j.e_body))
-                .transpose();
+  out.template leftCols<3>() = s.a * dm.chassis.transpose();
+  out.template rightCols<3>() = s.a * dm.carrier.transpose();
   out.template block<3, 3>(0, 0) += w_over_l;
   out.template block<3, 3>(3, 0) -= h12.transpose();
   out.template block<3, 3>(0, 3) -= w_over_l * point.rotation;
@@ -625,16 +634,14 @@ void SuspensionModel<T>::DifferentiateJacobians(
     // HardPointJacobianOf, differentiated term by term.
     const Vec3<T>& n0 = free_direction_[i];
     const T& kappa = s.tangent_stiffness;
+    const HardPointForceGradients dm = ForceGradientsOf(j, i, omega);
     HardPointJacobian& d_hard = out->hard_points[i];
     d_hard.template leftCols<3>() =
-        d_a * (kappa * (u - n0) - e.damping * j.e_world).transpose() +
-        a * (d_tangent_stiffness * (u - n0) + kappa * d_u -
-             e.damping * d_e_world)
-                .transpose();
+        d_a * dm.chassis.transpose() + a * (d_tangent_stiffness * (u - n0) +
+                                            kappa * d_u - e.damping * d_e_world)
+                                               .transpose();
     d_hard.template rightCols<3>() =
-        d_a * (kappa * (n0 - u_body) -
-               e.damping * (u_body.cross(omega) - j.e_body))
-                  .transpose() +
+        d_a * dm.carrier.transpose() +
         a * (d_tangent_stiffness * (n0 - u_body) - kappa * d_u_body -
              e.damping *
                  (d_u_body.cross(omega) + u_body.cross(d_omega) - d_e_body))
