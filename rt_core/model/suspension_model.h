@@ -153,8 +153,8 @@ class SuspensionModel {
   // point's (carrier frame), the free length moving with them. Q is not
   // linear in them; element i's term m a is all that depends on them.
   using HardPointJacobian = Mat6<T>;
-  HardPointJacobian HardPointJacobianOf(const PointState& point,
-                                        int element) const;
+  HardPointJacobian HardPointJacobianOf(const PointState& point, int element)
+      const requires std::is_floating_point_v<T>;
 
   // The derivatives along w = (w_y, w_z) of Q's Jacobians at the point
   // Evaluate kept: what Evaluate in Dual scalars at y + eps w_y,
@@ -277,7 +277,8 @@ class SuspensionModel {
   };
 
  public:
-  // Evaluate's state at one point, for DifferentiateJacobians there.
+  // Evaluate's state at one point, for DifferentiateJacobians and
+  // HardPointJacobianOf there.
   struct PointState {
     Vec6<T> z;
     Vec3<T> load_point;
@@ -315,6 +316,12 @@ class SuspensionModel {
     return s;
   }
 
+  // (c - b) / l0: the free length's gradient in element i's chassis point
+  // c (and minus that in its carrier point b).
+  Vec3<T> FreeDirection(int i) const {
+    const AxialElement<T>& e = Element(i);
+    return (e.chassis_point - e.carrier_point) / free_length_[i];
+  }
   // dm/dc and dm/db of element i (see HardPointJacobianOf) from the state
   // Evaluate kept for it at body angular velocity omega.
   struct HardPointForceGradients {
@@ -324,7 +331,7 @@ class SuspensionModel {
   HardPointForceGradients ForceGradientsOf(const ElementJacobianState& j, int i,
                                            const Vec3<T>& omega) const {
     const ElementState& s = j.element;
-    const Vec3<T>& n0 = free_direction_[i];
+    const Vec3<T> n0 = FreeDirection(i);
     const T& damping = Element(i).damping;
     return {s.tangent_stiffness * (s.u - n0) - damping * j.e_world,
             s.tangent_stiffness * (n0 - s.u_body) -
@@ -333,9 +340,6 @@ class SuspensionModel {
 
   SuspensionParameters<T> parameters_;
   std::array<T, kNumElements> free_length_;
-  // (c - b) / l0: the free length's gradient in the chassis point c (and
-  // minus that in the carrier point b).
-  std::array<Vec3<T>, kNumElements> free_direction_;
   std::array<Mat3<T>, kNumElements> skew_carrier_point_;
   Mat6<T> mass_matrix_;
   StiffeningCoefficients stiffening_{};
@@ -348,7 +352,6 @@ SuspensionModel<T>::SuspensionModel(const SuspensionParameters<T>& parameters)
   for (int i = 0; i < kNumElements; ++i) {
     const AxialElement<T>& e = Element(i);
     free_length_[i] = (e.chassis_point - e.carrier_point).norm();
-    free_direction_[i] = (e.chassis_point - e.carrier_point) / free_length_[i];
     skew_carrier_point_[i] = Skew<T>(e.carrier_point);
   }
   mass_matrix_.setZero();
@@ -498,8 +501,8 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
 // Evaluate.
 template <typename T>
 typename SuspensionModel<T>::HardPointJacobian
-SuspensionModel<T>::HardPointJacobianOf(const PointState& point,
-                                        int element) const {
+SuspensionModel<T>::HardPointJacobianOf(const PointState& point, int element)
+    const requires std::is_floating_point_v<T> {
   const ElementJacobianState& j = point.elements[element];
   const ElementState& s = j.element;
   const T m_over_l = s.magnitude / s.length;
@@ -632,7 +635,7 @@ void SuspensionModel<T>::DifferentiateJacobians(
     if (!request.hard_points[i]) continue;
 
     // HardPointJacobianOf, differentiated term by term.
-    const Vec3<T>& n0 = free_direction_[i];
+    const Vec3<T> n0 = FreeDirection(i);
     const T& kappa = s.tangent_stiffness;
     const HardPointForceGradients dm = ForceGradientsOf(j, i, omega);
     HardPointJacobian& d_hard = out->hard_points[i];

@@ -12,11 +12,11 @@
 // parameters and G^-1(y)). W is factored once in double and solves all N
 // directions; the state then moves as in the step, in J arithmetic. The
 // right-hand side comes from Q's Jacobians in the state and in every input
-// that carries tangents (stiffness, damping, mass, inertia, hard points, the
+// that carries tangents (stiffness, damping, inertia, hard points, the
 // effect hooks and the load) and their derivatives along w in closed form
 // (SuspensionModel::DifferentiateJacobians): by the symmetry of second
 // derivatives d(DQ[w]) = D(dQ/dx)[w] dx + D(dQ/dp)[w] dp, a product per
-// input (cost nearly independent of N).
+// input (cost nearly independent of N); the mass's through dM dz.
 //
 // J is a Jet of N directions (value .a, derivatives .v, e.g. ceres::Jet):
 // the same type the Jet reference uses, so the two are interchangeable.
@@ -121,7 +121,9 @@ class TangentLinearModel {
   }
 
   // One step h under the load of t_{n+1}, state and tangents together. The
-  // values are those of SemiImplicitEulerStep<double>.
+  // values are those of SemiImplicitEulerStep<double>, but for the pose
+  // update's G^-1, whose values come from the Jet's (equal up to the last
+  // bits: Ceres divides as a (1/b)).
   void Step(const RigLoad<J>& load_next, double h, ModelState<J>* state) const;
 
  private:
@@ -245,7 +247,8 @@ class TangentLinearModel {
   // Per element: its chassis point's (rows 0-2) and carrier point's
   // (rows 3-5), as SuspensionModel::HardPointJacobian orders them.
   std::array<Tangent6, kNumElements> hard_point_tangents_;
-  // Whether any of those carries a tangent (the estimator's usual fit has
+  // Whether stiffness, damping or inertia carries a tangent (the
+  // estimator's usual fit has
   // stiffnesses only: the other products are skipped).
   bool stiffness_carries_ = false;
   bool damping_carries_ = false;
