@@ -11,6 +11,7 @@
 #include "emulator/can_front_end.h"
 #include "emulator/modbus_front_end.h"
 #include "emulator/plant_config.h"
+#include "emulator/rig_clock.h"
 #include "emulator/rig_emulator.h"
 #include "hil/rig_config.h"
 #include "io_drivers/modbus_map.h"
@@ -86,6 +87,7 @@ int RunEmulate(const EmulateArgs& args) {
   }
   const std::atomic<int>& stop = InstallStopSignalHandlers();
   RigEmulator rig(config, plant, effects);
+  const MonotonicRigClock clock;
   std::string effect_text;
   for (const std::string& e : DescribeEffects(effects)) {
     effect_text += (effect_text.empty() ? "" : " ") + e;
@@ -93,7 +95,7 @@ int RunEmulate(const EmulateArgs& args) {
   if (!args.can.empty()) {
     CanNodeCounters counters;
     status = ServeCan(
-        &rig, rig_config.can.dbc_file, args.can, stop,
+        &rig, clock, rig_config.can.dbc_file, args.can, stop,
         [&] {
           std::printf(
               "kcrig emulate: on can:%s (DBC %s); true plant from "
@@ -116,7 +118,7 @@ int RunEmulate(const EmulateArgs& args) {
         static_cast<long long>(counters.send_failures));
     return 0;
   }
-  status = ServeModbus(&rig, map, at, stop, [&](const std::string& uri) {
+  status = ServeModbus(&rig, clock, map, at, stop, [&](const std::string& uri) {
     std::printf(
         "kcrig emulate: serving %s (unit %d, map %s); true plant from "
         "plant.yaml, effects: %s\n",

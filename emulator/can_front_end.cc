@@ -2,17 +2,12 @@
 
 #include "io_drivers/kc_rig_protocol.h"
 #include "io_drivers/socket_can.h"
-#include "rt_core/runtime/cycle_timer.h"
 
 namespace kcrig {
-namespace {
 
-double Now() { return static_cast<double>(MonotonicNanoseconds()) * 1e-9; }
-
-}  // namespace
-
-Status ServeCan(RigEmulator* rig, const std::string& dbc_file,
-                const std::string& interface, const std::atomic<int>& stop,
+Status ServeCan(RigEmulator* rig, const RigClock& clock,
+                const std::string& dbc_file, const std::string& interface,
+                const std::atomic<int>& stop,
                 const std::function<void()>& on_ready,
                 CanNodeCounters* counters) {
   Dbc dbc;
@@ -29,7 +24,7 @@ Status ServeCan(RigEmulator* rig, const std::string& dbc_file,
   options.error_frames = false;
   status = socket.Open(options);
   if (!status.ok()) return status;
-  status = rig->Start(Now());
+  status = rig->Start(clock.Now());
   if (!status.ok()) return status;
 
   auto send = [&](const CanFrame& frame) {
@@ -46,7 +41,7 @@ Status ServeCan(RigEmulator* rig, const std::string& dbc_file,
   on_ready();
   while (stop.load() == 0) {
     socket.WaitReadable(1e-3);
-    const double now = Now();
+    const double now = clock.Now();
     rig->AdvanceTo(now);
     TimedCanFrame timed;
     int error = 0;
@@ -62,7 +57,7 @@ Status ServeCan(RigEmulator* rig, const std::string& dbc_file,
         continue;
       }
       bool clamped = false;
-      rig->AdvanceTo(Now());
+      rig->AdvanceTo(clock.Now());
       if (kind == KcFrame::kSetup) {
         z_a = protocol.DecodeSetup(frame, &clamped).z_a;
         continue;

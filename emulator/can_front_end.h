@@ -6,8 +6,9 @@
 // cycle); any other session's is refused, counted and left unanswered.
 // KC_Setup sets the acting height; KC_Heartbeat (with the owner, and
 // whether anything was refused since the last one) goes out at 10 Hz and
-// on every status change. The plant advances in real time between frames
-// (at least every millisecond). Malformed frames are counted and ignored.
+// on every status change. The plant advances to the clock's time between
+// frames (at least every millisecond). Malformed frames are counted and
+// ignored.
 #ifndef KCRIG_EMULATOR_CAN_FRONT_END_H_
 #define KCRIG_EMULATOR_CAN_FRONT_END_H_
 
@@ -16,6 +17,7 @@
 #include <functional>
 #include <string>
 
+#include "emulator/rig_clock.h"
 #include "emulator/rig_emulator.h"
 
 namespace kcrig {
@@ -28,8 +30,9 @@ struct CanNodeCounters {
 
 // Opens `interface`, calls `on_ready` once the node listens, serves until
 // *stop is non-zero.
-Status ServeCan(RigEmulator* rig, const std::string& dbc_file,
-                const std::string& interface, const std::atomic<int>& stop,
+Status ServeCan(RigEmulator* rig, const RigClock& clock,
+                const std::string& dbc_file, const std::string& interface,
+                const std::atomic<int>& stop,
                 const std::function<void()>& on_ready,
                 CanNodeCounters* counters);
 

@@ -4,12 +4,9 @@
 
 #include "io_drivers/modbus_registers.h"
 #include "io_drivers/modbus_server.h"
-#include "rt_core/runtime/cycle_timer.h"
 
 namespace kcrig {
 namespace {
-
-double Now() { return static_cast<double>(MonotonicNanoseconds()) * 1e-9; }
 
 void PublishSample(const RigMeasurement& m, const RigEmulator& rig,
                    const ModbusMap& map, std::uint16_t* input) {
@@ -59,14 +56,15 @@ RigRequest DecodeWrite(const ModbusMap& map, const std::uint16_t* holding,
 
 }  // namespace
 
-Status ServeModbus(RigEmulator* rig, const ModbusMap& map,
-                   const ModbusServeAt& at, const std::atomic<int>& stop,
+Status ServeModbus(RigEmulator* rig, const RigClock& clock,
+                   const ModbusMap& map, const ModbusServeAt& at,
+                   const std::atomic<int>& stop,
                    const std::function<void(const std::string&)>& on_ready) {
   ModbusServer server(map);
   Status status = at.device.empty() ? server.Listen(at.host, at.port)
                                     : server.OpenSerial(at.device, at.serial);
   if (!status.ok()) return status;
-  status = rig->Start(Now());
+  status = rig->Start(clock.Now());
   if (!status.ok()) return status;
   std::uint16_t* input = server.input_registers();
   std::uint16_t* holding = server.holding_registers();
@@ -76,9 +74,9 @@ Status ServeModbus(RigEmulator* rig, const ModbusMap& map,
                : "modbus-rtu://" + at.device);
 
   ModbusServer::Hooks hooks;
-  hooks.tick = [rig] { rig->AdvanceTo(Now()); };
+  hooks.tick = [rig, &clock] { rig->AdvanceTo(clock.Now()); };
   hooks.before_input_read = [&] {
-    rig->AdvanceTo(Now());
+    rig->AdvanceTo(clock.Now());
     PublishSample(rig->TakeSample(), *rig, map, input);
   };
   // A refused write leaves the table as it was; the owner and the refusal
@@ -88,12 +86,12 @@ Status ServeModbus(RigEmulator* rig, const ModbusMap& map,
     // Beyond the table the server answers "illegal address" and applies
     // nothing: not the rig's to refuse.
     if (address < 0 || address + count > map.holding_count()) return true;
-    rig->AdvanceTo(Now());
+    rig->AdvanceTo(clock.Now());
     return rig->Request(
         DecodeWrite(map, holding, address, count, values, connection));
   };
-  hooks.client_closed = [rig](int connection) {
-    rig->AdvanceTo(Now());
+  hooks.client_closed = [rig, &clock](int connection) {
+    rig->AdvanceTo(clock.Now());
     rig->ConnectionClosed(connection);
   };
   return server.Serve(stop, 1e-3, hooks);

@@ -4,7 +4,8 @@
 // one new sample per cycle); a write of the holding registers is the
 // command, obeyed only from the session in control (one master: the
 // session, owner and refused_writes registers, rig_ownership.h); the plant
-// advances in real time between requests (at least every millisecond).
+// advances to the clock's time between requests (at least every
+// millisecond) and before each is answered.
 #ifndef KCRIG_EMULATOR_MODBUS_FRONT_END_H_
 #define KCRIG_EMULATOR_MODBUS_FRONT_END_H_
 
@@ -12,6 +13,7 @@
 #include <functional>
 #include <string>
 
+#include "emulator/rig_clock.h"
 #include "emulator/rig_emulator.h"
 #include "io_drivers/modbus_map.h"
 #include "io_drivers/transport_config.h"
@@ -29,8 +31,9 @@ struct ModbusServeAt {
 
 // Opens `at`, calls `on_ready` with its URI (modbus-tcp://HOST:PORT with
 // the bound port, or modbus-rtu://DEVICE), serves until *stop is non-zero.
-Status ServeModbus(RigEmulator* rig, const ModbusMap& map,
-                   const ModbusServeAt& at, const std::atomic<int>& stop,
+Status ServeModbus(RigEmulator* rig, const RigClock& clock,
+                   const ModbusMap& map, const ModbusServeAt& at,
+                   const std::atomic<int>& stop,
                    const std::function<void(const std::string&)>& on_ready);
 
 }  // namespace kcrig

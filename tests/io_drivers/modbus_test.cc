@@ -1,6 +1,7 @@
 // The Modbus transport in one process: kcrig's master (ModbusRig) against
 // the emulator's libmodbus server on loopback, plus the register map and
-// rig.yaml loaders. Runs under the sanitizers.
+// rig.yaml loaders. Runs under the sanitizers, the rig on a virtual clock
+// there (RigTime).
 #include <arpa/inet.h>
 #include <modbus/modbus.h>
 #include <netinet/in.h>
@@ -18,6 +19,7 @@
 #include <thread>
 
 #include "emulator/modbus_front_end.h"
+#include "emulator/rig_clock.h"
 #include "emulator/rig_emulator.h"
 #include "gtest/gtest.h"
 #include "hil/rig_config.h"
@@ -139,22 +141,24 @@ TEST_F(ModbusConfigTest, BadMapsAndRigConfigsNameFileLineAndKey) {
   }
 }
 
-// The emulator's Modbus front end on a thread, on a free loopback port.
+// The emulator's Modbus front end on a thread, on a free loopback port,
+// keeping time by `clock`.
 class InProcessRig {
  public:
-  explicit InProcessRig(const ModbusMap& map, int port = 0) {
+  InProcessRig(const ModbusMap& map, const RigClock& clock, int port = 0) {
     config_ = SourceConfig();
     EXPECT_TRUE(
         LoadPlantConfig(KCRIG_TEST_CONFIG_DIR, config_.model, &plant_).ok());
     emulator_ = std::make_unique<RigEmulator>(config_, plant_, PlantEffects());
-    thread_ = std::thread([this, map, port] {
+    thread_ = std::thread([this, map, port, &clock] {
       ModbusServeAt at;
       at.host = "127.0.0.1";
       at.port = port;
-      const Status status = ServeModbus(
-          emulator_.get(), map, at, stop_, [this](const std::string& uri) {
-            port_ = std::stoi(uri.substr(uri.rfind(':') + 1));
-          });
+      const Status status =
+          ServeModbus(emulator_.get(), clock, map, at, stop_,
+                      [this](const std::string& uri) {
+                        port_ = std::stoi(uri.substr(uri.rfind(':') + 1));
+                      });
       EXPECT_TRUE(status.ok()) << status.message();
     });
     while (port_ == 0)
@@ -175,7 +179,16 @@ class InProcessRig {
   std::thread thread_;
 };
 
-class ModbusRigTest : public ::testing::Test {
+// How the in-process rig keeps time. kVirtual: a clock the test advances by
+// each period it waits, so the plant, the rig's command watchdog and its
+// ownership timeout follow the test's cycles and no host (a loaded
+// machine, the sanitizers' slowdown of the 10 kHz plant) can make the rig
+// fall behind: the sanitizer tier runs these. kReal: the monotonic clock,
+// as `kcrig emulate` runs, the test sleeping its periods: label
+// ci-realtime, Release only, where a plant in real time is meaningful.
+enum class RigTime { kVirtual, kReal };
+
+class ModbusRigTest : public ::testing::TestWithParam<RigTime> {
  protected:
   ModbusRigTest() {
     EXPECT_TRUE(LoadRigConfig(KCRIG_TEST_CONFIG_DIR, &rig_config_).ok());
@@ -194,12 +207,27 @@ class ModbusRigTest : public ::testing::Test {
                     .ok());
     return std::make_unique<ModbusRig>(endpoint, map_, rig_config_.modbus);
   }
+  const RigClock& clock() const {
+    if (GetParam() == RigTime::kReal) return real_clock_;
+    return virtual_clock_;
+  }
+  // Lets `seconds` pass for the rig: sleeps on the real clock, advances the
+  // virtual one.
+  void Pass(double seconds) {
+    if (GetParam() == RigTime::kReal) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+    } else {
+      virtual_clock_.Advance(seconds);
+    }
+  }
   RigConfig rig_config_;
   ModbusMap map_;
+  MonotonicRigClock real_clock_;
+  ManualRigClock virtual_clock_;
 };
 
-TEST_F(ModbusRigTest, ReadsFreshSamplesAndWritesCommandsWithoutAllocating) {
-  InProcessRig rig(map_);
+TEST_P(ModbusRigTest, ReadsFreshSamplesAndWritesCommandsWithoutAllocating) {
+  InProcessRig rig(map_, clock());
   auto master = Master(rig.port());
   Status status = master->Configure();
   ASSERT_TRUE(status.ok()) << status.message();
@@ -220,7 +248,7 @@ TEST_F(ModbusRigTest, ReadsFreshSamplesAndWritesCommandsWithoutAllocating) {
         if (fresh++ == 0) first_sample = m.sample;
       }
       master->Write(command);
-      std::this_thread::sleep_for(std::chrono::microseconds(500));
+      Pass(500e-6);
     }
     allocations = counter.count();
   }
@@ -234,7 +262,7 @@ TEST_F(ModbusRigTest, ReadsFreshSamplesAndWritesCommandsWithoutAllocating) {
   EXPECT_TRUE(master->Deactivate().ok());
 }
 
-TEST_F(ModbusRigTest, AnExceptionIsAMissedSampleAndTheLinkStays) {
+TEST_P(ModbusRigTest, AnExceptionIsAMissedSampleAndTheLinkStays) {
   // A rig whose input table is two registers short: every read of the
   // whole map draws "illegal data address".
   ModbusMap short_map = map_;
@@ -252,14 +280,14 @@ TEST_F(ModbusRigTest, AnExceptionIsAMissedSampleAndTheLinkStays) {
   short_map.owner = 22;
   short_map.refused_writes = 23;
   ASSERT_LT(short_map.input_count(), map_.input_count());
-  auto rig = std::make_unique<InProcessRig>(map_);
+  auto rig = std::make_unique<InProcessRig>(map_, clock());
   const int port = rig->port();
   auto master = Master(port);
   ASSERT_TRUE(master->Configure().ok());
   // The rig restarts with the short table; the master reconnects and its
   // reads draw exceptions: each a quick kError, the link kept.
   rig.reset();
-  rig = std::make_unique<InProcessRig>(short_map, port);
+  rig = std::make_unique<InProcessRig>(short_map, clock(), port);
   RigMeasurement m;
   for (int k = 0; k < 100 && master->reconnects() == 0; ++k) {
     master->Read(&m);
@@ -282,9 +310,9 @@ TEST_F(ModbusRigTest, AnExceptionIsAMissedSampleAndTheLinkStays) {
       << status.message();
 }
 
-TEST_F(ModbusRigTest, ALostLinkFailsFastAndIsReopenedOutsideTheCycle) {
+TEST_P(ModbusRigTest, ALostLinkFailsFastAndIsReopenedOutsideTheCycle) {
   int port = 0;
-  auto rig = std::make_unique<InProcessRig>(map_);
+  auto rig = std::make_unique<InProcessRig>(map_, clock());
   port = rig->port();
   auto master = Master(port);
   ASSERT_TRUE(master->Configure().ok());
@@ -303,7 +331,7 @@ TEST_F(ModbusRigTest, ALostLinkFailsFastAndIsReopenedOutsideTheCycle) {
   }
   EXPECT_EQ(errors, 50);
   // The rig comes back on the same port: the background thread reconnects.
-  rig = std::make_unique<InProcessRig>(map_, port);
+  rig = std::make_unique<InProcessRig>(map_, clock(), port);
   IoResult result = IoResult::kError;
   for (int k = 0; k < 100 && result != IoResult::kFresh; ++k) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -359,8 +387,8 @@ std::vector<std::uint16_t> Command(std::uint16_t control, double fz,
   return words;
 }
 
-TEST_F(ModbusRigTest, TheRigObeysOneMasterAtATime) {
-  InProcessRig rig(map_);
+TEST_P(ModbusRigTest, TheRigObeysOneMasterAtATime) {
+  InProcessRig rig(map_, clock());
   auto owner = Master(rig.port());
   auto late = Master(rig.port());
   ASSERT_TRUE(owner->Configure().ok());
@@ -399,7 +427,7 @@ TEST_F(ModbusRigTest, TheRigObeysOneMasterAtATime) {
     const IoResult read = owner->Read(&m);
     EXPECT_TRUE(read == IoResult::kFresh || read == IoResult::kStale);
     owner->Write(command);
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    Pass(1e-3);
   }
   EXPECT_LT(std::abs(m.force(2)), 50);
   // Released: nobody enables the rig without a claim; a claim takes it.
@@ -416,8 +444,8 @@ TEST_F(ModbusRigTest, TheRigObeysOneMasterAtATime) {
             std::string::npos);
 }
 
-TEST_F(ModbusRigTest, TheOwnersConnectionClosingFaultsTheRigAndEndsTheClaim) {
-  InProcessRig rig(map_);
+TEST_P(ModbusRigTest, TheOwnersConnectionClosingFaultsTheRigAndEndsTheClaim) {
+  InProcessRig rig(map_, clock());
   OtherClient observer(rig.port());
   {
     auto owner = Master(rig.port());
@@ -452,9 +480,9 @@ void SpinLongerThanTheTimeout(int) {
   }
 }
 
-TEST_F(ModbusRigTest, AReplyCollectedLateIsCountedAsLate) {
+TEST_P(ModbusRigTest, AReplyCollectedLateIsCountedAsLate) {
   rig_config_.modbus.response_timeout = 0.05;
-  InProcessRig rig(map_);
+  InProcessRig rig(map_, clock());
   auto master = Master(rig.port());
   ASSERT_TRUE(master->Configure().ok());
   auto late_replies = [&] {
@@ -510,8 +538,8 @@ TEST_F(ModbusRigTest, AReplyCollectedLateIsCountedAsLate) {
 
 // Raw TCP clients that misbehave: half a frame, a byte at a time, garbage,
 // more connections than the rig serves. None of them may delay the master.
-TEST_F(ModbusRigTest, MisbehavingClientsDoNotStallTheRig) {
-  InProcessRig rig(map_);
+TEST_P(ModbusRigTest, MisbehavingClientsDoNotStallTheRig) {
+  InProcessRig rig(map_, clock());
   auto master = Master(rig.port());
   ASSERT_TRUE(master->Configure().ok());
   auto connect_raw = [&] {
@@ -575,6 +603,11 @@ TEST_F(ModbusRigTest, MisbehavingClientsDoNotStallTheRig) {
   close(dribble);
   close(garbage);
 }
+
+INSTANTIATE_TEST_SUITE_P(VirtualClock, ModbusRigTest,
+                         ::testing::Values(RigTime::kVirtual));
+INSTANTIATE_TEST_SUITE_P(RealClock, ModbusRigTest,
+                         ::testing::Values(RigTime::kReal));
 
 TEST(ModbusUriTest, ParsesTcpAndRtuAndRejectsTheRest) {
   ModbusEndpoint e;
