@@ -10,6 +10,7 @@
 
 namespace kcrig {
 
+// Where a front end reads the rig's time.
 class RigClock {
  public:
   virtual ~RigClock() = default;
@@ -28,7 +29,7 @@ class ManualRigClock final : public RigClock {
  public:
   double Now() const override { return now_.load(); }
   // Moves the clock `seconds` (≥ 0) forward.
-  void Advance(double seconds) { now_.store(now_.load() + seconds); }
+  void Advance(double seconds) { now_.fetch_add(seconds); }
 
  private:
   std::atomic<double> now_{0.0};

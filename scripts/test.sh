@@ -7,7 +7,8 @@
 #                            sanitizers the statistical and heavy ones
 #                            (hundreds of seeded re-estimations, long
 #                            profiles: numbers, not memory), the real-time
-#                            process tests (1 kHz deadlines) and the vcan
+#                            tests (1 kHz processes, in-process rigs in
+#                            real time: deadlines) and the vcan
 #                            tests (a VM under TCG) are left to Release, and
 #                            only what the sanitizer tier runs is built
 #                            there (ci_tier_tests; line tables, -g1); in
@@ -64,7 +65,8 @@ for preset in release asan; do
     echo "== release: vcan tier (beside the tier above)"
     cat "$vcan_log"
     if ((tier_status != 0 || vcan_status != 0)); then exit 1; fi
-    # The 1 kHz process tests on a shared VM, alone: a host preemption
+    # The real-time tests (1 kHz processes, in-process rigs in real time)
+    # and the loopback ones on a shared VM, alone: a host preemption
     # (wake-ups of several ms are measured here) can skip enough cycles to
     # fail a run that is otherwise right; a failed case runs once more, and
     # two failures fail.

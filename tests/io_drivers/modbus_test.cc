@@ -15,7 +15,9 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <ostream>
 #include <sstream>
+#include <string>
 #include <thread>
 
 #include "emulator/modbus_front_end.h"
@@ -187,6 +189,9 @@ class InProcessRig {
 // as `kcrig emulate` runs, the test sleeping its periods: label
 // ci-realtime, Release only, where a plant in real time is meaningful.
 enum class RigTime { kVirtual, kReal };
+void PrintTo(RigTime time, std::ostream* out) {
+  *out << (time == RigTime::kReal ? "real" : "virtual");
+}
 
 class ModbusRigTest : public ::testing::TestWithParam<RigTime> {
  protected:
@@ -207,7 +212,7 @@ class ModbusRigTest : public ::testing::TestWithParam<RigTime> {
                     .ok());
     return std::make_unique<ModbusRig>(endpoint, map_, rig_config_.modbus);
   }
-  const RigClock& clock() const {
+  const RigClock& rig_clock() const {
     if (GetParam() == RigTime::kReal) return real_clock_;
     return virtual_clock_;
   }
@@ -227,7 +232,7 @@ class ModbusRigTest : public ::testing::TestWithParam<RigTime> {
 };
 
 TEST_P(ModbusRigTest, ReadsFreshSamplesAndWritesCommandsWithoutAllocating) {
-  InProcessRig rig(map_, clock());
+  InProcessRig rig(map_, rig_clock());
   auto master = Master(rig.port());
   Status status = master->Configure();
   ASSERT_TRUE(status.ok()) << status.message();
@@ -280,14 +285,14 @@ TEST_P(ModbusRigTest, AnExceptionIsAMissedSampleAndTheLinkStays) {
   short_map.owner = 22;
   short_map.refused_writes = 23;
   ASSERT_LT(short_map.input_count(), map_.input_count());
-  auto rig = std::make_unique<InProcessRig>(map_, clock());
+  auto rig = std::make_unique<InProcessRig>(map_, rig_clock());
   const int port = rig->port();
   auto master = Master(port);
   ASSERT_TRUE(master->Configure().ok());
   // The rig restarts with the short table; the master reconnects and its
   // reads draw exceptions: each a quick kError, the link kept.
   rig.reset();
-  rig = std::make_unique<InProcessRig>(short_map, clock(), port);
+  rig = std::make_unique<InProcessRig>(short_map, rig_clock(), port);
   RigMeasurement m;
   for (int k = 0; k < 100 && master->reconnects() == 0; ++k) {
     master->Read(&m);
@@ -312,7 +317,7 @@ TEST_P(ModbusRigTest, AnExceptionIsAMissedSampleAndTheLinkStays) {
 
 TEST_P(ModbusRigTest, ALostLinkFailsFastAndIsReopenedOutsideTheCycle) {
   int port = 0;
-  auto rig = std::make_unique<InProcessRig>(map_, clock());
+  auto rig = std::make_unique<InProcessRig>(map_, rig_clock());
   port = rig->port();
   auto master = Master(port);
   ASSERT_TRUE(master->Configure().ok());
@@ -331,7 +336,7 @@ TEST_P(ModbusRigTest, ALostLinkFailsFastAndIsReopenedOutsideTheCycle) {
   }
   EXPECT_EQ(errors, 50);
   // The rig comes back on the same port: the background thread reconnects.
-  rig = std::make_unique<InProcessRig>(map_, clock(), port);
+  rig = std::make_unique<InProcessRig>(map_, rig_clock(), port);
   IoResult result = IoResult::kError;
   for (int k = 0; k < 100 && result != IoResult::kFresh; ++k) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -388,7 +393,7 @@ std::vector<std::uint16_t> Command(std::uint16_t control, double fz,
 }
 
 TEST_P(ModbusRigTest, TheRigObeysOneMasterAtATime) {
-  InProcessRig rig(map_, clock());
+  InProcessRig rig(map_, rig_clock());
   auto owner = Master(rig.port());
   auto late = Master(rig.port());
   ASSERT_TRUE(owner->Configure().ok());
@@ -445,7 +450,7 @@ TEST_P(ModbusRigTest, TheRigObeysOneMasterAtATime) {
 }
 
 TEST_P(ModbusRigTest, TheOwnersConnectionClosingFaultsTheRigAndEndsTheClaim) {
-  InProcessRig rig(map_, clock());
+  InProcessRig rig(map_, rig_clock());
   OtherClient observer(rig.port());
   {
     auto owner = Master(rig.port());
@@ -482,7 +487,7 @@ void SpinLongerThanTheTimeout(int) {
 
 TEST_P(ModbusRigTest, AReplyCollectedLateIsCountedAsLate) {
   rig_config_.modbus.response_timeout = 0.05;
-  InProcessRig rig(map_, clock());
+  InProcessRig rig(map_, rig_clock());
   auto master = Master(rig.port());
   ASSERT_TRUE(master->Configure().ok());
   auto late_replies = [&] {
@@ -539,7 +544,7 @@ TEST_P(ModbusRigTest, AReplyCollectedLateIsCountedAsLate) {
 // Raw TCP clients that misbehave: half a frame, a byte at a time, garbage,
 // more connections than the rig serves. None of them may delay the master.
 TEST_P(ModbusRigTest, MisbehavingClientsDoNotStallTheRig) {
-  InProcessRig rig(map_, clock());
+  InProcessRig rig(map_, rig_clock());
   auto master = Master(rig.port());
   ASSERT_TRUE(master->Configure().ok());
   auto connect_raw = [&] {
@@ -604,10 +609,13 @@ TEST_P(ModbusRigTest, MisbehavingClientsDoNotStallTheRig) {
   close(garbage);
 }
 
+std::string RigTimeName(const ::testing::TestParamInfo<RigTime>& info) {
+  return info.param == RigTime::kReal ? "real" : "virtual";
+}
 INSTANTIATE_TEST_SUITE_P(VirtualClock, ModbusRigTest,
-                         ::testing::Values(RigTime::kVirtual));
+                         ::testing::Values(RigTime::kVirtual), RigTimeName);
 INSTANTIATE_TEST_SUITE_P(RealClock, ModbusRigTest,
-                         ::testing::Values(RigTime::kReal));
+                         ::testing::Values(RigTime::kReal), RigTimeName);
 
 TEST(ModbusUriTest, ParsesTcpAndRtuAndRejectsTheRest) {
   ModbusEndpoint e;
