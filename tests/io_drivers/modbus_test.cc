@@ -609,13 +609,12 @@ TEST_P(ModbusRigTest, MisbehavingClientsDoNotStallTheRig) {
   close(garbage);
 }
 
-std::string RigTimeName(const ::testing::TestParamInfo<RigTime>& info) {
-  return info.param == RigTime::kReal ? "real" : "virtual";
-}
 INSTANTIATE_TEST_SUITE_P(VirtualClock, ModbusRigTest,
-                         ::testing::Values(RigTime::kVirtual), RigTimeName);
+                         ::testing::Values(RigTime::kVirtual),
+                         ::testing::PrintToStringParamName());
 INSTANTIATE_TEST_SUITE_P(RealClock, ModbusRigTest,
-                         ::testing::Values(RigTime::kReal), RigTimeName);
+                         ::testing::Values(RigTime::kReal),
+                         ::testing::PrintToStringParamName());
 
 TEST(ModbusUriTest, ParsesTcpAndRtuAndRejectsTheRest) {
   ModbusEndpoint e;
