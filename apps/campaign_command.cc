@@ -11,14 +11,14 @@
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "apps/sil_rig_options.h"
 #include "base/byte_codec.h"
 #include "base/input_file.h"
 #include "cluster/rank_folder.h"
 #include "cluster/ranks.h"
 #include "designer/campaign.h"
 #include "diagnosis/diagnosis_io.h"
-#include "emulator/plant_config.h"
-#include "emulator/simulated_run.h"
+#include "emulator/sil_rig.h"
 #include "estimator/estimate_io.h"
 #include "hil/campaign_rig.h"
 #include "records/run_log.h"
@@ -37,9 +37,7 @@ struct CampaignArgs {
   std::string optimizer = "kriging";
   int budget = 100;
   double target_percent = 0;
-  std::optional<std::uint64_t> seed;
-  std::vector<std::string> plant_effects;
-  std::vector<std::string> plant_sets;
+  SilRigArgs sil;
   bool quiet = false;
   bool no_report = false;
   bool no_diagnose = false;
@@ -113,35 +111,31 @@ std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
   return out;
 }
 
-// The embedded emulated rig with the user's plant changes.
+// The embedded SIL rig with the user's plant changes.
 Status EmbeddedRig(const CampaignArgs& args, const KcrigConfig& config,
                    RigRunner* rig, std::string* rig_text) {
   PlantConfig plant;
-  KCRIG_RETURN_IF_ERROR(
-      LoadPlantConfig(config.directory, config.model, &plant));
-  if (args.seed) plant.seed = *args.seed;
-  for (const std::string& effect : args.plant_effects) {
-    const Status status = ParseEffect(effect, &plant.effects);
-    if (!status.ok())
-      return Status::Error("--plant-effect " + status.message());
-  }
-  for (const std::string& set : args.plant_sets) {
-    KCRIG_RETURN_IF_ERROR(
-        ApplyParameterAssignment("--plant-set", set, &plant.model));
-  }
-  KCRIG_RETURN_IF_ERROR(ValidateModel(plant.model, "--plant-set"));
-  *rig = [config, plant](const RampExcitation<double>& excitation, int run,
-                         const std::string& csv_path) {
-    return RunEmbeddedRig(config, plant, excitation, run, csv_path);
+  std::vector<InjectedFault> no_faults;
+  KCRIG_RETURN_IF_ERROR(LoadSilPlant(args.sil, config, &plant, &no_faults));
+  // One rig for the whole campaign: its plant's state carries over from run
+  // to run, as a rig's does.
+  auto sil = std::make_shared<SilRig>(config, plant);
+  KCRIG_RETURN_IF_ERROR(sil->Start());
+  RigConnector connect = [sil](const std::string&,
+                               std::unique_ptr<RigInterface>* link) {
+    *link = sil->Connect({});
+    return Status::Ok();
   };
-  *rig_text = "embedded emulated rig (plant.yaml)";
-  const std::vector<std::string> effects = DescribeEffects(plant.effects);
-  for (size_t i = 0; i < effects.size(); ++i) {
-    *rig_text += (i == 0 ? ", plant effects: " : " ") + effects[i];
-  }
-  for (size_t i = 0; i < args.plant_sets.size(); ++i) {
-    *rig_text += (i == 0 ? ", plant parameters: " : " ") + args.plant_sets[i];
-  }
+  CampaignRig campaign_rig;
+  KCRIG_RETURN_IF_ERROR(CampaignRig::Open("the embedded SIL rig", connect,
+                                          sil->clock(), sil->Truth(), config,
+                                          &campaign_rig));
+  const std::atomic<int>* stop = &InstallStopSignalHandlers();
+  *rig = [campaign_rig, stop](const RampExcitation<double>& excitation, int run,
+                              const std::string& csv_path) {
+    return campaign_rig.Run(excitation, run, csv_path, stop);
+  };
+  *rig_text = DescribeSilRig(args.sil, plant);
   return Status::Ok();
 }
 
@@ -149,13 +143,8 @@ Status EmbeddedRig(const CampaignArgs& args, const KcrigConfig& config,
 // under MPI: the rig loop runs in one process).
 Status MakeRig(const CampaignArgs& args, const KcrigConfig& config,
                RigRunner* rig, std::string* rig_text) {
+  KCRIG_RETURN_IF_ERROR(CheckSilRigOptions(args.sil, args.rig));
   if (args.rig == "sim") return EmbeddedRig(args, config, rig, rig_text);
-  if (!args.plant_effects.empty() || !args.plant_sets.empty()) {
-    return Status::Error(
-        "--plant-effect, --plant-set: only the embedded rig (--rig sim) has a "
-        "plant to change; give a kcrig emulate rig its effects with emulate "
-        "--effect");
-  }
   if (args.rig.rfind("modbus-", 0) != 0 && args.rig.rfind("can:", 0) != 0) {
     return Status::Error("--rig " + args.rig +
                          ": expected sim, modbus-tcp://HOST:PORT, "
@@ -442,19 +431,7 @@ void AddCampaignCommand(CLI::App* app, std::function<int()>* run) {
                   "Stop when every 95 % half-width is within this percentage "
                   "of its estimate (0: run all iterations)")
       ->capture_default_str();
-  cmd->add_option_function<std::uint64_t>(
-      "--seed", [args](const std::uint64_t& s) { args->seed = s; },
-      "Sensor-noise seed of the embedded rig (default: plant.yaml)");
-  cmd->add_option(
-      "--plant-effect", args->plant_effects,
-      "Unmodelled effect of the embedded rig's plant, NAME[:k=v,...] "
-      "(repeatable; the syntax of simulate --effect; --rig sim only): "
-      "rehearse the campaign's adequacy checks without a rig");
-  cmd->add_option(
-      "--plant-set", args->plant_sets,
-      "A parameter of the embedded rig's plant that differs from the "
-      "configured model, NAME=VALUE in SI (repeatable; the syntax of "
-      "simulate --set; --rig sim only): rehearse a wrong \"known\" parameter");
+  AddSilRigOptions(cmd, &args->sil, /*with_faults=*/false);
   cmd->add_flag("--quiet", args->quiet, "No progress line");
   cmd->add_flag("--no-diagnose", args->no_diagnose,
                 "Check the model every iteration but do not diagnose or act "

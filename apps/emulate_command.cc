@@ -11,13 +11,13 @@
 #include "emulator/can_front_end.h"
 #include "emulator/modbus_front_end.h"
 #include "emulator/plant_config.h"
-#include "emulator/rig_clock.h"
 #include "emulator/rig_emulator.h"
 #include "hil/rig_config.h"
 #include "io_drivers/modbus_map.h"
 #include "io_drivers/transport_config.h"
 #include "rt_core/model/model_config.h"
 #include "rt_core/model/plant_effects.h"
+#include "rt_core/runtime/clock.h"
 #include "rt_core/runtime/realtime.h"
 
 namespace kcrig {
@@ -87,7 +87,7 @@ int RunEmulate(const EmulateArgs& args) {
   }
   const std::atomic<int>& stop = InstallStopSignalHandlers();
   RigEmulator rig(config, plant, effects);
-  const MonotonicRigClock clock;
+  const MonotonicClock clock;
   std::string effect_text;
   for (const std::string& e : DescribeEffects(effects)) {
     effect_text += (effect_text.empty() ? "" : " ") + e;

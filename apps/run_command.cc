@@ -6,9 +6,13 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "apps/sil_rig_options.h"
+#include "emulator/sil_rig.h"
 #include "hil/rig_config.h"
 #include "hil/rig_factory.h"
 #include "hil/rig_session.h"
@@ -24,10 +28,27 @@ constexpr int kTripped = 3;
 struct RunArgs {
   std::string config_dir;
   std::string rig;
+  SilRigArgs sil;
   ExcitationArgs excitation;
   std::string log_dir;
   bool quiet = false;
 };
+
+// The embedded SIL rig at rest, and its link with the faults to inject.
+Status ConnectSilRig(const SilRigArgs& args, const KcrigConfig& config,
+                     std::unique_ptr<SilRig>* sil,
+                     std::unique_ptr<RigInterface>* link, RunMetadata* truth,
+                     std::string* described) {
+  PlantConfig plant;
+  std::vector<InjectedFault> faults;
+  KCRIG_RETURN_IF_ERROR(LoadSilPlant(args, config, &plant, &faults));
+  *sil = std::make_unique<SilRig>(config, plant);
+  KCRIG_RETURN_IF_ERROR((*sil)->Start());
+  *link = (*sil)->Connect(std::move(faults));
+  *truth = (*sil)->Truth();
+  *described = DescribeSilRig(args, plant);
+  return Status::Ok();
+}
 
 void PrintOutcome(const char* who, const RigSessionResult& r,
                   const std::string& log_dir) {
@@ -74,9 +95,21 @@ int RunRun(const RunArgs& args) {
   if (!status.ok()) return fail(status);
   if (args.log_dir.empty()) return fail(Status::Error("give --log-dir DIR"));
 
-  std::unique_ptr<RigInterface> rig;
-  status = MakeRig(args.rig, rig_config, args.log_dir, &rig);
+  status = CheckSilRigOptions(args.sil, args.rig);
   if (!status.ok()) return fail(status);
+  std::unique_ptr<SilRig> sil;  // outlives its link, `rig`
+  RunMetadata truth;
+  std::string described;
+  std::unique_ptr<RigInterface> rig;
+  status = args.rig == "sim"
+               ? ConnectSilRig(args.sil, config, &sil, &rig, &truth, &described)
+               : MakeRig(args.rig, rig_config, args.log_dir, &rig);
+  if (!status.ok()) return fail(status);
+  if (described.empty()) described = rig->Describe();
+  if (sil != nullptr) {
+    options.clock = sil->clock();
+    options.truth = &truth;
+  }
   status = rig->Configure();
   if (!status.ok()) return fail(status);
   options.stop_signal = &InstallStopSignalHandlers();
@@ -95,7 +128,7 @@ int RunRun(const RunArgs& args) {
   std::printf(
       "kcrig run: %s, phi %.2f deg, z_a %.3f m, Fmax %.2f kN, ramp %.2f s "
       "(whole run %.2f s at %.0f Hz)\n",
-      rig->Describe().c_str(), options.excitation.phi / kDegree,
+      described.c_str(), options.excitation.phi / kDegree,
       options.excitation.z_a, options.excitation.fmax * 1e-3,
       options.excitation.duration, profile.duration(), 1.0 / rig_config.period);
   std::fflush(stdout);
@@ -121,8 +154,10 @@ void AddRunCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");
   cmd->add_option("--rig", args->rig,
+                  "sim (the embedded SIL rig, on a virtual clock), "
                   "modbus-tcp://HOST:PORT, modbus-rtu://DEVICE or can:IFACE")
       ->required();
+  AddSilRigOptions(cmd, &args->sil, /*with_faults=*/true);
   AddExcitationOptions(cmd, &args->excitation);
   cmd->add_option("--log-dir", args->log_dir,
                   "Directory for run.csv, run.json, timing.json (and the "

@@ -38,6 +38,13 @@ class SpscRing {
     return true;
   }
 
+  // Producer only: whether a Push now would drop.
+  bool full() const {
+    return head_.load(std::memory_order_relaxed) -
+               tail_.load(std::memory_order_acquire) >
+           mask_;
+  }
+
   // Consumer only.
   bool Pop(Record* record) {
     const std::size_t tail = tail_.load(std::memory_order_relaxed);

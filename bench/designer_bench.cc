@@ -5,8 +5,10 @@
 //    its optimum, D and A (counters: evaluations, optimum, criterion);
 //  - the noise of Phi_A along a line through the initial design, ECnoise,
 //    with exact and with forward-difference (1e-6) sensitivities;
-//  - whole campaigns on the embedded rig, without an effect and adopting
-//    one (issue #17).
+//  - whole campaigns on the embedded SIL rig, without an effect and
+//    adopting one (issue #17); the main job also on the pure model
+//    simulation the embedded rig was before the SIL rig (issue #47: the
+//    pair's ratio).
 // Run: build/bin/designer_bench --benchmark_format=json
 #include <cmath>
 #include <filesystem>
@@ -17,7 +19,9 @@
 #include "designer/internal/ecnoise.h"
 #include "designer/optimizers.h"
 #include "emulator/plant_config.h"
+#include "emulator/sil_rig.h"
 #include "emulator/simulated_run.h"
+#include "hil/campaign_rig.h"
 #include "rt_core/model/channels.h"
 #include "rt_core/model/model_config.h"
 #include "rt_core/model/plant_effects.h"
@@ -140,11 +144,53 @@ BENCHMARK_CAPTURE(BM_CriterionNoise, forward_differences_1e_6, true)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-// A whole campaign on the embedded rig: `iterations` designed experiments
-// after the first, the plant with `effect` ("" for none), the checks acting
-// on their verdicts or not (`close_loop`).
+// The embedded SIL rig as the campaign runs it (apps/campaign_command.cc).
+RigRunner SilRigRunner(const KcrigConfig& config, const PlantConfig& plant) {
+  auto sil = std::make_shared<SilRig>(config, plant);
+  CampaignRig rig;
+  const RigConnector connect = [sil](const std::string&,
+                                     std::unique_ptr<RigInterface>* link) {
+    *link = sil->Connect({});
+    return Status::Ok();
+  };
+  if (!sil->Start().ok() || !CampaignRig::Open("sil", connect, sil->clock(),
+                                               sil->Truth(), config, &rig)
+                                 .ok()) {
+    std::abort();
+  }
+  static const std::atomic<int> no_signal{0};
+  return [rig](const RampExcitation<double>& excitation, int run,
+               const std::string& csv) {
+    return rig.Run(excitation, run, csv, &no_signal);
+  };
+}
+
+// The embedded rig before the SIL rig: the pure model simulation of each
+// ramp from rest, exact forces (the pair's reference).
+RigRunner PureSimulationRunner(const KcrigConfig& config,
+                               const PlantConfig& plant) {
+  return [config, plant](const RampExcitation<double>& excitation, int run,
+                         const std::string& csv) {
+    SimulatedRunOptions options;
+    options.rate = config.experiment.rate;
+    options.step = plant.step;
+    options.noise = plant.noise;
+    options.seed = plant.seed + static_cast<std::uint64_t>(run);
+    options.effects = plant.effects;
+    options.geometry = GeometryFingerprint(config.model);
+    RunLog log;
+    const Status status =
+        SimulateRun(plant.model, excitation, config.experiment, options, &log);
+    return status.ok() ? WriteRunLog(csv, log) : status;
+  };
+}
+
+// A whole campaign: `iterations` designed experiments after the first, the
+// plant with `effect` ("" for none), the checks acting on their verdicts
+// or not (`close_loop`), on the SIL rig or the pure simulation.
 void BM_Campaign(benchmark::State& state, int iterations,
-                 const std::string& effect, bool close_loop) {
+                 const std::string& effect, bool close_loop,
+                 bool pure_simulation = false) {
   const Setup& s = TheSetup();
   PlantConfig plant;
   if (!LoadPlantConfig(KCRIG_BENCH_CONFIG_DIR, s.config.model, &plant).ok()) {
@@ -156,15 +202,15 @@ void BM_Campaign(benchmark::State& state, int iterations,
   const std::string dir =
       (std::filesystem::temp_directory_path() / "kcrig_campaign_bench")
           .string();
-  const RigRunner rig = [&](const RampExcitation<double>& excitation, int run,
-                            const std::string& csv) {
-    return RunEmbeddedRig(s.config, plant, excitation, run, csv);
-  };
   CampaignOptions options;
   options.iterations = iterations;
   options.close_loop = close_loop;
   std::string model;
   for (auto _ : state) {
+    // A fresh rig per campaign, as `kcrig campaign` starts one.
+    const RigRunner rig = pure_simulation
+                              ? PureSimulationRunner(s.config, plant)
+                              : SilRigRunner(s.config, plant);
     std::vector<CampaignIteration> iterations_run;
     if (!RunCampaign(s.config, options, rig, dir, &iterations_run).ok()) {
       std::abort();
@@ -176,6 +222,11 @@ void BM_Campaign(benchmark::State& state, int iterations,
 }
 // The main job (`kcrig campaign`: 3 designed experiments after the first).
 BENCHMARK_CAPTURE(BM_Campaign, default_no_effect, 3, "", true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+// The same on the pure simulation (issue #47's pair: SIL <= 1.5x this).
+BENCHMARK_CAPTURE(BM_Campaign, default_no_effect_pure_simulation, 3, "", true,
+                  true)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 // Issue #17's figures: 3 experiments, without an effect (checks acting and

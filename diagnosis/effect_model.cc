@@ -218,7 +218,13 @@ bool SimulateSensed(const EffectModel& model, const T* theta,
   const SampledLoad<double> load{
       &forces, experiment.sample_period, experiment.z_a,
       experiment.sample_period * (forces.size() - 1)};
-  if (!plant.Settle(forces[0].cast<T>(), T(experiment.z_a)).ok()) return false;
+  // A rig log starts from what the rig kept of its last run: the tare.
+  const Status settled =
+      experiment.rest_pose
+          ? plant.SettleAtRest(forces[0].cast<T>(), T(experiment.z_a),
+                               *experiment.rest_pose, experiment.sigma)
+          : plant.Settle(forces[0].cast<T>(), T(experiment.z_a));
+  if (!settled.ok()) return false;
   sensed->resize(forces.size());
   (*sensed)[0] = plant.Sensed();
   long step_index = 0;

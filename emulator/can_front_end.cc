@@ -5,7 +5,7 @@
 
 namespace kcrig {
 
-Status ServeCan(RigEmulator* rig, const RigClock& clock,
+Status ServeCan(RigEmulator* rig, const Clock& clock,
                 const std::string& dbc_file, const std::string& interface,
                 const std::atomic<int>& stop,
                 const std::function<void()>& on_ready,
@@ -24,7 +24,7 @@ Status ServeCan(RigEmulator* rig, const RigClock& clock,
   options.error_frames = false;
   status = socket.Open(options);
   if (!status.ok()) return status;
-  status = rig->Start(clock.Now());
+  status = rig->Start(clock.Seconds());
   if (!status.ok()) return status;
 
   auto send = [&](const CanFrame& frame) {
@@ -41,7 +41,7 @@ Status ServeCan(RigEmulator* rig, const RigClock& clock,
   on_ready();
   while (stop.load() == 0) {
     socket.WaitReadable(1e-3);
-    const double now = clock.Now();
+    const double now = clock.Seconds();
     rig->AdvanceTo(now);
     TimedCanFrame timed;
     int error = 0;
@@ -57,7 +57,7 @@ Status ServeCan(RigEmulator* rig, const RigClock& clock,
         continue;
       }
       bool clamped = false;
-      rig->AdvanceTo(clock.Now());
+      rig->AdvanceTo(clock.Seconds());
       if (kind == KcFrame::kSetup) {
         z_a = protocol.DecodeSetup(frame, &clamped).z_a;
         continue;

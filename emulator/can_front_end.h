@@ -17,8 +17,8 @@
 #include <functional>
 #include <string>
 
-#include "emulator/rig_clock.h"
 #include "emulator/rig_emulator.h"
+#include "rt_core/runtime/clock.h"
 
 namespace kcrig {
 
@@ -30,7 +30,7 @@ struct CanNodeCounters {
 
 // Opens `interface`, calls `on_ready` once the node listens, serves until
 // *stop is non-zero.
-Status ServeCan(RigEmulator* rig, const RigClock& clock,
+Status ServeCan(RigEmulator* rig, const Clock& clock,
                 const std::string& dbc_file, const std::string& interface,
                 const std::atomic<int>& stop,
                 const std::function<void()>& on_ready,

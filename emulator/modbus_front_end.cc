@@ -56,15 +56,14 @@ RigRequest DecodeWrite(const ModbusMap& map, const std::uint16_t* holding,
 
 }  // namespace
 
-Status ServeModbus(RigEmulator* rig, const RigClock& clock,
-                   const ModbusMap& map, const ModbusServeAt& at,
-                   const std::atomic<int>& stop,
+Status ServeModbus(RigEmulator* rig, const Clock& clock, const ModbusMap& map,
+                   const ModbusServeAt& at, const std::atomic<int>& stop,
                    const std::function<void(const std::string&)>& on_ready) {
   ModbusServer server(map);
   Status status = at.device.empty() ? server.Listen(at.host, at.port)
                                     : server.OpenSerial(at.device, at.serial);
   if (!status.ok()) return status;
-  status = rig->Start(clock.Now());
+  status = rig->Start(clock.Seconds());
   if (!status.ok()) return status;
   std::uint16_t* input = server.input_registers();
   std::uint16_t* holding = server.holding_registers();
@@ -74,9 +73,9 @@ Status ServeModbus(RigEmulator* rig, const RigClock& clock,
                : "modbus-rtu://" + at.device);
 
   ModbusServer::Hooks hooks;
-  hooks.tick = [rig, &clock] { rig->AdvanceTo(clock.Now()); };
+  hooks.tick = [rig, &clock] { rig->AdvanceTo(clock.Seconds()); };
   hooks.before_input_read = [&] {
-    rig->AdvanceTo(clock.Now());
+    rig->AdvanceTo(clock.Seconds());
     PublishSample(rig->TakeSample(), *rig, map, input);
   };
   // A refused write leaves the table as it was; the owner and the refusal
@@ -86,12 +85,12 @@ Status ServeModbus(RigEmulator* rig, const RigClock& clock,
     // Beyond the table the server answers "illegal address" and applies
     // nothing: not the rig's to refuse.
     if (address < 0 || address + count > map.holding_count()) return true;
-    rig->AdvanceTo(clock.Now());
+    rig->AdvanceTo(clock.Seconds());
     return rig->Request(
         DecodeWrite(map, holding, address, count, values, connection));
   };
   hooks.client_closed = [rig, &clock](int connection) {
-    rig->AdvanceTo(clock.Now());
+    rig->AdvanceTo(clock.Seconds());
     rig->ConnectionClosed(connection);
   };
   return server.Serve(stop, 1e-3, hooks);

@@ -13,10 +13,10 @@
 #include <functional>
 #include <string>
 
-#include "emulator/rig_clock.h"
 #include "emulator/rig_emulator.h"
 #include "io_drivers/modbus_map.h"
 #include "io_drivers/transport_config.h"
+#include "rt_core/runtime/clock.h"
 
 namespace kcrig {
 
@@ -31,9 +31,8 @@ struct ModbusServeAt {
 
 // Opens `at`, calls `on_ready` with its URI (modbus-tcp://HOST:PORT with
 // the bound port, or modbus-rtu://DEVICE), serves until *stop is non-zero.
-Status ServeModbus(RigEmulator* rig, const RigClock& clock,
-                   const ModbusMap& map, const ModbusServeAt& at,
-                   const std::atomic<int>& stop,
+Status ServeModbus(RigEmulator* rig, const Clock& clock, const ModbusMap& map,
+                   const ModbusServeAt& at, const std::atomic<int>& stop,
                    const std::function<void(const std::string&)>& on_ready);
 
 }  // namespace kcrig

@@ -98,6 +98,14 @@ Status LoadPlantConfig(const std::string& directory,
                                        &plant->command_timeout));
   KCRIG_RETURN_IF_ERROR(reader.InRange(rig, "rig", "ramp_down_time", 1e-3, 10,
                                        &plant->ramp_down_time));
+  if (rig["rest_between_runs"]) {  // optional: older plant.yaml files
+    KCRIG_RETURN_IF_ERROR(reader.InRange(rig, "rig", "rest_between_runs", 0,
+                                         3600, &plant->rest_between_runs));
+  }
+  if (rig["keeps_state"]) {  // optional: older plant.yaml files
+    KCRIG_RETURN_IF_ERROR(
+        reader.Boolean(rig, "rig", "keeps_state", &plant->keeps_state));
+  }
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "load_cell", &load_cell));
   KCRIG_RETURN_IF_ERROR(reader.Positive(load_cell, "load_cell", "sigma",
                                         &plant->load_cell_sigma, false));

@@ -27,9 +27,17 @@ struct PlantConfig {
   int cpu = -1;  // CPU to pin the emulator to (rig.cpu, optional), -1 none
   // Own protection: beyond the travel, or no command for command_timeout
   // while enabled, the rig faults and ramps its force to zero.
-  double travel_max = 0.03;                           // [m]
-  double command_timeout = 0.05;                      // [s]
-  double ramp_down_time = 0.2;                        // [s]
+  double travel_max = 0.03;       // [m]
+  double command_timeout = 0.05;  // [s]
+  double ramp_down_time = 0.2;    // [s]
+  // The embedded SIL rig's rest between one run's end and the next run's
+  // start (a campaign estimates and designs meanwhile) [s]; its state
+  // carries over whatever the rest.
+  double rest_between_runs = 2.0;
+  // Whether the embedded SIL rig's plant keeps its state from one run to
+  // the next, as every rig does (false: each run starts from the plant at
+  // rest, no friction force kept, as the pure simulation's runs do).
+  bool keeps_state = true;
   Vec6<double> sensor_offset = Vec6<double>::Zero();  // [m, rad]
   double position_resolution = 1e-6;                  // quantization [m]
   double angle_resolution = 1e-6;                     // [rad]

@@ -1,11 +1,12 @@
 // The software rig: what `kcrig emulate` serves. A force-controlled
 // hydraulic actuator (set-point clamp, dead time, first-order lag), the true
 // plant with its unmodelled effects (rt_core/model/rig_plant.h) integrated at
-// the plant's fine step up to the time its front end gives (rig_clock.h),
-// sensors with offset, noise and quantization, a load cell, and the rig's
-// own protection: a travel limit and a command watchdog that fault the rig
-// and ramp its force to zero, and one master at a time (rig_ownership.h).
-// Transport-free: front ends call AdvanceTo, Request and TakeSample.
+// the plant's fine step up to the time its front end gives (on the clock of
+// rt_core/runtime/clock.h), sensors with offset, noise and quantization, a load
+// cell, and the rig's own protection: a travel limit and a command watchdog
+// that fault the rig and ramp its force to zero, and one master at a time
+// (rig_ownership.h). Transport-free: front ends call AdvanceTo, Request and
+// TakeSample.
 #ifndef KCRIG_EMULATOR_RIG_EMULATOR_H_
 #define KCRIG_EMULATOR_RIG_EMULATOR_H_
 

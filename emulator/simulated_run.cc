@@ -68,22 +68,4 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
   return Status::Ok();
 }
 
-Status RunEmbeddedRig(const KcrigConfig& config, const PlantConfig& plant,
-                      const RampExcitation<double>& ramp, int run,
-                      const std::string& csv_path) {
-  SimulatedRunOptions options;
-  options.rate = config.experiment.rate;
-  options.step = plant.step;
-  options.noise = plant.noise;
-  options.seed = plant.seed + static_cast<std::uint64_t>(run);
-  options.transport = "embedded emulated rig (--rig sim)";
-  options.geometry = GeometryFingerprint(config.model);
-  options.effects = plant.effects;
-  RunLog log;
-  const Status status =
-      SimulateRun(plant.model, ramp, config.experiment, options, &log);
-  if (!status.ok()) return status;
-  return WriteRunLog(csv_path, log);
-}
-
 }  // namespace kcrig

@@ -1,6 +1,8 @@
-// The software rig in-process: one ramp experiment on a plant model,
-// sampled at the log rate, with optional sensor noise, as a run log. Used
-// by `kcrig simulate` and by the campaign's embedded rig (`--rig sim`).
+// The pure model simulation: one ramp experiment on a plant model from its
+// static equilibrium, sampled at the log rate, exact forces, optional sensor
+// noise, as a run log: no loop, no phases, no actuator, no memory between
+// runs. For design studies (`kcrig simulate`) and the validation's blind
+// cases; the campaign's embedded rig is the SIL rig (sil_rig.h).
 #ifndef KCRIG_EMULATOR_SIMULATED_RUN_H_
 #define KCRIG_EMULATOR_SIMULATED_RUN_H_
 
@@ -38,14 +40,6 @@ Status SimulateRun(const SuspensionParameters<double>& plant,
                    const RampExcitation<double>& ramp,
                    const ExperimentConfig& experiment,
                    const SimulatedRunOptions& options, RunLog* log);
-
-// One experiment of the embedded emulated rig (`--rig sim`): `plant` with
-// its effects under `ramp` at the config's rate, stepped at plant.yaml's
-// rig.step, sensor noise as plant.yaml says with seed plant.seed + run,
-// written to `csv_path` (and its sidecar).
-Status RunEmbeddedRig(const KcrigConfig& config, const PlantConfig& plant,
-                      const RampExcitation<double>& ramp, int run,
-                      const std::string& csv_path);
 
 }  // namespace kcrig
 

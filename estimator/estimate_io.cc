@@ -144,6 +144,7 @@ std::string EstimationResultToJson(
   doc["residual_rms"] = rms;
   doc["residual_rms_units"] = "m for x, y, z; rad for toe, camber, caster";
   doc["num_residuals"] = result.num_residuals;
+  doc["rig_memory_rows"] = result.memory_rows;
   doc["cost"] = result.cost;
   doc["sigma_hat"] = result.sigma_hat;
   doc["iterations"] = result.iterations;
@@ -189,6 +190,15 @@ std::string EstimationSummary(const EstimationResult& result,
                 result.converged ? "converged" : "NOT converged",
                 result.iterations, result.seconds, result.sigma_hat);
   out += line;
+  if (std::any_of(result.memory_rows.begin(), result.memory_rows.end(),
+                  [](int rows) { return rows > 0; })) {
+    std::string rows;
+    for (int r : result.memory_rows) {
+      rows += (rows.empty() ? "" : ", ") + std::to_string(r);
+    }
+    out += "  left out: the tare and lead-in rows of each rig log (" + rows +
+           "), which start from the rig's memory of its last run\n";
+  }
   std::snprintf(line, sizeof(line), "  %-10s %14s %12s %-6s  %s\n", "parameter",
                 "estimate", "+- 95 %", "", "log10 diag((J^T J)^-1)");
   out += line;

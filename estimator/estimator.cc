@@ -280,9 +280,12 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   if (!problem.Evaluate(scaled, nullptr, &residuals, &jacobian)) {
     return Status::Error("the model cannot be evaluated at the solution");
   }
-  // Rows of unobserved samples (fresh = 0) are zero and carry no data.
+  // Rows of unobserved samples (fresh = 0, the rig's memory) are zero and
+  // carry no data.
   int unobserved_rows = 0;
+  result->memory_rows.clear();
   for (const Experiment& experiment : experiments) {
+    result->memory_rows.push_back(experiment.memory_rows);
     unobserved_rows +=
         static_cast<int>(std::count(experiment.observed.begin(),
                                     experiment.observed.end(), false) *

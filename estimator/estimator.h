@@ -98,6 +98,9 @@ struct EstimationResult {
   Vec6<double> residual_rms = Vec6<double>::Zero();  // per channel, SI units
   std::vector<bool> channel_used = std::vector<bool>(6, false);
   int num_residuals = 0;
+  // Per log, its leading rows left out as the rig's memory of its last run
+  // (tare and lead-in; Experiment::memory_rows).
+  std::vector<int> memory_rows;
   double cost = 0;       // 0.5 * sum of squared weighted residuals
   double sigma_hat = 0;  // sqrt(2 cost / (m - n)); ~1 when sigmas are right
   // Whether the model explains the fitted logs down to the sensor noise.

@@ -8,6 +8,34 @@
 #include "rt_core/model/excitation.h"
 
 namespace kcrig {
+namespace {
+
+// The rows of a rig log (one with a phase column) before its settle at
+// -Fmax: see Experiment::observed.
+int MemoryRows(const RunLog& log) {
+  int rows = 0;
+  for (const LogSample& s : log.samples) {
+    if (s.phase != "tare" && s.phase != "lead_in") break;
+    ++rows;
+  }
+  return rows;
+}
+
+// The mean of a rig log's fresh tare rows; unset without any.
+std::optional<Vec6<double>> TarePose(const RunLog& log) {
+  Vec6<double> sum = Vec6<double>::Zero();
+  int count = 0;
+  for (const LogSample& s : log.samples) {
+    if (s.phase != "tare") break;
+    if (!s.fresh) continue;
+    sum += s.y;
+    ++count;
+  }
+  if (count == 0) return std::nullopt;
+  return Vec6<double>(sum / count);
+}
+
+}  // namespace
 
 Status MakeExperiment(const std::string& source, const RunLog& log,
                       double integrator_step, Experiment* experiment) {
@@ -80,6 +108,19 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
       experiment->forces[j] =
           (1 - std::clamp(w, 0.0, 1.0)) * experiment->forces[before] +
           std::clamp(w, 0.0, 1.0) * experiment->forces[right];
+    }
+  }
+  experiment->memory_rows = MemoryRows(log);
+  experiment->rest_pose = TarePose(log);
+  if (experiment->memory_rows > 0) {
+    experiment->observed.resize(n, true);
+    std::fill_n(experiment->observed.begin(), experiment->memory_rows, false);
+    if (ObservedCount(*experiment) < 2) {
+      return Status::Error(source +
+                           ": fewer than two fresh rows after the tare and "
+                           "the lead-in (the run ended before its settle at "
+                           "-Fmax): nothing to fit that the rig's memory of "
+                           "its last run leaves alone");
     }
   }
   return Status::Ok();

@@ -4,6 +4,7 @@
 #ifndef KCRIG_ESTIMATOR_EXPERIMENT_H_
 #define KCRIG_ESTIMATOR_EXPERIMENT_H_
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,10 +21,22 @@ struct Experiment {
   std::string source;                  // file name, for messages
   std::vector<Vec3<double>> forces;    // load on the wheel at t_j [N]
   std::vector<Vec6<double>> measured;  // x, y, z [m], angles [rad] at t_j
-  // Whether sample j was measured (a rig log's row with fresh = 0 carries no
-  // new measurement: its residual is zero and its force is interpolated
-  // between the neighbouring fresh samples). Empty: all were.
+  // Whether sample j enters the fit and its statistics. A rig log's row
+  // with fresh = 0 carries no new measurement: its residual is zero and its
+  // force is interpolated between the neighbouring fresh samples. A rig
+  // log's tare and lead-in rows are measured but left out: they start from
+  // the state the rig kept from its last run (a bushing's hysteresis, a
+  // structure still relaxing), which no model knows; the lead-in to -Fmax
+  // wipes that memory out, in the rig and in the model (which runs through
+  // those rows from rest). Empty: all samples enter.
   std::vector<bool> observed;
+  // Of them, the leading rows left out as the rig's memory (tare, lead-in).
+  int memory_rows = 0;
+  // A rig log's tare: the mean of its fresh tare rows, the rest pose the
+  // rig kept from its last run. A model with hysteresis starts from the
+  // Dahl forces that explain it (BasicRigPlant::SettleAtRest). Unset for a
+  // log without phases.
+  std::optional<Vec6<double>> rest_pose;
   double sample_period = 0;  // [s]
   double z_a = 0;            // acting height [m]
   Vec6<double> sigma = Vec6<double>::Ones();

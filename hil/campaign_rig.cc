@@ -1,7 +1,7 @@
 #include "hil/campaign_rig.h"
 
 #include <filesystem>
-#include <memory>
+#include <utility>
 
 #include "hil/rig_factory.h"
 #include "hil/rig_session.h"
@@ -10,17 +10,39 @@ namespace kcrig {
 
 Status CampaignRig::Open(const std::string& uri, const KcrigConfig& config,
                          CampaignRig* rig) {
-  rig->uri_ = uri;
+  RigConfig rig_config;
+  KCRIG_RETURN_IF_ERROR(LoadRigConfig(config.directory, &rig_config));
+  RigConnector connect = [uri, rig_config](
+                             const std::string& log_dir,
+                             std::unique_ptr<RigInterface>* link) {
+    return MakeRig(uri, rig_config, log_dir, link);
+  };
+  return Open(uri, std::move(connect), nullptr, RunMetadata(), config, rig);
+}
+
+Status CampaignRig::Open(const std::string& name, RigConnector connect,
+                         Clock* clock, const RunMetadata& truth,
+                         const KcrigConfig& config, CampaignRig* rig) {
+  rig->name_ = name;
+  rig->connect_ = std::move(connect);
+  rig->clock_ = clock;
+  if (!truth.truth_parameters.empty()) {
+    rig->truth_ = std::make_shared<const RunMetadata>(truth);
+  }
   rig->config_ = config;
   KCRIG_RETURN_IF_ERROR(LoadRigConfig(config.directory, &rig->rig_config_));
+  return rig->Check();
+}
+
+Status CampaignRig::Check() const {
   std::unique_ptr<RigInterface> probe;
-  KCRIG_RETURN_IF_ERROR(MakeRig(uri, rig->rig_config_, "", &probe));
+  KCRIG_RETURN_IF_ERROR(connect_("", &probe));
   KCRIG_RETURN_IF_ERROR(probe->Configure());
   probe.reset();
   RigSessionOptions check;
   check.excitation =
-      config.experiment.Excitation(0.0, config.experiment.z_a_bounds.lower);
-  return ValidateRunRequest(rig->rig_config_, check);
+      config_.experiment.Excitation(0.0, config_.experiment.z_a_bounds.lower);
+  return ValidateRunRequest(rig_config_, check);
 }
 
 Status CampaignRig::Run(const RampExcitation<double>& excitation, int run,
@@ -35,18 +57,20 @@ Status CampaignRig::Run(const RampExcitation<double>& excitation, int run,
                          std::to_string(run));
   }
   const std::string log_dir = fs::path(csv_path).parent_path().string();
-  std::unique_ptr<RigInterface> transport;
-  KCRIG_RETURN_IF_ERROR(MakeRig(uri_, rig_config_, log_dir, &transport));
-  KCRIG_RETURN_IF_ERROR(transport->Configure());
+  std::unique_ptr<RigInterface> link;
+  KCRIG_RETURN_IF_ERROR(connect_(log_dir, &link));
+  KCRIG_RETURN_IF_ERROR(link->Configure());
   RigSessionOptions options;
   options.excitation = excitation;
   options.log_dir = log_dir;
   options.stop_signal = stop;
+  options.clock = clock_;
+  options.truth = truth_.get();
   RigSessionResult result;
   KCRIG_RETURN_IF_ERROR(
-      RunRigSession(config_, rig_config_, transport.get(), options, &result));
+      RunRigSession(config_, rig_config_, link.get(), options, &result));
   if (!result.completed) {
-    return Status::Error("run " + std::to_string(run) + " on " + uri_ + " " +
+    return Status::Error("run " + std::to_string(run) + " on " + name_ + " " +
                          result.trip_message + " (log in " + log_dir + ")");
   }
   return Status::Ok();

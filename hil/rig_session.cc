@@ -117,6 +117,7 @@ LoopOptions LoopOptionsFor(const RigConfig& rig_config,
   loop.profile = rig_config.profile;
   loop.safety = rig_config.safety;
   loop.max_duration = options.max_duration;
+  loop.clock = options.clock;
   return loop;
 }
 
@@ -141,13 +142,21 @@ RunLogger::Options LoggerOptionsFor(const RigConfig& rig_config,
 // Real-time set-up first (mlockall faults every page in, which takes time),
 // then enable the rig, whose command watchdog runs from then; after the
 // loop, zero force and disabled whatever ended it (best effort when the
-// link is gone: the rig's own watchdog then does it).
-Status RunOnRig(const RealtimeOptions& realtime, RigInterface* rig,
-                ControlLoop* loop, RigSessionResult* result) {
-  result->realtime = SetUpRealtime(realtime);
+// link is gone: the rig's own watchdog then does it). On a virtual clock
+// no set-up: the loop's timing is its CPU cost, not a deadline.
+Status RunOnRig(const RealtimeOptions& realtime, bool real_time,
+                RigInterface* rig, ControlLoop* loop,
+                RigSessionResult* result) {
+  if (real_time) {
+    result->realtime = SetUpRealtime(realtime);
+  } else {
+    result->realtime.warnings.push_back(
+        "virtual clock: no real-time set-up; the timings are the CPU cost "
+        "of each phase");
+  }
   const Status activated = rig != nullptr ? rig->Activate() : Status::Ok();
   if (activated.ok()) result->loop = loop->Run();
-  LeaveRealtime();
+  if (real_time) LeaveRealtime();
   if (rig != nullptr && !rig->Deactivate().ok()) rig->OnError();
   return activated;
 }
@@ -206,10 +215,15 @@ std::string HilJson(const RigConfig& rig_config,
   hil["realtime_warnings"] = result.realtime.warnings;
   hil["transport"] = transport;
   // The process's peak resident memory (locked, under mlockall): what the
-  // rig PC must hold, the same for a run of seconds or of an hour.
+  // rig PC must hold, the same for a run of seconds or of an hour. Null on
+  // a virtual clock, whose run.json is the same for a seed on any machine.
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
-  hil["peak_memory_mib"] = static_cast<double>(usage.ru_maxrss) / 1024.0;
+  hil["peak_memory_mib"] =
+      options.clock != nullptr && !options.clock->real_time()
+          ? nlohmann::ordered_json()
+          : nlohmann::ordered_json(static_cast<double>(usage.ru_maxrss) /
+                                   1024.0);
   return hil.dump();
 }
 
@@ -338,7 +352,10 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   if (rig != nullptr) loop.add_log_failure(rig->record_write_failed());
   KCRIG_RETURN_IF_ERROR(logger.Open());
   logger.Start(&ring);
-  const Status activated = RunOnRig(rig_config.realtime, rig, &loop, result);
+  const Status activated =
+      RunOnRig(rig_config.realtime,
+               options.clock == nullptr || options.clock->real_time(), rig,
+               &loop, result);
   logger.Stop();
   if (!activated.ok()) {
     logger.Discard();
@@ -374,6 +391,13 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   m.sigma_position = config.experiment.sigma_position;
   m.sigma_angle = config.experiment.sigma_angle;
   m.transport = rig != nullptr ? rig->Describe() : "none";
+  if (options.truth != nullptr) {
+    m.synthetic = options.truth->synthetic;
+    m.noise_added = options.truth->noise_added;
+    m.seed = options.truth->seed;
+    m.truth_parameters = options.truth->truth_parameters;
+    m.truth_effects = options.truth->truth_effects;
+  }
   m.hil_json = HilJson(rig_config, options, profile, *result,
                        logger.rows_without_fresh_sample(), transport);
   KCRIG_RETURN_IF_ERROR(logger.Finish(options.log_dir));

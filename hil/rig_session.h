@@ -14,8 +14,10 @@
 #include <vector>
 
 #include "hil/rig_config.h"
+#include "records/run_log.h"
 #include "records/timing_file.h"
 #include "rt_core/model/model_config.h"
+#include "rt_core/runtime/clock.h"
 #include "rt_core/runtime/control_loop.h"
 #include "rt_core/runtime/realtime.h"
 #include "rt_core/runtime/rig_interface.h"
@@ -31,6 +33,14 @@ struct RigSessionOptions {
   double max_duration = 0;
   // Set by the caller's signal handler: SIGINT/SIGTERM ramp down.
   const std::atomic<int>* stop_signal = nullptr;
+  // The time the loop runs on (null: CLOCK_MONOTONIC, in real time with
+  // rig.yaml's real-time set-up). The software-in-the-loop rig's virtual
+  // clock needs no set-up: the loop then never sleeps.
+  Clock* clock = nullptr;
+  // A software rig's truth (synthetic, noise_added, seed, truth_parameters,
+  // truth_effects), recorded in the sidecar as SimulateRun's logs record
+  // theirs. Optional.
+  const RunMetadata* truth = nullptr;
   // Called from the logger thread about every 0.25 s with the run time [s]
   // and the phase, for progress lines. Optional.
   std::function<void(double, RunPhase)> on_progress;

@@ -14,12 +14,12 @@
 #include <cstring>
 #include <vector>
 
-#include "rt_core/runtime/cycle_timer.h"
+#include "rt_core/runtime/clock.h"
 
 namespace kcrig {
 namespace {
 
-double Now() { return static_cast<double>(MonotonicNanoseconds()) * 1e-9; }
+double Now() { return SystemClock()->Seconds(); }
 
 // MBAP header: transaction id, protocol id (0), length of what follows the
 // length field (unit id + PDU), unit id.

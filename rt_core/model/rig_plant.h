@@ -47,6 +47,16 @@ class BasicRigPlant {
   // the lagged force equal to `force`).
   Status Settle(const Vec3<T>& force, const T& z_a);
 
+  // Settle, but with each hysteretic bushing's Dahl force chosen (|h| <
+  // 0.999 F) so that the sensors read `rest` (weighted by 1/`sigma`) as
+  // nearly as they can: a rig log's tare, which shows the friction the rig
+  // kept from its last run. A bushing the run barely moves keeps that force
+  // all through the run; one it moves forgets it. Without hysteresis:
+  // Settle. A few Gauss-Newton steps on static equilibria, in T (the
+  // forces' sensitivities follow the parameters').
+  Status SettleAtRest(const Vec3<T>& force, const T& z_a,
+                      const Vec6<double>& rest, const Vec6<double>& sigma);
+
   // Advances one step h; `force` is the force the rig applies at the end of
   // the step as its load cell reads it.
   void Step(const Vec3<T>& force);
@@ -68,6 +78,9 @@ class BasicRigPlant {
 
  private:
   void UpdateHysteresis();
+  // Settle with the Dahl forces `h` locked in (no tangent while settling).
+  Status SettleWithDahlForces(const Vec3<T>& force, const T& z_a,
+                              const std::array<T, kNumBushings>& h);
   // The load-cell force `back` steps ago (0: this step's).
   const Vec3<T>& Past(size_t back) const {
     return delay_line_[(delay_head_ + delay_line_.size() - back) %
@@ -171,6 +184,71 @@ Status BasicRigPlant<T, Model>::Settle(const Vec3<T>& force, const T& z_a) {
     model_.SetExtraBushingForce(hysteresis_);
   }
   return status;
+}
+
+template <typename T, typename Model>
+Status BasicRigPlant<T, Model>::SettleWithDahlForces(
+    const Vec3<T>& force, const T& z_a, const std::array<T, kNumBushings>& h) {
+  KCRIG_RETURN_IF_ERROR(Settle(force, z_a));
+  typename SuspensionModel<T>::ExtraBushingForce locked;
+  locked.force = h;
+  model_.SetExtraBushingForce(locked);
+  RigLoad<T> load;
+  load.force = force;
+  load.point << T(0), T(0), z_a_;
+  const Status status = SolveStaticEquilibrium(model_, load, 50, &state_.y);
+  hysteresis_.force = h;
+  hysteresis_.reference = model_.BushingDeflections(state_.y);
+  model_.SetExtraBushingForce(hysteresis_);
+  return status;
+}
+
+template <typename T, typename Model>
+Status BasicRigPlant<T, Model>::SettleAtRest(const Vec3<T>& force, const T& z_a,
+                                             const Vec6<double>& rest,
+                                             const Vec6<double>& sigma) {
+  std::array<T, kNumBushings> h{};
+  if (!effects_.hysteresis.enabled) return Settle(force, z_a);
+  std::vector<int> placed;
+  for (int i = 0; i < kNumBushings; ++i) {
+    if (effects_.hysteresis.at[i]) placed.push_back(i);
+  }
+  const int n = static_cast<int>(placed.size());
+  const T limit = T(0.999) * effects_.hysteresis.force;
+  const T delta = T(1e-2) * effects_.hysteresis.force;
+  auto misfit = [&] {
+    const Vec6<T> sensed = Sensed();
+    Vec6<T> r;
+    for (int k = 0; k < 6; ++k) r(k) = (sensed(k) - rest(k)) / sigma(k);
+    return r;
+  };
+  KCRIG_RETURN_IF_ERROR(SettleWithDahlForces(force, z_a, h));
+  // The sensors respond to locked-in forces almost linearly: two steps.
+  for (int iteration = 0; iteration < 2; ++iteration) {
+    const Vec6<T> r = misfit();
+    Eigen::Matrix<T, 6, Eigen::Dynamic> jacobian(6, n);
+    for (int k = 0; k < n; ++k) {
+      std::array<T, kNumBushings> probe = h;
+      probe[placed[k]] += delta;
+      KCRIG_RETURN_IF_ERROR(SettleWithDahlForces(force, z_a, probe));
+      jacobian.col(k) = (misfit() - r) / delta;
+    }
+    Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic> normal =
+        jacobian.transpose() * jacobian;
+    // A bushing the sensors cannot see gets no force (a tiny ridge).
+    const T ridge = T(1e-9) * (normal.trace() + T(1e-30));
+    normal.diagonal().array() += ridge;
+    const Eigen::Matrix<T, Eigen::Dynamic, 1> change =
+        normal.ldlt().solve(-jacobian.transpose() * r);
+    for (int k = 0; k < n; ++k) {
+      T& value = h[placed[k]];
+      value += change(k);
+      if (ValueOf(value) > ValueOf(limit)) value = limit;
+      if (ValueOf(value) < -ValueOf(limit)) value = -limit;
+    }
+    KCRIG_RETURN_IF_ERROR(SettleWithDahlForces(force, z_a, h));
+  }
+  return Status::Ok();
 }
 
 template <typename T, typename Model>

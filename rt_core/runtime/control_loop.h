@@ -14,6 +14,7 @@
 #include "base/spsc_ring.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/suspension_model.h"
+#include "rt_core/runtime/clock.h"
 #include "rt_core/runtime/cycle_timer.h"
 #include "rt_core/runtime/rig_interface.h"
 #include "rt_core/runtime/safety.h"
@@ -45,6 +46,11 @@ struct LoopOptions {
   // Stop after this long [s] even if the profile goes on (0: the profile's
   // own duration). For timing checks.
   double max_duration = 0;
+  // The time the cycles are paced on (null: CLOCK_MONOTONIC). On a
+  // VirtualClock the loop sleeps no real time, its timing figures are the
+  // CPU's cost of each phase, and it waits for a full log ring to drain
+  // instead of dropping the record.
+  Clock* clock = nullptr;
 };
 
 struct LoopResult {
@@ -123,6 +129,7 @@ class ControlLoop {
   RigInterface* rig_;
   SpscRing<CycleRecord>* ring_;
   const std::atomic<int>* stop_signal_;
+  bool virtual_time_;  // paced by a virtual clock
   std::array<const std::atomic<bool>*, kMaxLogFailures> log_failed_{};
   int log_failures_ = 0;
   RunProfile profile_;
@@ -142,7 +149,6 @@ class ControlLoop {
   std::int64_t end_cycle_ = 0;
   LoopResult result_;
   LoopTiming timing_;
-  std::int64_t cycle_start_ = 0;
 };
 
 }  // namespace kcrig

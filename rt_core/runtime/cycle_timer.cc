@@ -1,38 +1,30 @@
 #include "rt_core/runtime/cycle_timer.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <ctime>
 
 namespace kcrig {
-namespace {
-
-constexpr std::int64_t kNanosecondsPerSecond = 1000000000;
-
-timespec ToTimespec(std::int64_t ns) {
-  timespec ts;
-  ts.tv_sec = static_cast<time_t>(ns / kNanosecondsPerSecond);
-  ts.tv_nsec = static_cast<long>(ns % kNanosecondsPerSecond);
-  return ts;
-}
-
-}  // namespace
 
 std::int64_t MonotonicNanoseconds() {
   timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * kNanosecondsPerSecond +
-         ts.tv_nsec;
+  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
 }
 
+CycleTimer::CycleTimer(std::int64_t period_ns, std::int64_t last_cycle,
+                       Clock* clock)
+    : period_(period_ns),
+      last_cycle_(last_cycle),
+      clock_(clock != nullptr ? clock : SystemClock()) {}
+
 void CycleTimer::Start() {
-  next_deadline_ = MonotonicNanoseconds() + period_;
+  next_deadline_ = clock_->Now() + period_;
   next_cycle_ = 0;
 }
 
 CycleTimer::Wake CycleTimer::WaitForNextCycle() {
   Wake wake;
-  const std::int64_t now = MonotonicNanoseconds();
+  const std::int64_t now = clock_->Now();
   if (now > next_deadline_) {
     // The last cycle ran past the next deadline: skip to the first deadline
     // still ahead rather than running late cycles back to back, but never
@@ -52,11 +44,8 @@ CycleTimer::Wake CycleTimer::WaitForNextCycle() {
     skipped_ += missed;
     ++overruns_;
   }
-  const timespec deadline = ToTimespec(next_deadline_);
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr) ==
-         EINTR) {
-  }
-  const std::int64_t woke = MonotonicNanoseconds();
+  clock_->SleepUntil(next_deadline_);
+  const std::int64_t woke = clock_->Now();
   wake.cycle = next_cycle_;
   wake.deadline = next_deadline_;
   wake.latency = woke - next_deadline_;
@@ -70,14 +59,12 @@ CycleTimer::Wake CycleTimer::WaitForNextCycle() {
 TimingStatistics MeasureWakeupLatency(std::int64_t period_ns,
                                       double duration_s) {
   TimingStatistics latency;
+  MonotonicClock* clock = SystemClock();
   const auto cycles = static_cast<std::int64_t>(duration_s * 1e9 / period_ns);
-  std::int64_t deadline = MonotonicNanoseconds() + period_ns;
+  std::int64_t deadline = clock->Now() + period_ns;
   for (std::int64_t k = 0; k < cycles; ++k) {
-    const timespec ts = ToTimespec(deadline);
-    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) ==
-           EINTR) {
-    }
-    latency.Record(MonotonicNanoseconds() - deadline);
+    clock->SleepUntil(deadline);
+    latency.Record(clock->Now() - deadline);
     deadline += period_ns;
   }
   return latency;

@@ -1,6 +1,7 @@
-// The loop's timing policy: absolute deadlines on CLOCK_MONOTONIC, slept to
-// with clock_nanosleep(TIMER_ABSTIME) so that the period never drifts with
-// the cycle's own duration. A cycle that ends after the next deadline is an
+// The loop's timing policy: absolute deadlines on a clock (CLOCK_MONOTONIC,
+// slept to with clock_nanosleep(TIMER_ABSTIME), or the software rig's
+// virtual one) so that the period never drifts with the cycle's own
+// duration. A cycle that ends after the next deadline is an
 // overrun: every deadline already passed is skipped (not caught up in a
 // burst) and counted, and the loop resumes on the next one ahead. Skipped
 // deadlines that the wake-up itself was already past are counted apart: the
@@ -11,6 +12,7 @@
 
 #include <cstdint>
 
+#include "rt_core/runtime/clock.h"
 #include "rt_core/runtime/timing_statistics.h"
 
 namespace kcrig {
@@ -24,16 +26,17 @@ class CycleTimer {
   // skipped: an overrun past its deadline runs it at once, late, so that a
   // run that ends on time always ends with its own last cycle (and its log
   // with its last row).
+  // `clock`: the time the deadlines are on (null: CLOCK_MONOTONIC).
   explicit CycleTimer(std::int64_t period_ns,
-                      std::int64_t last_cycle = INT64_MAX)
-      : period_(period_ns), last_cycle_(last_cycle) {}
+                      std::int64_t last_cycle = INT64_MAX,
+                      Clock* clock = nullptr);
 
   // The first deadline is one period from now; cycle 0 starts there.
   void Start();
 
   struct Wake {
     std::int64_t cycle = 0;     // index of the cycle that starts now
-    std::int64_t deadline = 0;  // its nominal start [ns, monotonic]
+    std::int64_t deadline = 0;  // its nominal start [ns, on the clock]
     std::int64_t latency = 0;   // woke this long after the deadline [ns]
     // How late the machine woke the loop [ns]: after the deadline, or after
     // the call when the last cycle's deadline had passed already (the
@@ -55,6 +58,7 @@ class CycleTimer {
  private:
   std::int64_t period_;
   std::int64_t last_cycle_;
+  Clock* clock_;
   std::int64_t next_deadline_ = 0;
   std::int64_t next_cycle_ = 0;
   std::int64_t overruns_ = 0;

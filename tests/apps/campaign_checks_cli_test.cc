@@ -13,6 +13,7 @@
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
 #include "tests/support/cli_runner.h"
+#include "tests/support/edited_config.h"
 #include "tests/support/temp_dir_test.h"
 
 namespace kcrig {
@@ -41,7 +42,10 @@ TEST_F(CampaignChecksCliTest, CampaignAdoptsAnAttributedPlantEffect) {
   ASSERT_EQ(doc["iterations"].size(), 2u);
   const nlohmann::json& first = doc["iterations"][0];
   EXPECT_EQ(first["adequacy"]["verdict"], "inadequate") << first;
-  EXPECT_EQ(first["diagnosis"]["action"], "undecided") << first;
+  // One log adopts nothing: it cannot tell the compliance from the
+  // stiffnesses, or (a rig log) the compliance's placements apart, which
+  // the next experiment is then designed to do.
+  EXPECT_NE(first["diagnosis"]["action"], "adopted") << first;
   EXPECT_EQ(first["model"], "nominal");
   EXPECT_TRUE(fs::exists(dir_ / "campaign" / "iteration_0" / "diag.json"));
   const nlohmann::json& last = doc["iterations"][1];
@@ -82,13 +86,57 @@ TEST_F(CampaignChecksCliTest, CampaignAdoptsAnAttributedPlantEffect) {
       << r.output;
 }
 
+// The issue #47 reproduction: one worn bushing (Dahl hysteresis in O2) on
+// the SIL rig, whose state carries from run to run. After the first run
+// the bushing keeps its friction force: the next tares sit tens of um off
+// the first. The campaign adopts the effect and the adopted model stays
+// adequate in every later iteration (the rows that remember the last run,
+// tare and lead-in, are left out of the fits), each stiffness's interval
+// covering the plant's value.
+TEST_F(CampaignChecksCliTest, AWornBushingStaysAdoptedThoughTheRigRemembers) {
+  const CliResult r = RunKcrig(
+      "campaign --quiet --no-report --plant-effect "
+      "hysteresis:force=300,at=bushing:O2 --out " +
+      Path("campaign"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json doc =
+      nlohmann::json::parse(std::ifstream(Path("campaign/campaign.json")));
+  ASSERT_EQ(doc["iterations"].size(), 4u);
+  EXPECT_EQ(doc["iterations"][0]["diagnosis"]["action"], "adopted");
+  const double truth[] = {3.6e6, 4.4e6, 3.9e6, 4.25e6, 3.75e6};
+  auto tare_x = [&](int k) {
+    const nlohmann::json run = nlohmann::json::parse(std::ifstream(
+        Path("campaign/iteration_" + std::to_string(k) + "/run.json")));
+    return run["hil"]["rest_pose"][0].get<double>();
+  };
+  for (int k = 0; k < 4; ++k) {
+    const nlohmann::json& it = doc["iterations"][k];
+    EXPECT_EQ(it["model"], "hysteresis@bushing:O2") << k;
+    if (k == 0) continue;
+    EXPECT_EQ(it["adequacy"]["verdict"], "adequate") << k << it["adequacy"];
+    EXPECT_EQ(it["check"], "ok") << k;
+    EXPECT_GT(std::abs(tare_x(k) - tare_x(0)), 20e-6) << k;
+    for (int i = 0; i < 5; ++i) {
+      const nlohmann::json& p = it["parameters"][i];
+      EXPECT_LE(p["ci95"][0].get<double>(), truth[i]) << k << p;
+      EXPECT_GE(p["ci95"][1].get<double>(), truth[i]) << k << p;
+    }
+  }
+}
+
 // The plant's spring rate is not the configured one: the campaign
 // attributes the gap to it (model_parameter@k_spring), adopts it and
 // estimates it with the stiffnesses; the report is drawn.
 TEST_F(CampaignChecksCliTest, CampaignAdoptsAWrongKnownParameter) {
+  // A spring 27 % stiffer moves z by millimetres more than the model: the
+  // loop's error detector (2 mm) would trip the rig, as on a real one; the
+  // rehearsal widens it.
+  const std::string config =
+      EditConfig(Path("config"), "rig.yaml", "error_position_max: 0.002",
+                 "error_position_max: 0.02");
   const CliResult r = RunKcrig(
-      "campaign --iterations 2 --budget 20 --quiet "
-      "--plant-set k_spring=1.4e5 --out " +
+      "campaign --config " + config +
+      " --iterations 2 --budget 20 --quiet --plant-set k_spring=1.4e5 --out " +
       Path("campaign"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("plant parameters: k_spring=1.4e5"),

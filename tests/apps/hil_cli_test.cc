@@ -243,6 +243,84 @@ TEST_F(HilCliTest, CampaignRunsItsExperimentsOnTheEmulatedRig) {
   EXPECT_TRUE(std::filesystem::exists(Path("campaign/campaign.json")));
 }
 
+// Issue #47's reproduction over Modbus: one worn bushing in the emulator,
+// whose state carries over between the campaign's runs (the next tares sit
+// off the first). The campaign adopts the effect, stays adequate in every
+// later iteration and exits 0, each stiffness's interval covering the
+// plant's value.
+TEST_F(HilCliTest, AWornBushingStaysAdoptedOverModbusThoughTheRigRemembers) {
+  const int port =
+      StartEmulator({"--effect", "hysteresis:force=300,at=bushing:O2"});
+  const CliResult r =
+      RunKcrig("campaign --config " + config_ +
+               " --rig modbus-tcp://127.0.0.1:" + std::to_string(port) +
+               " --quiet --no-report --out " + Path("campaign"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json doc = ReadJson(Path("campaign/campaign.json"));
+  ASSERT_EQ(doc["iterations"].size(), 4u);
+  const double truth[] = {3.6e6, 4.4e6, 3.9e6, 4.25e6, 3.75e6};
+  const double first_tare =
+      ReadJson(Path("campaign/iteration_0/run.json"))["hil"]["rest_pose"][0];
+  for (int k = 1; k < 4; ++k) {
+    const nlohmann::json& it = doc["iterations"][k];
+    EXPECT_EQ(it["model"], "hysteresis@bushing:O2") << k;
+    EXPECT_EQ(it["adequacy"]["verdict"], "adequate") << k << it["adequacy"];
+    const nlohmann::json run =
+        ReadJson(Path("campaign/iteration_" + std::to_string(k) + "/run.json"));
+    EXPECT_GT(std::abs(run["hil"]["rest_pose"][0].get<double>() - first_tare),
+              20e-6)
+        << k;
+    for (int i = 0; i < 5; ++i) {
+      const nlohmann::json& p = it["parameters"][i];
+      EXPECT_LE(p["ci95"][0].get<double>(), truth[i]) << k << p;
+      EXPECT_GE(p["ci95"][1].get<double>(), truth[i]) << k << p;
+    }
+  }
+}
+
+// The embedded SIL rig and a Modbus run of the same experiment and plant:
+// the same columns and phases, and estimates that agree within their
+// intervals.
+TEST_F(HilCliTest, TheSilRigLogsWhatTheModbusPathLogs) {
+  const int port = StartEmulator();
+  auto run = StartRun(port, Path("modbus"));
+  ASSERT_EQ(run->Wait(), 0) << run->Output();
+  const CliResult sil = RunKcrig("run --config " + config_ +
+                                 " --rig sim --quiet --log-dir " + Path("sil"));
+  ASSERT_EQ(sil.exit_code, 0) << sil.output;
+  const Csv modbus_csv = ReadCsv(Path("modbus/run.csv"));
+  const Csv sil_csv = ReadCsv(Path("sil/run.csv"));
+  EXPECT_EQ(modbus_csv.header, sil_csv.header);
+  ASSERT_EQ(modbus_csv.rows.size(), sil_csv.rows.size());
+  const int phase = sil_csv.Column("phase");
+  for (size_t j = 0; j < sil_csv.rows.size(); ++j) {
+    ASSERT_EQ(modbus_csv.rows[j][phase], sil_csv.rows[j][phase]) << j;
+  }
+  const nlohmann::json sil_json = ReadJson(Path("sil/run.json"));
+  const nlohmann::json modbus_json = ReadJson(Path("modbus/run.json"));
+  for (const auto& [key, value] : modbus_json["hil"].items()) {
+    EXPECT_TRUE(sil_json["hil"].contains(key)) << key;
+  }
+  nlohmann::json estimates[2];
+  for (int k = 0; k < 2; ++k) {
+    const std::string log = Path(k == 0 ? "modbus" : "sil");
+    const CliResult e = RunKcrig("estimate --config " + config_ + " --log " +
+                                 log + "/run.csv --out " + log + "/est.json");
+    ASSERT_EQ(e.exit_code, 0) << e.output;
+    estimates[k] = ReadJson(log + "/est.json");
+    EXPECT_EQ(estimates[k]["rig_memory_rows"][0], 1200);
+  }
+  for (int i = 0; i < 5; ++i) {
+    const nlohmann::json& a = estimates[0]["parameters"][i];
+    const nlohmann::json& b = estimates[1]["parameters"][i];
+    const double difference =
+        a["value"].get<double>() - b["value"].get<double>();
+    const double se = std::hypot(a["standard_error"].get<double>(),
+                                 b["standard_error"].get<double>());
+    EXPECT_LT(std::abs(difference), 3 * se) << a["name"];
+  }
+}
+
 TEST_F(HilCliTest, MbpollReadsTheDocumentedRegistersAndTheRigProtectsItself) {
   const int port = StartEmulator();
   const std::string target = "-p " + std::to_string(port) + " 127.0.0.1";
@@ -616,6 +694,15 @@ TEST_F(HilCliTest, BadRigsAndOptionsAreOneLineErrors) {
       {"emulate --modbus-tcp 127.0.0.1:0 --effect wobble", "unknown effect"},
       {"emulate --can nocan7", "can:nocan7: "},
       {"emulate --can vcan0 --modbus-tcp 127.0.0.1:0", "give one of"},
+      {"run --rig modbus-tcp://127.0.0.1:1502 --inject lost:at=5 --log-dir " +
+           Path("a"),
+       "only the embedded rig (--rig sim)"},
+      {"run --rig sim --inject wobble:at=5 --log-dir " + Path("a"),
+       "--inject wobble:at=5: unknown fault"},
+      {"run --rig sim --inject nan:at=5 --log-dir " + Path("a"),
+       "needs at=CYCLE and channel="},
+      {"campaign --rig modbus-tcp://127.0.0.1:1502 --seed 3 --out " + Path("c"),
+       "only the embedded rig (--rig sim)"},
   };
   for (const auto& c : cases) {
     const CliResult r = RunKcrig(c.arguments);

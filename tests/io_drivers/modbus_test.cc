@@ -21,13 +21,13 @@
 #include <thread>
 
 #include "emulator/modbus_front_end.h"
-#include "emulator/rig_clock.h"
 #include "emulator/rig_emulator.h"
 #include "gtest/gtest.h"
 #include "hil/rig_config.h"
 #include "io_drivers/modbus_registers.h"
 #include "io_drivers/modbus_rig.h"
 #include "io_drivers/modbus_server.h"
+#include "rt_core/runtime/clock.h"
 #include "tests/support/allocation_counter.h"
 #include "tests/support/edited_config.h"
 #include "tests/support/temp_dir_test.h"
@@ -147,7 +147,7 @@ TEST_F(ModbusConfigTest, BadMapsAndRigConfigsNameFileLineAndKey) {
 // keeping time by `clock`.
 class InProcessRig {
  public:
-  InProcessRig(const ModbusMap& map, const RigClock& clock, int port = 0) {
+  InProcessRig(const ModbusMap& map, const Clock& clock, int port = 0) {
     config_ = SourceConfig();
     EXPECT_TRUE(
         LoadPlantConfig(KCRIG_TEST_CONFIG_DIR, config_.model, &plant_).ok());
@@ -212,7 +212,7 @@ class ModbusRigTest : public ::testing::TestWithParam<RigTime> {
                     .ok());
     return std::make_unique<ModbusRig>(endpoint, map_, rig_config_.modbus);
   }
-  const RigClock& rig_clock() const {
+  const Clock& rig_clock() const {
     if (GetParam() == RigTime::kReal) return real_clock_;
     return virtual_clock_;
   }
@@ -222,13 +222,13 @@ class ModbusRigTest : public ::testing::TestWithParam<RigTime> {
     if (GetParam() == RigTime::kReal) {
       std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
     } else {
-      virtual_clock_.Advance(seconds);
+      virtual_clock_.Advance(std::llround(seconds * 1e9));
     }
   }
   RigConfig rig_config_;
   ModbusMap map_;
-  MonotonicRigClock real_clock_;
-  ManualRigClock virtual_clock_;
+  MonotonicClock real_clock_;
+  VirtualClock virtual_clock_;
 };
 
 TEST_P(ModbusRigTest, ReadsFreshSamplesAndWritesCommandsWithoutAllocating) {

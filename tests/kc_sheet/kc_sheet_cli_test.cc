@@ -134,8 +134,9 @@ TEST_F(KcSheetCliTest, TheAdoptedEffectModelAgreesWhereTheNominalDiffers) {
   EXPECT_EQ(adopted["model"], "rig_compliance");
   EXPECT_EQ(adopted["differing_channels"], nlohmann::json::array())
       << sheet_output_;
-  // The rising branch is the ramp alone: 4 s at 1 kHz.
-  EXPECT_EQ(adopted["runs"][0]["channels"][0]["rising"]["samples"], 4001);
+  // The rising branch is the rig log's ramp phase alone: 4 s of 1 kHz
+  // cycles.
+  EXPECT_EQ(adopted["runs"][0]["channels"][0]["rising"]["samples"], 4000);
 }
 
 TEST_F(KcSheetCliTest, SaeAxesFlipYZAndTheRotationsAboutThem) {

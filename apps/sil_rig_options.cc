@@ -1,0 +1,80 @@
+#include "apps/sil_rig_options.h"
+
+#include "apps/cli_util.h"
+
+namespace kcrig {
+
+void AddSilRigOptions(CLI::App* cmd, SilRigArgs* args, bool with_faults) {
+  cmd->add_option_function<std::uint64_t>(
+      "--seed", [args](const std::uint64_t& s) { args->seed = s; },
+      "Sensor-noise seed of the embedded rig (default: plant.yaml)");
+  cmd->add_option(
+      "--plant-effect", args->plant_effects,
+      "Unmodelled effect of the embedded rig's plant, NAME[:k=v,...] "
+      "(repeatable; the syntax of simulate --effect; --rig sim only): "
+      "rehearse the model checks without a rig");
+  cmd->add_option(
+      "--plant-set", args->plant_sets,
+      "A parameter of the embedded rig's plant that differs from the "
+      "configured model, NAME=VALUE in SI (repeatable; the syntax of "
+      "simulate --set; --rig sim only): rehearse a wrong \"known\" parameter");
+  if (!with_faults) return;
+  cmd->add_option(
+      "--inject", args->faults,
+      "A fault the embedded rig injects, KIND:at=CYCLE[,key=value] "
+      "(repeatable; --rig sim only): late:at=C,delay=S, stale:at=C,cycles=N, "
+      "lost:at=C, corrupt:at=C, silent:at=C, stuck:at=C,channel=CH, "
+      "nan:at=C,channel=CH (CH one of x y z toe camber caster Fx Fy Fz)");
+}
+
+Status CheckSilRigOptions(const SilRigArgs& args, const std::string& rig) {
+  if (rig == "sim") return Status::Ok();
+  if (!args.plant_effects.empty() || !args.plant_sets.empty() ||
+      !args.faults.empty() || args.seed) {
+    return Status::Error(
+        "--seed, --plant-effect, --plant-set, --inject: only the embedded "
+        "rig (--rig sim) has a plant to change; give a kcrig emulate rig its "
+        "effects with emulate --effect");
+  }
+  return Status::Ok();
+}
+
+Status LoadSilPlant(const SilRigArgs& args, const KcrigConfig& config,
+                    PlantConfig* plant, std::vector<InjectedFault>* faults) {
+  KCRIG_RETURN_IF_ERROR(LoadPlantConfig(config.directory, config.model, plant));
+  if (args.seed) plant->seed = *args.seed;
+  for (const std::string& effect : args.plant_effects) {
+    const Status status = ParseEffect(effect, &plant->effects);
+    if (!status.ok()) {
+      return Status::Error("--plant-effect " + status.message());
+    }
+  }
+  for (const std::string& set : args.plant_sets) {
+    KCRIG_RETURN_IF_ERROR(
+        ApplyParameterAssignment("--plant-set", set, &plant->model));
+  }
+  KCRIG_RETURN_IF_ERROR(ValidateModel(plant->model, "--plant-set"));
+  faults->assign(args.faults.size(), InjectedFault());
+  for (size_t i = 0; i < args.faults.size(); ++i) {
+    const Status status = ParseInjectedFault(args.faults[i], &(*faults)[i]);
+    if (!status.ok()) return Status::Error("--inject " + status.message());
+  }
+  return Status::Ok();
+}
+
+std::string DescribeSilRig(const SilRigArgs& args, const PlantConfig& plant) {
+  std::string text = "embedded SIL rig (plant.yaml, virtual clock)";
+  const std::vector<std::string> effects = DescribeEffects(plant.effects);
+  for (size_t i = 0; i < effects.size(); ++i) {
+    text += (i == 0 ? ", plant effects: " : " ") + effects[i];
+  }
+  for (size_t i = 0; i < args.plant_sets.size(); ++i) {
+    text += (i == 0 ? ", plant parameters: " : " ") + args.plant_sets[i];
+  }
+  for (size_t i = 0; i < args.faults.size(); ++i) {
+    text += (i == 0 ? ", injected faults: " : " ") + args.faults[i];
+  }
+  return text;
+}
+
+}  // namespace kcrig
