@@ -143,13 +143,13 @@ Status EmbeddedRig(const CampaignArgs& args, const KcrigConfig& config,
 // under MPI: the rig loop runs in one process).
 Status MakeRig(const CampaignArgs& args, const KcrigConfig& config,
                RigRunner* rig, std::string* rig_text) {
-  KCRIG_RETURN_IF_ERROR(CheckSilRigOptions(args.sil, args.rig));
   if (args.rig == "sim") return EmbeddedRig(args, config, rig, rig_text);
   if (args.rig.rfind("modbus-", 0) != 0 && args.rig.rfind("can:", 0) != 0) {
     return Status::Error("--rig " + args.rig +
                          ": expected sim, modbus-tcp://HOST:PORT, "
                          "modbus-rtu://DEVICE or can:IFACE");
   }
+  KCRIG_RETURN_IF_ERROR(CheckSilRigOptions(args.sil, args.rig));
   if (WorldRanks().size() > 1) {
     return Status::Error("--rig " + args.rig +
                          ": a rig's loop runs in one process, never under "
@@ -181,7 +181,7 @@ RigRunner RigOfRankZero(RigRunner rig) {
       ByteWriter files;
       for (const std::string& path : {csv_path, sidecar}) {
         std::string text;
-        // A 4 s log is about 0.5 MB; Share refuses more than 2 GiB.
+        // The paper's 6.7 s run logs about 2 MB; Share refuses 2 GiB.
         if (status.ok()) status = ReadInputFile(path, 1u << 30, &text);
         files.Put(text);
       }
@@ -413,7 +413,7 @@ void AddCampaignCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");
   cmd->add_option("--rig", args->rig,
-                  "sim (embedded emulated rig), modbus-tcp://HOST:PORT, "
+                  "sim (the embedded SIL rig), modbus-tcp://HOST:PORT, "
                   "modbus-rtu://DEVICE (a rig or kcrig emulate) or can:IFACE")
       ->capture_default_str();
   cmd->add_option("--iterations", args->iterations,

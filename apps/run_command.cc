@@ -149,7 +149,8 @@ void AddRunCommand(CLI::App* app, std::function<int()>* run) {
   auto args = std::make_shared<RunArgs>();
   CLI::App* cmd = app->add_subcommand(
       "run",
-      "One HIL experiment through a rig transport: tare, lead-in, the ramp, "
+      "One HIL experiment on a rig (a transport, or the embedded SIL rig): "
+      "tare, lead-in, the ramp, "
       "ramp-down; safety trips ramp the force to zero (exit 3)");
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");

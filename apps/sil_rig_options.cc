@@ -29,14 +29,19 @@ void AddSilRigOptions(CLI::App* cmd, SilRigArgs* args, bool with_faults) {
 
 Status CheckSilRigOptions(const SilRigArgs& args, const std::string& rig) {
   if (rig == "sim") return Status::Ok();
-  if (!args.plant_effects.empty() || !args.plant_sets.empty() ||
-      !args.faults.empty() || args.seed) {
-    return Status::Error(
-        "--seed, --plant-effect, --plant-set, --inject: only the embedded "
-        "rig (--rig sim) has a plant to change; give a kcrig emulate rig its "
-        "effects with emulate --effect");
+  std::string given;
+  for (const auto& [option, used] :
+       {std::pair<const char*, bool>{"--seed", args.seed.has_value()},
+        {"--plant-effect", !args.plant_effects.empty()},
+        {"--plant-set", !args.plant_sets.empty()},
+        {"--inject", !args.faults.empty()}}) {
+    if (used) given += (given.empty() ? "" : ", ") + std::string(option);
   }
-  return Status::Ok();
+  if (given.empty()) return Status::Ok();
+  return Status::Error(given +
+                       ": only the embedded rig (--rig sim) has a sensor "
+                       "noise, a plant and faults of kcrig's own; give a "
+                       "kcrig emulate rig its effects with emulate --effect");
 }
 
 Status LoadSilPlant(const SilRigArgs& args, const KcrigConfig& config,

@@ -970,6 +970,7 @@ Status FitAtStep(const EffectModel& model,
   }
   result.cost = cost;
   result.num_residuals = observed;
+  result.memory_rows = MemoryRows(experiments);
   result.sigma_hat = observed > n ? std::sqrt(2 * cost / (observed - n)) : 0;
   result.iterations = summary.iterations;
   result.converged = summary.converged;

@@ -1,7 +1,9 @@
 #include "emulator/sil_rig.h"
 
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <optional>
 #include <utility>
 
 #include "nlohmann/json.hpp"
@@ -18,11 +20,14 @@ constexpr const char* kName = "embedded SIL rig (virtual clock)";
 // front ends do.
 class SilLink final : public RigInterface {
  public:
-  SilLink(RigEmulator* rig, VirtualClock* clock, std::uint16_t session,
+  // `begin_run` readies the rig for this run (its rest since the last one)
+  // and gives the run's session token.
+  SilLink(RigEmulator* rig, VirtualClock* clock,
+          std::function<Status(std::uint16_t*)> begin_run,
           std::vector<InjectedFault> faults)
       : rig_(rig),
         clock_(clock),
-        session_(session),
+        begin_run_(std::move(begin_run)),
         faults_(std::move(faults)) {}
 
   Status Configure() override { return Status::Ok(); }
@@ -30,6 +35,7 @@ class SilLink final : public RigInterface {
   // Claim and reset a latched fault, then enable at zero force, then see
   // the rig report itself enabled (as the transports do).
   Status Activate() override {
+    KCRIG_RETURN_IF_ERROR(begin_run_(&session_));
     if (!Send(RigCommand(), /*claim=*/true, /*release=*/false, true)) {
       return Status::Error(kName +
                            std::string(": another session holds the rig"));
@@ -129,8 +135,8 @@ class SilLink final : public RigInterface {
     for (size_t i = 0; i < faults_.size(); ++i) {
       const InjectedFault& f = faults_[i];
       if (f.kind == Kind::kStuck && read >= f.at) {
-        if (read == f.at) stuck_[i] = *Channel(m, f.channel);
-        *Channel(m, f.channel) = stuck_[i];
+        if (!stuck_[i]) stuck_[i] = *Channel(m, f.channel);
+        *Channel(m, f.channel) = *stuck_[i];
       }
       if (f.kind == Kind::kNan && read == f.at) {
         *Channel(m, f.channel) = std::numeric_limits<double>::quiet_NaN();
@@ -144,9 +150,12 @@ class SilLink final : public RigInterface {
 
   RigEmulator* rig_;
   VirtualClock* clock_;
-  std::uint16_t session_;
+  std::function<Status(std::uint16_t*)> begin_run_;
+  std::uint16_t session_ = 0;
   std::vector<InjectedFault> faults_;
-  std::vector<double> stuck_ = std::vector<double>(faults_.size(), 0.0);
+  // A stuck channel's value, from the first sample at or after its cycle.
+  std::vector<std::optional<double>> stuck_ =
+      std::vector<std::optional<double>>(faults_.size());
   std::int64_t reads_ = 0;
 };
 
@@ -159,17 +168,23 @@ Status SilRig::Start() { return emulator_.Start(clock_.Seconds()); }
 
 std::unique_ptr<RigInterface> SilRig::Connect(
     std::vector<InjectedFault> faults) {
+  return std::make_unique<SilLink>(
+      &emulator_, &clock_,
+      [this](std::uint16_t* session) { return BeginRun(session); },
+      std::move(faults));
+}
+
+Status SilRig::BeginRun(std::uint16_t* session) {
   if (ran_) {
     clock_.Advance(std::llround(plant_.rest_between_runs * 1e9));
     emulator_.AdvanceTo(clock_.Seconds());
-    if (!plant_.keeps_state) emulator_.Start(clock_.Seconds());
+    if (!plant_.keeps_state) KCRIG_RETURN_IF_ERROR(Start());
   }
   ran_ = true;
   // A session token per run, as each `kcrig run` draws its own.
-  const std::uint16_t session = next_session_++;
+  *session = next_session_++;
   if (next_session_ == 0) next_session_ = 1;
-  return std::make_unique<SilLink>(&emulator_, &clock_, session,
-                                   std::move(faults));
+  return Status::Ok();
 }
 
 RunMetadata SilRig::Truth() const {

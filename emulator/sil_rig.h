@@ -34,24 +34,28 @@ class SilRig {
   Status Start();
 
   // The loop's link to the rig for one run, injecting `faults` (at the
-  // link's reads, counted from 0), after the rest since the last link.
-  // The link must not outlive the rig.
+  // link's reads, counted from 0). Its Activate starts the run, after the
+  // rest since the last one; a link never activated (a probe) changes
+  // nothing. The link must not outlive the rig.
   std::unique_ptr<RigInterface> Connect(std::vector<InjectedFault> faults);
 
   // The time the loop must run on.
   VirtualClock* clock() { return &clock_; }
-  const RigEmulator& emulator() const { return emulator_; }
 
   // What a log's sidecar records of the rig: its true parameters and
   // effects, that its sensors add noise, and the noise seed.
   RunMetadata Truth() const;
 
  private:
+  // A run begins: the rest since the last one (from rest again when the
+  // plant keeps no state), and the run's session token.
+  Status BeginRun(std::uint16_t* session);
+
   PlantConfig plant_;
   VirtualClock clock_;
   RigEmulator emulator_;
   std::uint16_t next_session_ = 1;
-  bool ran_ = false;  // a link was made: the next one rests first
+  bool ran_ = false;  // a run began: the next one rests first
 };
 
 }  // namespace kcrig

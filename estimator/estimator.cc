@@ -283,9 +283,8 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   // Rows of unobserved samples (fresh = 0, the rig's memory) are zero and
   // carry no data.
   int unobserved_rows = 0;
-  result->memory_rows.clear();
+  result->memory_rows = MemoryRows(experiments);
   for (const Experiment& experiment : experiments) {
-    result->memory_rows.push_back(experiment.memory_rows);
     unobserved_rows +=
         static_cast<int>(std::count(experiment.observed.begin(),
                                     experiment.observed.end(), false) *

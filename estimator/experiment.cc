@@ -15,7 +15,10 @@ namespace {
 int MemoryRows(const RunLog& log) {
   int rows = 0;
   for (const LogSample& s : log.samples) {
-    if (s.phase != "tare" && s.phase != "lead_in") break;
+    if (s.phase != RunPhaseName(RunPhase::kTare) &&
+        s.phase != RunPhaseName(RunPhase::kLeadIn)) {
+      break;
+    }
     ++rows;
   }
   return rows;
@@ -26,7 +29,7 @@ std::optional<Vec6<double>> TarePose(const RunLog& log) {
   Vec6<double> sum = Vec6<double>::Zero();
   int count = 0;
   for (const LogSample& s : log.samples) {
-    if (s.phase != "tare") break;
+    if (s.phase != RunPhaseName(RunPhase::kTare)) break;
     if (!s.fresh) continue;
     sum += s.y;
     ++count;

@@ -27,8 +27,9 @@ struct Experiment {
   // log's tare and lead-in rows are measured but left out: they start from
   // the state the rig kept from its last run (a bushing's hysteresis, a
   // structure still relaxing), which no model knows; the lead-in to -Fmax
-  // wipes that memory out, in the rig and in the model (which runs through
-  // those rows from rest). Empty: all samples enter.
+  // wipes most of that memory out, in the rig and in the model, which runs
+  // through those rows (from rest, or a model with hysteresis from the
+  // Dahl forces the tare shows: rest_pose). Empty: all samples enter.
   std::vector<bool> observed;
   // Of them, the leading rows left out as the rig's memory (tare, lead-in).
   int memory_rows = 0;
@@ -51,6 +52,13 @@ struct Experiment {
 // Whether sample j of `e` carries a measurement (see Experiment::observed).
 inline bool Observed(const Experiment& e, size_t j) {
   return e.observed.empty() || e.observed[j];
+}
+
+// Per experiment, its leading rows left out as the rig's memory.
+inline std::vector<int> MemoryRows(const std::vector<Experiment>& all) {
+  std::vector<int> rows;
+  for (const Experiment& e : all) rows.push_back(e.memory_rows);
+  return rows;
 }
 
 // The number of samples of `e` that carry one.

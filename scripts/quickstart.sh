@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Quick start (1): installs the dependencies, builds kcrig (Release) and runs
 # the main job: a 3-iteration campaign (estimate -> optimal design -> run ->
-# estimate) on the embedded emulated rig, output in out/campaign/.
+# estimate) on the embedded SIL rig, output in out/campaign/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh

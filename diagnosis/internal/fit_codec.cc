@@ -128,6 +128,7 @@ void Visit(A& a, EstimationResult& r) {
   a(r.residual_rms);
   a(r.channel_used);
   a(r.num_residuals);
+  a(r.memory_rows);
   a(r.cost);
   a(r.sigma_hat);
   Visit(a, r.adequacy);

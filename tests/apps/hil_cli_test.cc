@@ -696,13 +696,13 @@ TEST_F(HilCliTest, BadRigsAndOptionsAreOneLineErrors) {
       {"emulate --can vcan0 --modbus-tcp 127.0.0.1:0", "give one of"},
       {"run --rig modbus-tcp://127.0.0.1:1502 --inject lost:at=5 --log-dir " +
            Path("a"),
-       "only the embedded rig (--rig sim)"},
+       "--inject: only the embedded rig (--rig sim)"},
       {"run --rig sim --inject wobble:at=5 --log-dir " + Path("a"),
        "--inject wobble:at=5: unknown fault"},
       {"run --rig sim --inject nan:at=5 --log-dir " + Path("a"),
        "needs at=CYCLE and channel="},
       {"campaign --rig modbus-tcp://127.0.0.1:1502 --seed 3 --out " + Path("c"),
-       "only the embedded rig (--rig sim)"},
+       "--seed: only the embedded rig (--rig sim)"},
   };
   for (const auto& c : cases) {
     const CliResult r = RunKcrig(c.arguments);

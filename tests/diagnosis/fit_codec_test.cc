@@ -41,6 +41,7 @@ EffectFit SomeFit() {
   fit.result.ill_conditioned = true;
   fit.result.dependent_parameters = {"c_P"};
   fit.result.num_residuals = 36006;
+  fit.result.memory_rows = {1200, 0};
   fit.result.cost = 18003.25;
   fit.result.iterations = 17;
   fit.result.seconds = 0.25;
@@ -103,6 +104,7 @@ TEST(FitCodecTest, AFitAndItsStatusArriveBitForBit) {
   EXPECT_TRUE(back.result.ill_conditioned);
   EXPECT_EQ(back.result.dependent_parameters, fit.result.dependent_parameters);
   EXPECT_EQ(back.result.num_residuals, 36006);
+  EXPECT_EQ(back.result.memory_rows, std::vector<int>({1200, 0}));
   EXPECT_EQ(back.result.cost, 18003.25);
   EXPECT_EQ(back.result.iterations, 17);
   EXPECT_EQ(back.result.seconds, 0.25);
