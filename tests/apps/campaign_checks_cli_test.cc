@@ -128,12 +128,14 @@ TEST_F(CampaignChecksCliTest, AWornBushingStaysAdoptedThoughTheRigRemembers) {
 // attributes the gap to it (model_parameter@k_spring), adopts it and
 // estimates it with the stiffnesses; the report is drawn.
 TEST_F(CampaignChecksCliTest, CampaignAdoptsAWrongKnownParameter) {
-  // A spring 27 % stiffer moves z by millimetres more than the model: the
-  // loop's error detector (2 mm) would trip the rig, as on a real one; the
-  // rehearsal widens it.
+  // A spring 27 % stiffer moves the wheel by millimetres and tenths of a
+  // degree more than the model: the loop's error detector (2 mm, 0.5 deg)
+  // would trip the rig, as on a real one; the rehearsal widens it.
+  EditConfig(Path("config"), "rig.yaml", "error_position_max: 0.002",
+             "error_position_max: 0.02");
   const std::string config =
-      EditConfig(Path("config"), "rig.yaml", "error_position_max: 0.002",
-                 "error_position_max: 0.02");
+      EditConfig(Path("config"), "rig.yaml", "error_angle_max_deg: 0.5",
+                 "error_angle_max_deg: 5.0");
   const CliResult r = RunKcrig(
       "campaign --config " + config +
       " --iterations 2 --budget 20 --quiet --plant-set k_spring=1.4e5 --out " +
