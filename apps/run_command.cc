@@ -68,12 +68,13 @@ void PrintOutcome(const char* who, const RigSessionResult& r,
       static_cast<long long>(l.overruns));
   if (!log_dir.empty()) {
     const std::filesystem::path dir(log_dir);
+    const bool timing = std::filesystem::exists(dir / "timing.json");
     const bool can = std::filesystem::exists(dir / "can.log");
-    std::printf("  wrote %s/%s, run.json, timing.json%s\n", log_dir.c_str(),
+    std::printf("  wrote %s/%s, run.json%s%s\n", log_dir.c_str(),
                 std::filesystem::exists(dir / "run.csv")
                     ? "run.csv"
                     : "run.csv.partial (incomplete)",
-                can ? ", can.log" : "");
+                timing ? ", timing.json" : "", can ? ", can.log" : "");
   }
 }
 
@@ -161,7 +162,8 @@ void AddRunCommand(CLI::App* app, std::function<int()>* run) {
   AddSilRigOptions(cmd, &args->sil, /*with_faults=*/true);
   AddExcitationOptions(cmd, &args->excitation);
   cmd->add_option("--log-dir", args->log_dir,
-                  "Directory for run.csv, run.json, timing.json (and the "
+                  "Directory for run.csv, run.json, timing.json (not on the "
+                  "virtual clock of --rig sim) (and the "
                   "CAN bus log can.log)")
       ->required();
   cmd->add_flag("--quiet", args->quiet, "No progress line");

@@ -376,12 +376,6 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   result->timing = MakeTimingFile(loop.timing(), lr, result->realtime, period,
                                   rig_config.budget, rig != nullptr);
   result->timing.trip = result->trip_message;
-  // On a virtual clock the phases' times are their CPU cost: no deadline
-  // to judge them by.
-  if (!RealTime(options)) {
-    result->timing.budget_checked = false;
-    result->timing.violations.clear();
-  }
   // Figures of a loop a fault ended early are not a pass; the trip says why.
   if (!result->completed) result->timing.within_budget = false;
   if (options.log_dir.empty()) return Status::Ok();
@@ -403,9 +397,17 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   m.hil_json = HilJson(rig_config, options, profile, *result,
                        logger.rows_without_fresh_sample(), transport);
   KCRIG_RETURN_IF_ERROR(logger.Finish(options.log_dir));
+  const std::string timing_path =
+      (std::filesystem::path(options.log_dir) / "timing.json").string();
+  // A virtual clock's run has no timing: its phases took CPU, not time (an
+  // earlier run's file would tell of another run).
+  if (!RealTime(options)) {
+    std::error_code ignored;
+    std::filesystem::remove(timing_path, ignored);
+    return Status::Ok();
+  }
   return WriteFilesAtomically(
-      {{(std::filesystem::path(options.log_dir) / "timing.json").string(),
-        TimingFileToJson(result->timing)}});
+      {{timing_path, TimingFileToJson(result->timing)}});
 }
 
 }  // namespace kcrig

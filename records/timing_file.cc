@@ -76,13 +76,12 @@ Status ReadTimingDocument(const std::string& path, const nlohmann::json& doc,
                          ": unexpected content (budget: expected an "
                          "object)");
   }
-  t->budget_checked =
-      budget.contains("within") && budget["within"].is_boolean();
+  t->budget_checked = budget.contains("within");
   t->compute_p999_fraction = budget.value("compute_p999_fraction", 0.0);
   t->wakeup_p99_us = budget.value("wakeup_p99_us", 0.0);
   t->cycle_p999_fraction = budget.value("cycle_p999_fraction", 0.0);
   t->overrun_max_fraction = budget.value("overrun_max_fraction", 0.0);
-  t->within_budget = t->budget_checked && budget["within"].get<bool>();
+  t->within_budget = budget.value("within", false);
   t->violations = budget.value("violations", std::vector<std::string>());
   return Status::Ok();
 }
@@ -110,13 +109,12 @@ std::string TimingFileToJson(const TimingFile& t) {
     if (found != t.phases.end()) phases[name] = PhaseJson(found->second);
   }
   doc["phases"] = phases;
-  doc["budget"] = {
-      {"compute_p999_fraction", t.compute_p999_fraction},
-      {"wakeup_p99_us", t.wakeup_p99_us},
-      {"cycle_p999_fraction", t.cycle_p999_fraction},
-      {"overrun_max_fraction", t.overrun_max_fraction},
-      {"within", t.budget_checked ? Json(t.within_budget) : Json(nullptr)},
-      {"violations", t.violations}};
+  doc["budget"] = {{"compute_p999_fraction", t.compute_p999_fraction},
+                   {"wakeup_p99_us", t.wakeup_p99_us},
+                   {"cycle_p999_fraction", t.cycle_p999_fraction},
+                   {"overrun_max_fraction", t.overrun_max_fraction},
+                   {"within", t.within_budget},
+                   {"violations", t.violations}};
   if (t.has_baseline) {
     const TimingBaseline& b = t.baseline;
     doc["baseline_wakeup"] = {

@@ -174,9 +174,6 @@ TEST_F(ClusterCliTest, ACampaignOnRanksWritesTheSameFolderAsAlone) {
     const std::map<std::string, std::string> written = Folder(out);
     EXPECT_EQ(written.size(), expected.size()) << ranks << " ranks";
     for (const auto& [name, bytes] : expected) {
-      // A run's timing.json measures what each phase of the loop cost the
-      // CPU: the same on no two runs.
-      if (name.ends_with("timing.json")) continue;
       EXPECT_TRUE(written.count(name) && written.at(name) == bytes)
           << name << " on " << ranks << " ranks";
     }
