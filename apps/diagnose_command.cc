@@ -38,6 +38,24 @@ struct DiagnoseInputs {
   std::vector<Experiment> training, holdout;
 };
 
+// A hold-out log is evidence only if the fit never saw it: refused when it
+// holds the same samples as a training log (the same file, a copy, or the
+// same run in another format).
+Status CheckHoldoutUnseen(const std::vector<Experiment>& training,
+                          const std::vector<Experiment>& holdout) {
+  for (const Experiment& h : holdout) {
+    for (const Experiment& t : training) {
+      if (h.measured == t.measured && h.forces == t.forces) {
+        return Status::Error("--holdout " + h.source +
+                             ": holds the same samples as the training log " +
+                             t.source +
+                             " (a hold-out must be a run the fit never saw)");
+      }
+    }
+  }
+  return Status::Ok();
+}
+
 Status Prepare(const DiagnoseArgs& args, DiagnoseInputs* in) {
   Status status = LoadConfig(args.config_dir, &in->config);
   if (!status.ok()) return status;
@@ -81,7 +99,9 @@ Status Prepare(const DiagnoseArgs& args, DiagnoseInputs* in) {
 
   status = LoadLogs(args.logs, in->config, &in->training);
   if (!status.ok()) return status;
-  return LoadLogs(args.holdout, in->config, &in->holdout);
+  status = LoadLogs(args.holdout, in->config, &in->holdout);
+  if (!status.ok()) return status;
+  return CheckHoldoutUnseen(in->training, in->holdout);
 }
 
 int RunDiagnose(const DiagnoseArgs& args) {

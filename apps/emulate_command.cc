@@ -118,14 +118,19 @@ int RunEmulate(const EmulateArgs& args) {
         static_cast<long long>(counters.send_failures));
     return 0;
   }
-  status = ServeModbus(&rig, clock, map, at, stop, [&](const std::string& uri) {
-    std::printf(
-        "kcrig emulate: serving %s (unit %d, map %s); true plant from "
-        "plant.yaml, effects: %s\n",
-        uri.c_str(), map.unit_id, rig_config.modbus.map_file.c_str(),
-        effect_text.empty() ? "none" : effect_text.c_str());
-    std::fflush(stdout);
-  });
+  status = ServeModbus(
+      &rig, clock, map, at, stop,
+      [&](const std::string& uri) {
+        std::printf(
+            "kcrig emulate: serving %s (unit %d, map %s); true plant from "
+            "plant.yaml, effects: %s\n",
+            uri.c_str(), map.unit_id, rig_config.modbus.map_file.c_str(),
+            effect_text.empty() ? "none" : effect_text.c_str());
+        std::fflush(stdout);
+      },
+      [](const std::string& line) {
+        std::fprintf(stderr, "kcrig emulate: %s\n", line.c_str());
+      });
   if (!status.ok()) return fail(status);
   std::printf("kcrig emulate: stopped (signal %d)\n", stop.load());
   return 0;

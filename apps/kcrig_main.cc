@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
   if (argc > 1 && argv[1][0] != '-' && !is_subcommand(argv[1])) {
     std::fprintf(stderr,
                  "kcrig: error: unknown subcommand '%s' (see kcrig --help)\n",
-                 argv[1]);
+                 kcrig::EscapeControl(argv[1]).c_str());
     return 2;
   }
   // Under mpirun only the batch commands spread (every rank runs the
@@ -92,7 +92,8 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     // One line, whatever CLI11 would have printed.
-    std::fprintf(stderr, "kcrig: error: %s (see kcrig --help)\n", e.what());
+    std::fprintf(stderr, "kcrig: error: %s (see kcrig --help)\n",
+                 kcrig::EscapeControl(e.what()).c_str());
     return 2;
   }
   // The commands return their errors; an exception that still escapes (a
@@ -109,8 +110,8 @@ int main(int argc, char** argv) {
   }
   const std::string rank =
       ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "";
-  const std::string line =
-      "kcrig " + std::string(argv[1]) + ": " + rank + "error: " + why;
+  const std::string line = "kcrig " + kcrig::EscapeControl(argv[1]) + ": " +
+                           rank + "error: " + kcrig::EscapeControl(why);
   if (ranks.size() > 1) ranks.AbortJob(1, line);
   std::fprintf(stderr, "%s\n", line.c_str());
   return 1;

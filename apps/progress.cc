@@ -14,15 +14,37 @@ std::atomic<int> g_stop_signal{0};
 static_assert(std::atomic<int>::is_always_lock_free,
               "the signal handler stores into it");
 
-extern "C" void OnStopSignal(int signal) { g_stop_signal.store(signal); }
+std::atomic<int> g_stop_count{0};
+
+// The first signal asks for the ramp-down; a second one does not cut it
+// short (a rig left at force by an impatient Ctrl-C is worse than a wait)
+// but says how to; a third acts as usual: the rig's own watchdog then
+// stops it. write() and raise() are async-signal-safe.
+extern "C" void OnStopSignal(int signal) {
+  const int count = ++g_stop_count;
+  if (count == 1) {
+    g_stop_signal.store(signal);
+  } else if (count == 2) {
+    constexpr char kLine[] =
+        "\nkcrig: stopping safely (a rig ramps down to zero force first); "
+        "once more to kill at once (a rig's own watchdog then stops it)\n";
+    [[maybe_unused]] const ssize_t n =
+        write(STDERR_FILENO, kLine, sizeof(kLine) - 1);
+  } else {
+    std::signal(signal, SIG_DFL);
+    raise(signal);
+  }
+}
+
+static_assert(std::atomic<int>::is_always_lock_free,
+              "the signal handler counts into it");
 
 }  // namespace
 
 const std::atomic<int>& InstallStopSignalHandlers() {
   struct sigaction action {};
   action.sa_handler = OnStopSignal;
-  // The first signal asks for the ramp-down; a second one acts as usual.
-  action.sa_flags = SA_RESETHAND;
+  action.sa_flags = 0;
   sigemptyset(&action.sa_mask);
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);

@@ -40,9 +40,10 @@ class ProgressLine {
       std::chrono::steady_clock::now();
 };
 
-// Installs handlers for SIGINT and SIGTERM that store the signal number in
-// the returned flag: a rig session ramps down when it is non-zero, a long
-// offline computation stops (StopSignal).
+// Installs handlers for SIGINT and SIGTERM that store the first signal's
+// number in the returned flag: a rig session ramps down when it is
+// non-zero, a long offline computation stops (StopSignal). A second signal
+// only says that a third kills at once.
 const std::atomic<int>& InstallStopSignalHandlers();
 
 // SIGINT and SIGTERM in a long offline command (estimate, screen,

@@ -154,6 +154,25 @@ int RunTimingCheck(const TimingCheckArgs& args) {
       static_cast<long long>(result.loop.overruns),
       static_cast<long long>(result.loop.skipped_cycles),
       static_cast<long long>(result.loop.skipped_by_late_wakeup));
+  // The link over the whole run, its end included: a rig that dies in the
+  // last cycles (before the watchdog's count) is no pass either.
+  std::printf(
+      "  link: %lld read errors, %lld write errors, %lld stale samples, "
+      "%lld rig samples lost; release %s\n",
+      static_cast<long long>(timing.read_errors),
+      static_cast<long long>(timing.write_errors),
+      static_cast<long long>(timing.stale_samples),
+      static_cast<long long>(timing.lost_rig_samples),
+      timing.release_error.empty()
+          ? "ok"
+          : ("failed (" + timing.release_error + ")").c_str());
+  if (timing.read_errors + timing.write_errors + timing.stale_samples +
+              timing.lost_rig_samples >
+          0 ||
+      !timing.release_error.empty()) {
+    timing.violations.push_back("the link failed (see link)");
+    timing.within_budget = false;
+  }
   const bool within = timing.within_budget;
   for (const std::string& violation : timing.violations) {
     std::printf("  over budget: %s\n", violation.c_str());

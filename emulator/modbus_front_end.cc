@@ -8,15 +8,17 @@
 namespace kcrig {
 namespace {
 
+// The sample as `client` reads it: only the owner's connection is told the
+// owner's token.
 void PublishSample(const RigMeasurement& m, const RigEmulator& rig,
-                   const ModbusMap& map, std::uint16_t* input) {
+                   const ModbusMap& map, int client, std::uint16_t* input) {
   const bool order = map.high_word_first;
   input[map.status] = m.status;
   input[map.fault_code] = m.fault_code;
   PutUint32(m.sample, order, &input[map.sample]);
   input[map.sequence_echo] = rig.last_sequence();
   input[map.protocol] = kModbusProtocolVersion;
-  input[map.owner] = rig.ownership().owner();
+  input[map.owner] = rig.ownership().VisibleOwner(client);
   input[map.refused_writes] = rig.ownership().refused();
   for (int k = 0; k < 3; ++k)
     PutFloat32(m.force(k), order, &input[map.force[k]]);
@@ -58,7 +60,8 @@ RigRequest DecodeWrite(const ModbusMap& map, const std::uint16_t* holding,
 
 Status ServeModbus(RigEmulator* rig, const Clock& clock, const ModbusMap& map,
                    const ModbusServeAt& at, const std::atomic<int>& stop,
-                   const std::function<void(const std::string&)>& on_ready) {
+                   const std::function<void(const std::string&)>& on_ready,
+                   const std::function<void(const std::string&)>& on_note) {
   ModbusServer server(map);
   Status status = at.device.empty() ? server.Listen(at.host, at.port)
                                     : server.OpenSerial(at.device, at.serial);
@@ -67,16 +70,16 @@ Status ServeModbus(RigEmulator* rig, const Clock& clock, const ModbusMap& map,
   if (!status.ok()) return status;
   std::uint16_t* input = server.input_registers();
   std::uint16_t* holding = server.holding_registers();
-  PublishSample(rig->TakeSample(), *rig, map, input);
+  PublishSample(rig->TakeSample(), *rig, map, /*client=*/-1, input);
   on_ready(at.device.empty()
                ? "modbus-tcp://" + at.host + ":" + std::to_string(server.port())
                : "modbus-rtu://" + at.device);
 
   ModbusServer::Hooks hooks;
   hooks.tick = [rig, &clock] { rig->AdvanceTo(clock.Seconds()); };
-  hooks.before_input_read = [&] {
+  hooks.before_input_read = [&](int client) {
     rig->AdvanceTo(clock.Seconds());
-    PublishSample(rig->TakeSample(), *rig, map, input);
+    PublishSample(rig->TakeSample(), *rig, map, client, input);
   };
   // A refused write leaves the table as it was; the owner and the refusal
   // count reach the input registers with the next sample.
@@ -93,6 +96,15 @@ Status ServeModbus(RigEmulator* rig, const Clock& clock, const ModbusMap& map,
     rig->AdvanceTo(clock.Seconds());
     rig->ConnectionClosed(connection);
   };
+  // The owner's token stays in the holding table (its writes put it
+  // there), but only the owner's connection reads it back.
+  hooks.before_holding_read = [&](int client) {
+    holding[map.session] = rig->ownership().VisibleOwner(client);
+  };
+  hooks.is_protected = [rig](int client) {
+    return rig->ownership().IsOwnerConnection(client);
+  };
+  hooks.note = on_note;
   return server.Serve(stop, 1e-3, hooks);
 }
 

@@ -3,7 +3,9 @@
 // takes a fresh sample (the rig samples on request, so the controller sees
 // one new sample per cycle); a write of the holding registers is the
 // command, obeyed only from the session in control (one master: the
-// session, owner and refused_writes registers, rig_ownership.h); the plant
+// session, owner and refused_writes registers, rig_ownership.h: a write
+// is the owner's only on the owner's connection, and only that connection
+// reads the owner's token, others 0xffff); the plant
 // advances to the clock's time between requests (at least every
 // millisecond) and before each is answered.
 #ifndef KCRIG_EMULATOR_MODBUS_FRONT_END_H_
@@ -30,10 +32,13 @@ struct ModbusServeAt {
 };
 
 // Opens `at`, calls `on_ready` with its URI (modbus-tcp://HOST:PORT with
-// the bound port, or modbus-rtu://DEVICE), serves until *stop is non-zero.
+// the bound port, or modbus-rtu://DEVICE), serves until *stop is non-zero;
+// `on_note` gets a line whenever the server closes a client for idleness
+// or room (may be empty).
 Status ServeModbus(RigEmulator* rig, const Clock& clock, const ModbusMap& map,
                    const ModbusServeAt& at, const std::atomic<int>& stop,
-                   const std::function<void(const std::string&)>& on_ready);
+                   const std::function<void(const std::string&)>& on_ready,
+                   const std::function<void(const std::string&)>& on_note);
 
 }  // namespace kcrig
 

@@ -1,5 +1,6 @@
 #include "emulator/plant_config.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <vector>
@@ -96,6 +97,14 @@ Status LoadPlantConfig(const std::string& directory,
       reader.InRange(rig, "rig", "travel_max", 1e-4, 0.5, &plant->travel_max));
   KCRIG_RETURN_IF_ERROR(reader.InRange(rig, "rig", "command_timeout", 1e-3, 1,
                                        &plant->command_timeout));
+  if (rig["claim_timeout"]) {  // optional: older plant.yaml files
+    KCRIG_RETURN_IF_ERROR(reader.InRange(rig, "rig", "claim_timeout",
+                                         plant->command_timeout, 60,
+                                         &plant->claim_timeout));
+  } else {
+    plant->claim_timeout =
+        std::max(plant->claim_timeout, plant->command_timeout);
+  }
   KCRIG_RETURN_IF_ERROR(reader.InRange(rig, "rig", "ramp_down_time", 1e-3, 10,
                                        &plant->ramp_down_time));
   if (rig["rest_between_runs"]) {  // optional: older plant.yaml files

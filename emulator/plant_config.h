@@ -29,7 +29,11 @@ struct PlantConfig {
   // while enabled, the rig faults and ramps its force to zero.
   double travel_max = 0.03;       // [m]
   double command_timeout = 0.05;  // [s]
-  double ramp_down_time = 0.2;    // [s]
+  // The owner's claim ends after this long without a request from it (or
+  // when its connection closes); longer than command_timeout, so that a
+  // transient stall faults the rig but leaves the claim with its owner.
+  double claim_timeout = 1.0;   // [s]
+  double ramp_down_time = 0.2;  // [s]
   // The embedded SIL rig's rest between one run's end and the next run's
   // start (a campaign estimates and designs meanwhile) [s]; its state
   // carries over whatever the rest.

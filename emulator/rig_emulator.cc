@@ -35,7 +35,7 @@ void RigEmulator::Step() {
   if (enabled_ && time_ - last_command_ > config_.command_timeout) {
     Fault(kFaultCommandTimeout);
   }
-  if (ownership_.Expire(time_, config_.command_timeout)) {
+  if (ownership_.Expire(time_, config_.claim_timeout)) {
     LoseOwner(kFaultCommandTimeout);
   }
   Vec3<double> demand = enabled_ ? setpoint_ : Vec3<double>::Zero();

@@ -23,16 +23,6 @@
 
 namespace kcrig {
 
-// The rig's fault codes (Modbus input register fault_code, CAN
-// KC_Heartbeat FaultCode).
-enum RigFaultCode : std::uint16_t {
-  kFaultNone = 0,
-  kFaultTravel = 1,
-  kFaultCommandTimeout = 2,
-  kFaultDiverged = 3,
-  kFaultOwnerLost = 4,  // the owner's connection closed while enabled
-};
-
 // A command as a session-aware front end receives it.
 struct RigRequest {
   RigCommand command;

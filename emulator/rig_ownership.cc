@@ -4,9 +4,10 @@ namespace kcrig {
 
 RigOwnership::Verdict RigOwnership::Decide(const Request& request, double now) {
   const bool from_owner =
-      owner_ != 0 && request.has_session && request.session == owner_;
+      owner_ != 0 && request.has_session && request.session == owner_ &&
+      (owner_connection_ < 0 || request.connection == owner_connection_);
   if (owner_ == 0 && request.claim && request.has_session &&
-      request.session != 0) {
+      request.session != 0 && request.session != kOwnerHidden) {
     owner_ = request.session;
     owner_connection_ = request.connection;
   } else if (!from_owner && (owner_ != 0 || request.enable)) {
@@ -22,6 +23,13 @@ RigOwnership::Verdict RigOwnership::Decide(const Request& request, double now) {
     return Verdict::kObeyAndRelease;
   }
   return Verdict::kObey;
+}
+
+std::uint16_t RigOwnership::VisibleOwner(int connection) const {
+  if (owner_ == 0 || owner_connection_ < 0 || connection == owner_connection_) {
+    return owner_;
+  }
+  return kOwnerHidden;
 }
 
 bool RigOwnership::ConnectionClosed(int connection) {

@@ -1,15 +1,20 @@
 // One master at a time, on the rig side (the contract of README 2.4 that a
 // real rig's front end implements too): a master claims an unclaimed rig
 // with a non-zero session token; while it is claimed, only requests that
-// carry the owner's token are obeyed and all others are refused and
-// counted; the owner gives control back by request, and loses it when it
-// stays silent for the command timeout or its connection closes. Nothing
-// enables an unclaimed rig. Transport-free: the front end says which
-// connection a request came on.
+// carry the owner's token on the owner's connection are obeyed, and all
+// others are refused and counted, so a token read or guessed by another
+// client is worth nothing. Only the owner's connection is told the token
+// (VisibleOwner). The owner gives control back by request, and loses it
+// when it stays silent for the claim timeout or its connection closes.
+// Nothing enables an unclaimed rig. Transport-free: the front end says
+// which connection a request came on (-1 on a shared bus, where the token
+// alone names the owner).
 #ifndef KCRIG_EMULATOR_RIG_OWNERSHIP_H_
 #define KCRIG_EMULATOR_RIG_OWNERSHIP_H_
 
 #include <cstdint>
+
+#include "rt_core/model/rig_signals.h"
 
 namespace kcrig {
 
@@ -36,6 +41,15 @@ class RigOwnership {
   // Ends the claim when the owner was silent for more than `timeout` [s];
   // true if it did.
   bool Expire(double now, double timeout);
+
+  // The owner register as `connection` may read it: the token for the
+  // owner's own connection (and on a shared bus), kOwnerHidden to any
+  // other while the rig is claimed, 0 when it is not.
+  std::uint16_t VisibleOwner(int connection) const;
+  // Whether `connection` is the owner's (never true on a shared bus).
+  bool IsOwnerConnection(int connection) const {
+    return owner_ != 0 && connection >= 0 && connection == owner_connection_;
+  }
 
   std::uint16_t owner() const { return owner_; }
   std::uint16_t refused() const { return refused_; }  // mod 2^16

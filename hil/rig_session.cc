@@ -55,7 +55,13 @@ std::string TripMessage(const LoopResult& loop, double period,
       what += " (no fresh measurement for the configured number of cycles)";
       break;
     case TripCause::kRigFault:
-      what += " (the rig reported a fault or stopped being enabled)";
+      what += loop.rig_fault_code == kFaultNone
+                  ? std::string(
+                        " (the rig stopped being enabled: local mode "
+                        "or its emergency stop)")
+                  : " (the rig reported fault " +
+                        std::to_string(loop.rig_fault_code) + ": " +
+                        RigFaultMeaning(loop.rig_fault_code) + ")";
       break;
     case TripCause::kInvalidMeasurement:
       what += " (the rig sent a non-finite value)";
@@ -85,8 +91,13 @@ std::string TripMessage(const LoopResult& loop, double period,
                 static_cast<double>(loop.trip_cycle) * period);
   // Say what reached the rig, not what was meant to.
   std::string outcome = "; force ramped to zero and disabled";
-  if (loop.commands_after_trip > 0 &&
-      loop.undelivered_after_trip == loop.commands_after_trip) {
+  if (loop.withheld_after_trip > 0) {
+    outcome =
+        "; this controller sent nothing more (its commands would fight the "
+        "other master's): the rig's own limits and command watchdog must "
+        "stop it";
+  } else if (loop.commands_after_trip > 0 &&
+             loop.undelivered_after_trip == loop.commands_after_trip) {
     outcome =
         "; the force command ramped to zero, but none of it reached the rig "
         "(its own watchdog must stop it)";
@@ -156,7 +167,13 @@ Status RunOnRig(const RealtimeOptions& realtime, bool real_time,
   const Status activated = rig != nullptr ? rig->Activate() : Status::Ok();
   if (activated.ok()) result->loop = loop->Run();
   if (real_time) LeaveRealtime();
-  if (rig != nullptr && !rig->Deactivate().ok()) rig->OnError();
+  if (rig != nullptr) {
+    const Status released = rig->Deactivate();
+    if (!released.ok()) {
+      result->release_error = released.message();
+      rig->OnError();
+    }
+  }
   return activated;
 }
 
@@ -202,6 +219,7 @@ std::string HilJson(const RigConfig& rig_config,
   hil["write_errors"] = lr.write_errors;
   hil["commands_after_trip"] = lr.commands_after_trip;
   hil["undelivered_after_trip"] = lr.undelivered_after_trip;
+  hil["withheld_after_trip"] = lr.withheld_after_trip;
   hil["lost_rig_samples"] = lr.lost_rig_samples;
   hil["rig_sample_jumps"] = lr.rig_sample_jumps;
   hil["overruns"] = lr.overruns;
@@ -237,6 +255,10 @@ TimingFile MakeTimingFile(const LoopTiming& timing, const LoopResult& loop,
   t.skipped_cycles = loop.skipped_cycles;
   t.skipped_by_late_wakeup = loop.skipped_by_late_wakeup;
   t.dropped_log_records = loop.dropped_records;
+  t.read_errors = loop.read_errors;
+  t.write_errors = loop.write_errors;
+  t.stale_samples = loop.stale;
+  t.lost_rig_samples = loop.lost_rig_samples;
   t.sched_fifo = realtime.fifo;
   t.cpu_affinity = realtime.affinity;
   t.memory_locked = realtime.locked;
@@ -376,6 +398,7 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   result->timing = MakeTimingFile(loop.timing(), lr, result->realtime, period,
                                   rig_config.budget, rig != nullptr);
   result->timing.trip = result->trip_message;
+  result->timing.release_error = result->release_error;
   // Figures of a loop a fault ended early are not a pass; the trip says why.
   if (!result->completed) result->timing.within_budget = false;
   if (options.log_dir.empty()) return Status::Ok();

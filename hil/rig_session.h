@@ -56,6 +56,7 @@ struct RigSessionResult {
   std::int64_t filled_rows = 0;  // of them, cycles skipped by overruns
   bool completed = false;        // the run profile ran to its end
   std::string trip_message;      // one line when tripped
+  std::string release_error;     // the rig's release after the loop failed
   TimingFile timing;             // what timing.json holds
 };
 

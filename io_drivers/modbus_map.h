@@ -25,7 +25,8 @@ struct ModbusMap {
   int status = 0, fault_code = 1, sample = 2, sequence_echo = 4, protocol = 5;
   int force[3] = {6, 8, 10};
   int y[6] = {12, 14, 16, 18, 20, 22};
-  int owner = 24;           // the session in control, 0 = none
+  int owner = 24;  // the session in control (to its own connection; 0xffff
+                   // to others while claimed), 0 = none
   int refused_writes = 25;  // writes the rig refused, mod 2^16
   // One past the highest register used, per table.
   int holding_count() const;
@@ -33,17 +34,20 @@ struct ModbusMap {
 };
 
 // Control word bits and the map's protocol version. One master at a time
-// (README 2.4): a write with `claim` and a non-zero session token takes an
-// unclaimed rig; while claimed, the rig obeys only writes that carry the
-// owner's token in the same request (others get exception 6, server busy);
-// `release`, the owner's silence for the rig's command timeout or its
-// connection closing end the claim. An unclaimed rig is never enabled.
+// (README 2.4): a write with `claim` and a session token (not 0 or
+// kOwnerHidden) takes an unclaimed rig; while claimed, the rig obeys only
+// writes that carry the owner's token in the same request on the
+// connection that claimed (others get exception 6, server busy), and tells
+// the token to that connection only (others read kOwnerHidden); `release`,
+// the owner's silence for the rig's claim timeout or its connection
+// closing end the claim. An unclaimed rig is never enabled.
 inline constexpr std::uint16_t kControlEnable = 1u << 0;
 inline constexpr std::uint16_t kControlResetFault = 1u << 1;
 inline constexpr std::uint16_t kControlClaim = 1u << 2;
 inline constexpr std::uint16_t kControlRelease = 1u << 3;
-// 2: the session, owner and refused_writes registers (one master).
-inline constexpr std::uint16_t kModbusProtocolVersion = 2;
+// 2: the session, owner and refused_writes registers (one master); 3: the
+// claim bound to its connection, the token told only to it.
+inline constexpr std::uint16_t kModbusProtocolVersion = 3;
 
 Status LoadModbusMap(const std::string& file, ModbusMap* map);
 

@@ -27,18 +27,28 @@ void SetTimeout(modbus_t* context, double seconds) {
 // libmodbus uses the response timeout as the TCP connect timeout too.
 constexpr double kConnectTimeout = 1.0;  // [s]
 
-// A session token no other controller is likely to hold (non-zero).
-std::uint16_t NewSession() {
-  std::random_device device;
-  std::uint16_t session = 0;
-  while (session == 0) session = static_cast<std::uint16_t>(device());
-  return session;
-}
-
 std::string Hex(std::uint16_t value) {
   char text[8];
   std::snprintf(text, sizeof(text), "0x%04x", value);
   return text;
+}
+
+// A session token no other controller is likely to hold (neither 0 nor
+// the hidden owner's value).
+std::uint16_t NewSession() {
+  std::random_device device;
+  std::uint16_t session = 0;
+  while (session == 0 || session == kOwnerHidden) {
+    session = static_cast<std::uint16_t>(device());
+  }
+  return session;
+}
+
+// What the owner register says to a controller that is not the owner.
+std::string OwnerText(std::uint16_t owner) {
+  return owner == kOwnerHidden ? "another session (the rig names it only to "
+                                 "that session's own connection)"
+                               : "session " + Hex(owner);
 }
 
 }  // namespace
@@ -139,11 +149,12 @@ std::string ModbusRig::CountersJson() const {
                 ", \"late_replies\": %lld, \"late_reply_max_ms\": %.3f",
                 static_cast<long long>(late_replies_), late_reply_max_s_ * 1e3);
   std::string json = "{\"reconnects\": " + std::to_string(reconnects_.load()) +
-                     ", \"session\": " + std::to_string(session_) + late;
+                     ", \"session\": " + std::to_string(session_) + late +
+                     ", \"refused_writes\": " + std::to_string(refused_writes_);
   if (foreign_) {
     json += ", \"fault\": \"the rig obeys another master: ";
     json += foreign_echo_ours_
-                ? "it reports session " + Hex(foreign_owner_) +
+                ? "it reports " + OwnerText(foreign_owner_) +
                       " in control, not this controller's " + Hex(session_)
                 : "it echoes command sequence " +
                       std::to_string(foreign_echo_) +
@@ -195,9 +206,20 @@ Status ModbusRig::Configure() {
   }
   const int count = map_.input_count();
   if (modbus_read_input_registers(context_, 0, count, input_) != count) {
+    const int error = errno;
+    if (error == ECONNRESET || error == EPIPE || error == ECONNABORTED) {
+      return Status::Error(
+          Describe() +
+          ": the rig closed the connection at once (it serves a bounded "
+          "number of clients: too many others connected, or it refuses "
+          "this host)");
+    }
+    if (error == EMBXSBUSY) {
+      return Status::Error(Describe() + ": the rig is busy (exception 6)");
+    }
     return Status::Error(Describe() + ": reading input registers 0.." +
                          std::to_string(count - 1) + " failed (" +
-                         modbus_strerror(errno) + ")");
+                         modbus_strerror(error) + ")");
   }
   if (input_[map_.protocol] != kModbusProtocolVersion) {
     return Status::Error(Describe() + ": input register " +
@@ -239,19 +261,27 @@ Status ModbusRig::WriteControl(std::uint16_t control_word, int attempts) {
 }
 
 Status ModbusRig::ClaimedElsewhere() {
-  // Best effort: the owner's session for the message.
-  std::string owner = "unknown";
-  if (modbus_read_input_registers(context_, 0, map_.input_count(), input_) ==
+  // Best effort: the owner and the fault for the message.
+  if (modbus_read_input_registers(context_, 0, map_.input_count(), input_) !=
       map_.input_count()) {
-    owner = Hex(input_[map_.owner]);
+    return Status::Error(Describe() +
+                         ": the rig refuses this controller's writes (server "
+                         "busy) and no longer answers reads");
+  }
+  const std::uint16_t owner = input_[map_.owner];
+  if (owner == 0 || owner == session_) {
+    // Not another master: the rig ended this controller's claim itself.
+    const std::uint16_t fault = input_[map_.fault_code];
+    return Status::Error(
+        Describe() + ": the rig refuses this controller: it ended its claim" +
+        (fault != kFaultNone ? " after fault " + std::to_string(fault) + " (" +
+                                   RigFaultMeaning(fault) + ")"
+                             : std::string(" (no fault reported)")));
   }
   return Status::Error(
-      Describe() +
-      ": the rig refuses this controller: another master "
-      "(session " +
-      owner +
-      ") is in control; stop it, or wait until the rig's command watchdog "
-      "releases it");
+      Describe() + ": the rig refuses this controller: " + OwnerText(owner) +
+      " is in control (another master); stop it, or wait until the rig "
+      "releases it (its claim timeout)");
 }
 
 Status ModbusRig::Activate() {
@@ -269,6 +299,7 @@ Status ModbusRig::Activate() {
     if (connected_ &&
         modbus_read_input_registers(context_, 0, count, input_) == count) {
       if (input_[map_.owner] != session_) return ClaimedElsewhere();
+      refused_at_claim_ = input_[map_.refused_writes];
       const std::uint16_t rig_status = input_[map_.status];
       if ((rig_status & kRigEnabled) && !(rig_status & kRigFault)) {
         // Keep the rig's command watchdog fed until the loop starts.
@@ -327,6 +358,8 @@ IoResult ModbusRig::Read(RigMeasurement* measurement) {
     ++late_replies_;
     late_reply_max_s_ = std::max(late_reply_max_s_, took);
   }
+  refused_writes_ = static_cast<std::uint16_t>(input_[map_.refused_writes] -
+                                               refused_at_claim_);
   if (ForeignMasterSeen()) return IoResult::kForeign;
   const bool order = map_.high_word_first;
   const std::uint32_t sample = GetUint32(&input_[map_.sample], order);

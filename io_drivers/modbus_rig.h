@@ -72,7 +72,8 @@ class ModbusRig : public RigInterface {
   void FlushIfNeeded();
   void ReconnectLoop();
   Status WriteControl(std::uint16_t control_word, int attempts);
-  // The error for a write the rig refused (exception 6): another master.
+  // The error for a write the rig refused (exception 6): another master,
+  // or the rig ended this controller's claim (its fault, named).
   Status ClaimedElsewhere();
   // Whether the last read shows another master; records what it saw.
   bool ForeignMasterSeen();
@@ -106,6 +107,10 @@ class ModbusRig : public RigInterface {
   std::uint16_t foreign_echo_ = 0;
   bool foreign_echo_ours_ = true;
   bool foreign_ = false;
+  // The rig's refused_writes register when this controller took the claim,
+  // and how many writes it refused since (anyone's, mod 2^16).
+  std::uint16_t refused_at_claim_ = 0;
+  std::uint16_t refused_writes_ = 0;
   // Reads answered after modbus.response_timeout. libmodbus bounds the whole
   // reply by it (byte timeout 0), so such a read means this thread ran late
   // after its wait (a late wake-up: the machine's scheduling, a VM's stolen

@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <vector>
 
@@ -37,6 +38,7 @@ struct Client {
   std::array<std::uint8_t, MODBUS_TCP_MAX_ADU_LENGTH> frame{};
   int received = 0;
   double partial_since = 0;
+  double last_request = 0;  // when it connected or sent its last whole frame
 
   // Bytes of the whole frame once its header is in (0 before); -1 when the
   // header is not Modbus TCP.
@@ -105,7 +107,12 @@ bool AnswerRequest(modbus_t* context, modbus_mapping_t* mapping,
       (unit != modbus_get_slave(context) && unit != 0 && unit != 0xff)) {
     return true;  // for another unit behind a gateway: not ours to answer
   }
-  if (pdu[0] == MODBUS_FC_READ_INPUT_REGISTERS) hooks.before_input_read();
+  if (pdu[0] == MODBUS_FC_READ_INPUT_REGISTERS) hooks.before_input_read(client);
+  if ((pdu[0] == MODBUS_FC_READ_HOLDING_REGISTERS ||
+       pdu[0] == MODBUS_FC_WRITE_AND_READ_REGISTERS) &&
+      hooks.before_holding_read) {
+    hooks.before_holding_read(client);
+  }
   const bool writes_holding = pdu[0] == MODBUS_FC_WRITE_SINGLE_REGISTER ||
                               pdu[0] == MODBUS_FC_WRITE_MULTIPLE_REGISTERS ||
                               pdu[0] == MODBUS_FC_WRITE_AND_READ_REGISTERS ||
@@ -152,7 +159,9 @@ Status ModbusServer::Listen(const std::string& host, int port) {
   if (mapping_ == nullptr) {
     return Status::Error("modbus server: cannot allocate the register map");
   }
-  listen_socket_ = modbus_tcp_listen(context_, 8);
+  // A deep backlog: a burst of connections (a scan, a flood) must not make
+  // the master's connect wait out a dropped SYN's one-second retry.
+  listen_socket_ = modbus_tcp_listen(context_, 128);
   if (listen_socket_ < 0) {
     return Status::Error("--modbus-tcp " + host + ":" + std::to_string(port) +
                          ": cannot listen (" + modbus_strerror(errno) + ")");
@@ -234,12 +243,19 @@ class Connections {
     }
     for (int fd : ready) Receive(fd);
     DropStalledFrames(Now());
-    if (accepting && count > 0 && (fds[0].revents & POLLIN)) Accept();
+    CloseIdle(Now());
+    // Drain the backlog: a full one drops connection attempts, which the
+    // client's kernel retries only after a second or more.
+    if (accepting && count > 0 && (fds[0].revents & POLLIN)) {
+      for (int k = 0; k < 64 && Accept(); ++k) {
+      }
+    }
     return Status::Ok();
   }
 
  private:
-  void Accept() {
+  // Accepts one pending connection; false when none was pending.
+  bool Accept() {
     const int fd = accept4(listen_socket_, nullptr, nullptr, SOCK_NONBLOCK);
     if (fd < 0) {
       // Out of descriptors: the pending connection stays readable, so stop
@@ -248,11 +264,15 @@ class Connections {
           errno == ENOMEM) {
         accept_paused_until_ = Now() + 0.1;
       }
-      return;
+      return false;
     }
-    if (static_cast<int>(clients_.size()) >= ModbusServer::kMaxClients) {
+    if (static_cast<int>(clients_.size()) >= ModbusServer::kMaxClients &&
+        !MakeRoom()) {
       close(fd);
-      return;
+      Note("refused a connection: it serves " +
+           std::to_string(ModbusServer::kMaxClients) +
+           " connections and none has been idle for 1 s");
+      return true;
     }
     // Without TCP_NODELAY, Nagle holds each small reply until the client
     // acknowledges the previous one: one cycle late.
@@ -261,7 +281,71 @@ class Connections {
     Client client;
     client.fd = fd;
     client.id = ++last_id_;
+    client.last_request = Now();
     clients_.push_back(client);
+    return true;
+  }
+
+  bool Protected(const Client& c) const {
+    return hooks_.is_protected && hooks_.is_protected(c.id);
+  }
+
+  // Closes the longest idle unprotected connection if it has been idle
+  // for kEvictableIdle; false if none has.
+  bool MakeRoom() {
+    const double now = Now();
+    const Client* idlest = nullptr;
+    for (const Client& c : clients_) {
+      if (!Protected(c) &&
+          now - c.last_request >= ModbusServer::kEvictableIdle &&
+          (idlest == nullptr || c.last_request < idlest->last_request)) {
+        idlest = &c;
+      }
+    }
+    if (idlest == nullptr) return false;
+    char line[160];
+    std::snprintf(line, sizeof(line),
+                  "%d connections (the most it serves): closed client %d, "
+                  "idle %.1f s, for a new one",
+                  ModbusServer::kMaxClients, idlest->id,
+                  now - idlest->last_request);
+    Note(line);
+    Close(idlest->fd);
+    return true;
+  }
+
+  // Closes unprotected connections without a whole request for
+  // kIdleTimeout (an idle or half-open client holds a place for nothing).
+  void CloseIdle(double now) {
+    std::vector<int> idle;
+    for (const Client& c : clients_) {
+      if (!Protected(c) && now - c.last_request > ModbusServer::kIdleTimeout) {
+        idle.push_back(c.fd);
+      }
+    }
+    if (!idle.empty()) {
+      Note("closed " + std::to_string(idle.size()) +
+           " connection(s) idle for more than " +
+           std::to_string(static_cast<int>(ModbusServer::kIdleTimeout)) + " s");
+    }
+    for (int fd : idle) Close(fd);
+  }
+
+  // At most one line a second: a flood of connections is one line, not a
+  // flood of lines.
+  void Note(const std::string& line) {
+    const double now = Now();
+    if (!hooks_.note) return;
+    if (now - last_note_ < 1.0) {
+      ++notes_held_;
+      return;
+    }
+    hooks_.note(notes_held_ > 0
+                    ? line + " (and " + std::to_string(notes_held_) +
+                          " more like it in the last second)"
+                    : line);
+    last_note_ = now;
+    notes_held_ = 0;
   }
 
   Client* Find(int fd) {
@@ -305,6 +389,7 @@ class Connections {
       if (c->FrameLength() > 0 && c->received == c->FrameLength()) {
         const int frame_length = c->received;
         c->received = 0;
+        c->last_request = Now();
         ++answered;
         modbus_set_socket(context_, fd);
         if (!AnswerRequest(context_, mapping_, hooks_, c->id, c->frame.data(),
@@ -334,6 +419,8 @@ class Connections {
   std::vector<std::uint16_t> values_;
   int last_id_ = 0;
   double accept_paused_until_ = 0;
+  double last_note_ = -1e9;
+  int notes_held_ = 0;
 };
 
 }  // namespace

@@ -2,16 +2,21 @@
 // tables, for the rig side: the emulator's front end. Over RTU it serves
 // the one master of its serial line (client 1); a frame with a bad CRC or
 // cut short is dropped (the master times out). Over TCP it serves several
-// clients (the
-// controller, mbpoll, ...) from one thread with poll() and never blocks on
-// one of them: each connection has its own receive buffer, a request is
-// answered once its whole frame has arrived, a frame left unfinished for
-// kPartialFrameTimeout or a malformed header closes that connection only,
-// and connections beyond kMaxClients are closed at once. The owner's hooks
-// run on every wake-up (advance the plant, at least every tick interval),
-// before an input-register read is answered (take a sample), before a
-// holding-register write is applied (accept it, or refuse it with
-// exception 6, server busy) and when a client's connection closes.
+// clients (the controller, mbpoll, ...) from one thread with poll() and
+// never blocks on one of them: each connection has its own receive buffer,
+// a request is answered once its whole frame has arrived, and a frame left
+// unfinished for kPartialFrameTimeout or a malformed header closes that
+// connection only. Connections are bounded so that none can lock the
+// master out: one without a whole request for kIdleTimeout is closed, and
+// a new connection beyond kMaxClients takes the place of the longest idle
+// one if that one has been idle for kEvictableIdle (a flood of new
+// connections cannot push out a client at work), never of a protected one
+// (the owner's); otherwise the new one is closed at once. The owner's hooks run
+// on every wake-up (advance the plant, at least every tick interval), before an
+// input-register read is answered (take a sample, for that client) and a
+// holding-register read (what that client may see of the table), before a
+// holding-register write is applied (accept it, or refuse it with exception 6,
+// server busy) and when a client's connection closes.
 #ifndef KCRIG_IO_DRIVERS_MODBUS_SERVER_H_
 #define KCRIG_IO_DRIVERS_MODBUS_SERVER_H_
 
@@ -33,17 +38,24 @@ class ModbusServer {
  public:
   static constexpr int kMaxClients = 16;
   static constexpr double kPartialFrameTimeout = 0.5;  // [s]
+  static constexpr double kIdleTimeout = 10.0;         // [s]
+  static constexpr double kEvictableIdle = 1.0;        // [s]
 
   // `client` identifies a connection for as long as the server runs (ids
   // are never reused). `values` are the registers a write request carries,
   // starting at `address`.
   struct Hooks {
     std::function<void()> tick;
-    std::function<void()> before_input_read;
+    std::function<void(int client)> before_input_read;
+    std::function<void(int client)> before_holding_read;
     std::function<bool(int client, int address, int count,
                        const std::uint16_t* values)>
         accept_holding_write;
     std::function<void(int client)> client_closed;
+    // A connection never closed for idleness or room (the owner's).
+    std::function<bool(int client)> is_protected;
+    // One line on what the server did to a connection (for the log).
+    std::function<void(const std::string& line)> note;
   };
 
   explicit ModbusServer(const ModbusMap& map);

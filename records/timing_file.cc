@@ -70,6 +70,17 @@ Status ReadTimingDocument(const std::string& path, const nlohmann::json& doc,
   t->no_cpu_idle = realtime.value("no_cpu_idle", false);
   t->realtime_warnings = realtime.value("warnings", std::vector<std::string>());
   if (doc.contains("trip") && doc["trip"].is_string()) t->trip = doc["trip"];
+  const nlohmann::json link = doc.value("link", nlohmann::json::object());
+  if (!link.is_object()) {
+    return Status::Error(path + ".link: expected an object");
+  }
+  t->read_errors = link.value("read_errors", std::int64_t{0});
+  t->write_errors = link.value("write_errors", std::int64_t{0});
+  t->stale_samples = link.value("stale_samples", std::int64_t{0});
+  t->lost_rig_samples = link.value("lost_rig_samples", std::int64_t{0});
+  if (link.contains("release_error") && link["release_error"].is_string()) {
+    t->release_error = link["release_error"];
+  }
   const nlohmann::json budget = doc.value("budget", nlohmann::json::object());
   if (!budget.is_object()) {
     return Status::Error(path +
@@ -98,6 +109,13 @@ std::string TimingFileToJson(const TimingFile& t) {
   doc["skipped_by_late_wakeup"] = t.skipped_by_late_wakeup;
   doc["dropped_log_records"] = t.dropped_log_records;
   doc["trip"] = t.trip.empty() ? Json(nullptr) : Json(t.trip);
+  doc["link"] = {
+      {"read_errors", t.read_errors},
+      {"write_errors", t.write_errors},
+      {"stale_samples", t.stale_samples},
+      {"lost_rig_samples", t.lost_rig_samples},
+      {"release_error",
+       t.release_error.empty() ? Json(nullptr) : Json(t.release_error)}};
   doc["realtime"] = {{"sched_fifo", t.sched_fifo},
                      {"cpu_affinity", t.cpu_affinity},
                      {"memory_locked", t.memory_locked},

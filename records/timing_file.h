@@ -43,6 +43,13 @@ struct TimingFile {
   // The safety trip that ended the loop early ("tripped: watchdog (...)"),
   // "" when it ran to its end: timing measured up to a fault is not a pass.
   std::string trip;
+  // The link over the whole run, its end included: reads that failed
+  // (timeout, exception, lost link), writes that failed, reads that brought
+  // no new sample, samples the rig took that never arrived, and the error
+  // of the rig's release after the loop ("" when it was released).
+  std::int64_t read_errors = 0, write_errors = 0, stale_samples = 0,
+               lost_rig_samples = 0;
+  std::string release_error;
   // By phase name: wakeup, read, compute, write, cycle.
   std::map<std::string, TimingPhase> phases;
   // The budget (rig.yaml timing_budget) and whether the run held it;

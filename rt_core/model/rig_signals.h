@@ -19,6 +19,39 @@ enum RigStatusBit : std::uint16_t {
   kRigWatchdog = 1u << 3,  // the rig saw no command within its timeout
 };
 
+// The rig's fault codes (Modbus input register `fault_code`, CAN
+// KC_Heartbeat FaultCode): why a rig faulted itself and ramped down.
+enum RigFaultCode : std::uint16_t {
+  kFaultNone = 0,
+  kFaultTravel = 1,          // its own travel limit
+  kFaultCommandTimeout = 2,  // enabled, no command within its timeout
+  kFaultDiverged = 3,        // its plant left the finite range
+  kFaultOwnerLost = 4,       // the owner's connection closed while enabled
+};
+
+// What a fault code means, for messages ("" for none, "an unknown fault
+// code" for a rig's own codes beyond these).
+inline const char* RigFaultMeaning(std::uint16_t code) {
+  switch (code) {
+    case kFaultNone:
+      return "";
+    case kFaultTravel:
+      return "its own travel limit";
+    case kFaultCommandTimeout:
+      return "its command watchdog: no command reached it within its "
+             "command timeout (a stall of the link or of this controller)";
+    case kFaultDiverged:
+      return "its plant diverged";
+    case kFaultOwnerLost:
+      return "the owner's connection closed while it was enabled";
+  }
+  return "a fault code kcrig does not know";
+}
+
+// The owner register's value for a client that is not the owner while the
+// rig is claimed: a session token never handed out.
+inline constexpr std::uint16_t kOwnerHidden = 0xffff;
+
 // One sample of the rig's sensors.
 struct RigMeasurement {
   std::uint32_t sample = 0;                   // the rig's sample counter

@@ -103,7 +103,9 @@ bool ControlLoop::Cycle(std::int64_t cycle, std::int64_t skipped) {
   const std::int64_t t2 = MonotonicNanoseconds();
   timing_.compute.Record(t2 - t1);
 
-  if (rig_ != nullptr) {
+  if (rig_ != nullptr && withhold_commands_) {
+    ++result_.withheld_after_trip;
+  } else if (rig_ != nullptr) {
     const bool delivered = rig_->Write(command_) != IoResult::kError;
     result_.write_errors += !delivered;
     if (safety_.state() != SafetyState::kNormal) {
@@ -161,6 +163,7 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
       if (cause != TripCause::kNone &&
           safety_.state() == SafetyState::kNormal) {
         result_.trip_channel = channel;
+        result_.rig_fault_code = measurement_.fault_code;
         safety_.Trip(cause, cycle);
       }
     } else if (safety_.MissedSamples(static_cast<int>(
@@ -177,6 +180,7 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
     }
     if (foreign_master_) {
       foreign_master_ = false;
+      withhold_commands_ = true;
       safety_.Trip(TripCause::kForeignMaster, cycle);
     }
   }

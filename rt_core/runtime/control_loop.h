@@ -60,9 +60,12 @@ struct LoopResult {
   std::int64_t read_errors = 0;  // timeout, exception, disconnect
   std::int64_t write_errors = 0;
   // Commands sent from the trip on (the ramp-down and the disable), and
-  // those of them the transport could not deliver.
+  // those of them the transport could not deliver. After a foreign_master
+  // trip none is sent (withheld: this controller's commands would fight
+  // the other master's; the rig's own limits and watchdog stop it).
   std::int64_t commands_after_trip = 0;
   std::int64_t undelivered_after_trip = 0;
+  std::int64_t withheld_after_trip = 0;
   // Samples the rig took for this controller's requests that never reached
   // it (gaps in the rig's counter), and steps of the counter that no such
   // loss explains (a restarted rig, a garbled counter).
@@ -77,8 +80,9 @@ struct LoopResult {
   std::int64_t limited_commands = 0;
   TripCause cause = TripCause::kNone;
   std::int64_t trip_cycle = -1;
-  int trip_channel = -1;  // for limit and error-detector trips
-  int signal = 0;         // for kSignal
+  int trip_channel = -1;             // for limit and error-detector trips
+  int signal = 0;                    // for kSignal
+  std::uint16_t rig_fault_code = 0;  // for kRigFault: what the rig reported
   Vec6<double> rest_pose = Vec6<double>::Zero();
 };
 
@@ -138,8 +142,9 @@ class ControlLoop {
   RigMeasurement measurement_;
   RigMeasurement last_good_;
   bool invalid_sample_ = false;
-  bool transport_fault_ = false;  // the rig transport reported kFault
-  bool foreign_master_ = false;   // the rig transport reported kForeign
+  bool transport_fault_ = false;    // the rig transport reported kFault
+  bool foreign_master_ = false;     // the rig transport reported kForeign
+  bool withhold_commands_ = false;  // another master seen: send nothing more
   RigCommand command_;
   Vec3<double> direction_;
   Vec6<double> tare_sum_ = Vec6<double>::Zero();

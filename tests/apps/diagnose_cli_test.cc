@@ -159,6 +159,19 @@ TEST_F(DiagnoseCliTest, AHoldoutFromAnotherGeometryIsRefused) {
                      "h.csv: recorded with geometry");
 }
 
+// A training log given as the hold-out, itself or a copy, would "confirm"
+// a diagnosis with the data it was fitted to: refused, naming both.
+TEST_F(DiagnoseCliTest, ATrainingLogAsTheHoldoutIsRefused) {
+  const std::string a = LogA(), b = LogB();
+  ExpectCleanFailure(Diagnose("--log " + a + " --log " + b + " --holdout " + b),
+                     "b.csv: holds the same samples as the training log");
+  fs::copy_file(b, Path("b_copy.csv"));
+  fs::copy_file(Path("b.json"), Path("b_copy.json"));
+  ExpectCleanFailure(Diagnose("--log " + a + " --log " + b + " --holdout " +
+                              Path("b_copy.csv")),
+                     "b_copy.csv: holds the same samples as the training log");
+}
+
 TEST_F(DiagnoseCliTest, UnknownCandidateIsRefused) {
   ExpectCleanFailure(
       Diagnose("--log " + LogA() + " --candidates hysteresis,backlash"),

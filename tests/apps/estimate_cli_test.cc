@@ -175,6 +175,23 @@ TEST_F(EstimateCliTest, BadInputFailsCleanly) {
     std::ofstream(Path("run.csv")) << text;
   }
   ExpectCleanFailure(RunKcrig("estimate" + log + out), "not a finite number");
+  // A field carrying terminal escapes (set the title, clear the screen) and
+  // a stray C1 byte: echoed as \xNN, never raw.
+  {
+    std::ifstream in(Path("run.csv"));
+    std::string text((std::istreambuf_iterator<char>(in)), {});
+    const size_t line_start = text.find("\n0.5,") + 1;
+    text.replace(line_start, text.find(',', line_start + 4) - line_start,
+                 "0.5,\x1b]0;pwned\x07\x1b[2J\x9b");
+    std::ofstream(Path("run.csv")) << text;
+  }
+  const CliResult escaped = RunKcrig("estimate" + log + out);
+  ExpectCleanFailure(escaped, "\\x1b]0;pwned\\x07\\x1b[2J\\x9b");
+  for (const char byte : escaped.output) {
+    const auto code = static_cast<unsigned char>(byte);
+    EXPECT_TRUE(code == '\n' || (code >= 0x20 && code != 0x7f && code < 0x80))
+        << static_cast<int>(code) << " in " << escaped.output;
+  }
 }
 
 // An output never destroys an input (the log, its sidecar, est.json read

@@ -2,8 +2,12 @@
 // loopback, `kcrig run` as the master, the estimator on the log; peers
 // (mbpoll, a pymodbus server); fault injection (emulator killed, frozen,
 // travel limit, error detector, SIGTERM) ending in the safe state.
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <sched.h>
 #include <signal.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -325,11 +329,11 @@ TEST_F(HilCliTest, MbpollReadsTheDocumentedRegistersAndTheRigProtectsItself) {
   const int port = StartEmulator();
   const std::string target = "-p " + std::to_string(port) + " 127.0.0.1";
   // Input registers 0..5: status 0 (disabled), fault 0, sample (2 words),
-  // sequence echo 0, protocol 2.
+  // sequence echo 0, protocol 3.
   CliResult r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 0 -c 6 " + target);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("[0]: \t0"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("[5]: \t2"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("[5]: \t3"), std::string::npos) << r.output;
   // Load cell and pose as float32, high word first (-B): at rest, near 0.
   r = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3:float -B -r 6 -c 9 " + target);
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -465,7 +469,8 @@ TEST_F(HilCliTest, TheRigObeysOneMaster) {
       RunKcrig("run --config " + config_ + " --rig modbus-tcp://127.0.0.1:" +
                std::to_string(port) + " --log-dir " + Path("second"));
   EXPECT_EQ(second.exit_code, 1) << second.output;
-  EXPECT_NE(second.output.find("another master (session 0x"), std::string::npos)
+  EXPECT_NE(second.output.find("is in control (another master)"),
+            std::string::npos)
       << second.output;
   EXPECT_EQ(CountLines(second.output), 1) << second.output;
   EXPECT_FALSE(std::filesystem::exists(Path("second/run.csv")));
@@ -487,6 +492,113 @@ TEST_F(HilCliTest, TheRigObeysOneMaster) {
   const CliResult status = RunCommand("mbpoll -m tcp -a 1 -0 -1 -t 3 -r 0 -p " +
                                       std::to_string(port) + " 127.0.0.1");
   EXPECT_NE(status.output.find("[0]: \t0"), std::string::npos) << status.output;
+}
+
+// A hostile client during a run: it reads every register (the owner's
+// token included, were it shown) and forges commands with what it read,
+// with echoed and next sequences, claims and releases, by every write
+// function. The rig obeys none of it (the claim is bound to the
+// controller's connection), the run completes untouched and run.json
+// counts the refusals.
+TEST_F(HilCliTest, TheRigObeysNoImpostorThatReadsItsRegisters) {
+  const int port = StartEmulator();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(port, log_dir);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  ChildProcess hostile(
+      {"/usr/bin/python3", KCRIG_TEST_PEERS_DIR "/hostile_master.py",
+       std::to_string(port), "spoof", "2"},
+      Path("hostile.out"));
+  hostile.Wait();
+  ASSERT_EQ(run->Wait(), 0) << run->Output() << hostile.Output();
+  EXPECT_NE(hostile.Output().find(" 0 writes obeyed"), std::string::npos)
+      << hostile.Output();
+  // Fz is never commanded (phi lies in the x-y plane): the forged 4 kN
+  // would show; no axis beyond force_max (5 kN).
+  const Csv csv = ReadCsv(log_dir + "/run.csv");
+  for (size_t j = 0; j < csv.rows.size(); ++j) {
+    ASSERT_LT(std::abs(csv.Value(j, "Fz")), 100.0) << "row " << j;
+    for (const char* axis : {"Fx", "Fy"}) {
+      ASSERT_LE(std::abs(csv.Value(j, axis)), 5000.0) << "row " << j;
+    }
+  }
+  const nlohmann::json sidecar = ReadJson(log_dir + "/run.json");
+  EXPECT_GT(sidecar["hil"]["transport"]["refused_writes"].get<int>(), 100)
+      << sidecar["hil"].dump();
+}
+
+// With no controller, a client that claims the rig is its master: the rig
+// still holds its own limits whatever it writes (1e9 N, NaN, inf): no
+// force beyond its force_max (5 kN, plant.yaml) but the load cell's noise
+// (0.5 N, five sigma allowed), no travel beyond its travel_max (60 mm).
+TEST_F(HilCliTest, TheRigHoldsItsOwnLimitsWhateverItsMasterWrites) {
+  const int port = StartEmulator();
+  ChildProcess hostile(
+      {"/usr/bin/python3", KCRIG_TEST_PEERS_DIR "/hostile_master.py",
+       std::to_string(port), "claim", "1.5"},
+      Path("hostile.out"));
+  ASSERT_EQ(hostile.Wait(), 0) << hostile.Output();
+  const std::string out = hostile.Output();
+  const size_t force_at = out.find("max |F| read ");
+  const size_t travel_at = out.find("max |xyz| read ");
+  ASSERT_NE(force_at, std::string::npos) << out;
+  ASSERT_NE(travel_at, std::string::npos) << out;
+  EXPECT_GT(std::stod(out.substr(force_at + 13)), 4900.0) << out;
+  EXPECT_LE(std::stod(out.substr(force_at + 13)), 5002.5) << out;
+  EXPECT_LE(std::stod(out.substr(travel_at + 15)), 0.06 + 0.005) << out;
+  EXPECT_EQ(out.find(" 0 writes obeyed"), std::string::npos) << out;
+}
+
+// Idle connections (a crashed HMI, a scan, 16 or 200 of them) do not lock
+// the master out: the rig closes the longest idle for it, says so, and the
+// run completes.
+TEST_F(HilCliTest, IdleConnectionsDoNotLockTheMasterOut) {
+  const int port = StartEmulator();
+  std::vector<int> idle;
+  for (int k = 0; k < 200; ++k) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<std::uint16_t>(port));
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(
+        connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
+    idle.push_back(fd);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(1200));
+  const CliResult run =
+      RunKcrig("run --config " + config_ +
+               " --rig modbus-tcp://127.0.0.1:" + std::to_string(port) +
+               " --log-dir " + Path("run") + " --duration 1 --quiet");
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  for (int fd : idle) close(fd);
+  EXPECT_NE(emulator_->Output().find("(the most it serves): closed client"),
+            std::string::npos)
+      << emulator_->Output();
+}
+
+// A stall of the controller longer than the rig's command timeout (50 ms)
+// but shorter than its claim timeout: the rig faults itself; the trip names
+// its watchdog, not a second master, and the ramp-down still reaches the
+// rig (the claim stayed with this controller).
+TEST_F(HilCliTest, AStallIsNamedAsTheRigsWatchdogAndTheClaimStays) {
+  const int port = StartEmulator();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(port, log_dir);
+  std::this_thread::sleep_for(std::chrono::milliseconds(3000));
+  run->Signal(SIGSTOP);
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  run->Signal(SIGCONT);
+  const int code = run->Wait();
+  EXPECT_EQ(code, 3) << run->Output();
+  EXPECT_NE(run->Output().find("tripped: rig_fault (the rig reported fault 2: "
+                               "its command watchdog"),
+            std::string::npos)
+      << run->Output();
+  EXPECT_EQ(run->Output().find("master"), std::string::npos) << run->Output();
+  const nlohmann::json hil = ReadJson(log_dir + "/run.json")["hil"];
+  EXPECT_GT(hil["commands_after_trip"].get<long>(), 100) << hil.dump();
+  EXPECT_EQ(hil["undelivered_after_trip"], 0) << hil.dump();
 }
 
 // Modbus RTU over a pseudo-terminal pair (socat): the emulator serves RTU
@@ -673,6 +785,24 @@ TEST_F(HilCliTest, SigtermRampsDownAndKeepsTheLog) {
   EXPECT_NE(run->Output().find("SIGTERM"), std::string::npos);
 }
 
+// An impatient second Ctrl-C during the ramp-down (0.5 s) does not cut it
+// short: the ramp-down completes and every file is finished.
+TEST_F(HilCliTest, ASecondCtrlCDoesNotCutTheRampDownShort) {
+  const int port = StartEmulator();
+  const std::string log_dir = Path("run");
+  auto run = StartRun(port, log_dir);
+  std::this_thread::sleep_for(std::chrono::milliseconds(3000));
+  run->Signal(SIGINT);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  run->Signal(SIGINT);
+  const int code = run->Wait();
+  ExpectSafeStop(code, log_dir, "signal", run->Output());
+  EXPECT_NE(run->Output().find("once more to kill at once"), std::string::npos)
+      << run->Output();
+  EXPECT_FALSE(std::filesystem::exists(log_dir + "/run.csv.partial"));
+  EXPECT_FALSE(std::filesystem::exists(log_dir + "/run.csv.reserve"));
+}
+
 TEST_F(HilCliTest, BadRigsAndOptionsAreOneLineErrors) {
   const struct {
     std::string arguments;
@@ -787,6 +917,30 @@ TEST_F(HilCliTest, TimingCheckNeverPassesWhenTheRigDiesOrTheLoopIsStopped) {
             std::string::npos)
       << timing["trip"];
   EXPECT_FALSE(timing["budget"]["within"].get<bool>());
+  // A rig that dies within the watchdog's count of the end (here its
+  // longest, 1 s): the loop runs to its end untripped, but the link's
+  // failures over the whole run fail the check.
+  const std::string patient =
+      EditedConfig("rig.yaml", "watchdog_cycles: 20", "watchdog_cycles: 1000");
+  const int second_port = StartEmulator({}, patient);
+  ChildProcess dying({KCRIG_BINARY, "timing-check", "--config", patient,
+                      "--duration", "4", "--baseline", "0", "--rig",
+                      "modbus-tcp://127.0.0.1:" + std::to_string(second_port),
+                      "--out", Path("dying.json")},
+                     Path("dying.out"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(3600));
+  emulator_->Signal(SIGKILL);
+  // 4 (the link failed); 3 only if a slow start let the errors reach the
+  // watchdog's count.
+  const int dying_code = dying.Wait();
+  EXPECT_TRUE(dying_code == 4 || dying_code == 3) << dying.Output();
+  if (dying_code == 4) {
+    EXPECT_NE(dying.Output().find("the link failed"), std::string::npos)
+        << dying.Output();
+  }
+  const nlohmann::json link = ReadJson(Path("dying.json"))["link"];
+  EXPECT_GT(link["read_errors"].get<long>(), 0) << link.dump();
+  EXPECT_TRUE(link["release_error"].is_string()) << link.dump();
   ChildProcess stopped({KCRIG_BINARY, "timing-check", "--config", config_,
                         "--duration", "4", "--baseline", "0"},
                        Path("stopped.out"));

@@ -89,12 +89,12 @@ TEST_F(PlantConfigTest, SafetyValuesOutOfRangeNameFileLineAndKey) {
     const char* message;
   } cases[] = {
       {"ramp_down_time: 0.2", "ramp_down_time: 1e6",
-       "plant.yaml:34: rig.ramp_down_time: must be within [0.001, 10]"},
+       "plant.yaml:37: rig.ramp_down_time: must be within [0.001, 10]"},
       {"travel_max: 0.06", "travel_max: 1e300",
        "rig.travel_max: must be within [0.0001, 0.5]"},
       {"command_timeout: 0.05", "command_timeout: 0",
        "rig.command_timeout: must be within [0.001, 1]"},
-      {"force_max: 6000.0", "force_max: 6000.0\n  force_max: 1e9",
+      {"force_max: 5000.0", "force_max: 5000.0\n  force_max: 1e9",
        "actuator.force_max: duplicate key (first at line"},
   };
   for (const auto& c : cases) {
@@ -227,13 +227,31 @@ TEST(RigOwnershipTest, OneSessionAtATimeReleasedByRequestSilenceOrHangUp) {
   EXPECT_EQ(o.Decide(request(0, true, false, true), 0), Verdict::kRefuse);
   EXPECT_EQ(o.Decide(request(7, true, false, true), 0), Verdict::kObey);
   EXPECT_EQ(o.owner(), 7);
-  // Claimed: only requests carrying the owner's session.
+  // Claimed: only requests carrying the owner's session on the owner's
+  // connection; the token on another connection is refused, and only the
+  // owner's connection is told it.
   EXPECT_EQ(o.Decide(request(8, true, false, true, 2), 0.01), Verdict::kRefuse);
-  RigOwnership::Request no_session = request(7, false, false, false, 2);
+  RigOwnership::Request no_session = request(7, false, false, false, 1);
   no_session.has_session = false;
   EXPECT_EQ(o.Decide(no_session, 0.01), Verdict::kRefuse);
-  EXPECT_EQ(o.Decide(request(7, false, false, true, 2), 0.02), Verdict::kObey);
-  EXPECT_EQ(o.refused(), 4);
+  EXPECT_EQ(o.Decide(request(7, false, false, true, 2), 0.02),
+            Verdict::kRefuse);
+  EXPECT_EQ(o.Decide(request(7, false, false, true, 1), 0.02), Verdict::kObey);
+  EXPECT_EQ(o.refused(), 5);
+  EXPECT_EQ(o.VisibleOwner(1), 7);
+  EXPECT_EQ(o.VisibleOwner(2), kOwnerHidden);
+  EXPECT_TRUE(o.IsOwnerConnection(1));
+  EXPECT_FALSE(o.IsOwnerConnection(2));
+  // A token claimed on a shared bus (no connections) is the owner's alone.
+  RigOwnership bus;
+  EXPECT_EQ(bus.Decide(request(5, true, false, true, -1), 0), Verdict::kObey);
+  EXPECT_EQ(bus.Decide(request(5, false, false, true, -1), 0), Verdict::kObey);
+  EXPECT_EQ(bus.VisibleOwner(-1), 5);
+  EXPECT_FALSE(bus.IsOwnerConnection(-1));
+  // The hidden owner's value is never a session.
+  RigOwnership fresh;
+  EXPECT_EQ(fresh.Decide(request(kOwnerHidden, true, false, true), 0),
+            Verdict::kRefuse);
   // Released by request, then another session may claim.
   EXPECT_EQ(o.Decide(request(7, false, true, false), 0.03),
             Verdict::kObeyAndRelease);

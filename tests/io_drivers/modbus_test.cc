@@ -15,6 +15,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <ostream>
 #include <sstream>
 #include <string>
@@ -156,11 +157,15 @@ class InProcessRig {
       ModbusServeAt at;
       at.host = "127.0.0.1";
       at.port = port;
-      const Status status =
-          ServeModbus(emulator_.get(), clock, map, at, stop_,
-                      [this](const std::string& uri) {
-                        port_ = std::stoi(uri.substr(uri.rfind(':') + 1));
-                      });
+      const Status status = ServeModbus(
+          emulator_.get(), clock, map, at, stop_,
+          [this](const std::string& uri) {
+            port_ = std::stoi(uri.substr(uri.rfind(':') + 1));
+          },
+          [this](const std::string& line) {
+            std::lock_guard<std::mutex> lock(notes_mutex_);
+            notes_.push_back(line);
+          });
       EXPECT_TRUE(status.ok()) << status.message();
     });
     while (port_ == 0)
@@ -171,8 +176,17 @@ class InProcessRig {
     thread_.join();
   }
   int port() const { return port_; }
+  // What the server said of the connections it closed.
+  std::string Notes() {
+    std::lock_guard<std::mutex> lock(notes_mutex_);
+    std::string all;
+    for (const std::string& line : notes_) all += line + "\n";
+    return all;
+  }
 
  private:
+  std::mutex notes_mutex_;
+  std::vector<std::string> notes_;
   KcrigConfig config_;
   PlantConfig plant_;
   std::unique_ptr<RigEmulator> emulator_;
@@ -346,6 +360,18 @@ TEST_P(ModbusRigTest, ALostLinkFailsFastAndIsReopenedOutsideTheCycle) {
   EXPECT_GE(master->reconnects(), 1);
 }
 
+// A raw TCP connection to the rig on loopback (its file descriptor).
+int ConnectRaw(int port) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  EXPECT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)),
+            0);
+  return fd;
+}
+
 // A second Modbus client as any tool would be (libmodbus, no session
 // logic): what a careless operator's program sends.
 class OtherClient {
@@ -374,6 +400,11 @@ class OtherClient {
     EXPECT_EQ(modbus_read_input_registers(context_, address, 1, &value), 1);
     return value;
   }
+  std::uint16_t Holding(int address) {
+    std::uint16_t value = 0;
+    EXPECT_EQ(modbus_read_registers(context_, address, 1, &value), 1);
+    return value;
+  }
 
  private:
   modbus_t* context_;
@@ -400,22 +431,27 @@ TEST_P(ModbusRigTest, TheRigObeysOneMasterAtATime) {
   ASSERT_TRUE(late->Configure().ok());  // the rig is still unclaimed
   ASSERT_TRUE(owner->Activate().ok());
   OtherClient other(rig.port());
-  EXPECT_EQ(other.Input(map_.owner), owner->session());
-  // A second kcrig is refused, naming the owner: when it connects, or at
-  // activation if it connected before the claim.
+  // Only the owner's connection is told its token.
+  EXPECT_EQ(other.Input(map_.owner), kOwnerHidden);
+  EXPECT_EQ(other.Holding(map_.session), kOwnerHidden);
+  // A second kcrig is refused: when it connects, or at activation if it
+  // connected before the claim.
   for (const Status& refused :
        {Master(rig.port())->Configure(), late->Activate()}) {
     ASSERT_FALSE(refused.ok());
-    EXPECT_NE(refused.message().find("another master (session 0x"),
+    EXPECT_NE(refused.message().find("is in control (another master)"),
               std::string::npos)
         << refused.message();
   }
   late.reset();
   // Any other write, with or without a session or a claim, is refused
-  // with "server busy" and counted; nothing of it reaches the rig.
+  // with "server busy" and counted; nothing of it reaches the rig. The
+  // owner's own token is worth nothing on another connection.
   const std::uint16_t before = other.Input(map_.refused_writes);
   const std::uint16_t intruder = owner->session() ^ 0x5a5a;
   EXPECT_EQ(other.Write(Command(kControlEnable, 3000, intruder)), EMBXSBUSY);
+  EXPECT_EQ(other.Write(Command(kControlEnable, 3000, owner->session())),
+            EMBXSBUSY);
   EXPECT_EQ(other.Write(Command(kControlEnable | kControlClaim, 3000, 0)),
             EMBXSBUSY);
   std::vector<std::uint16_t> without_session = Command(kControlEnable, 3000, 0);
@@ -423,7 +459,7 @@ TEST_P(ModbusRigTest, TheRigObeysOneMasterAtATime) {
   EXPECT_EQ(other.Write(without_session), EMBXSBUSY);
   EXPECT_EQ(other.WriteControlWord(0), EMBXSBUSY);
   EXPECT_EQ(
-      static_cast<std::uint16_t>(other.Input(map_.refused_writes) - before), 4);
+      static_cast<std::uint16_t>(other.Input(map_.refused_writes) - before), 5);
   RigMeasurement m;
   RigCommand command;
   command.enable = true;
@@ -435,6 +471,11 @@ TEST_P(ModbusRigTest, TheRigObeysOneMasterAtATime) {
     Pass(1e-3);
   }
   EXPECT_LT(std::abs(m.force(2)), 50);
+  // The owner learns of the refusals (run.json's transport counters): the
+  // five, and the late master's claim.
+  EXPECT_NE(owner->CountersJson().find("\"refused_writes\": 6"),
+            std::string::npos)
+      << owner->CountersJson();
   // Released: nobody enables the rig without a claim; a claim takes it.
   ASSERT_TRUE(owner->Deactivate().ok());
   EXPECT_EQ(other.Input(map_.owner), 0);
@@ -449,6 +490,39 @@ TEST_P(ModbusRigTest, TheRigObeysOneMasterAtATime) {
             std::string::npos);
 }
 
+// A stall longer than the rig's command timeout (50 ms) but shorter than
+// its claim timeout (1 s): the rig faults itself and ramps down, names its
+// watchdog, and keeps the claim, so the controller's ramp-down and release
+// still reach it and nothing blames a second master.
+TEST_P(ModbusRigTest, AStallFaultsTheRigButLeavesTheClaimWithItsOwner) {
+  InProcessRig rig(map_, rig_clock());
+  auto owner = Master(rig.port());
+  ASSERT_TRUE(owner->Configure().ok());
+  ASSERT_TRUE(owner->Activate().ok());
+  RigMeasurement m;
+  RigCommand command;
+  command.enable = true;
+  command.force << 0, 0, 1000;
+  for (int k = 0; k < 50; ++k) {
+    command.sequence = static_cast<std::uint16_t>(k);
+    owner->Read(&m);
+    owner->Write(command);
+    Pass(1e-3);
+  }
+  Pass(0.12);  // the stall
+  IoResult read = IoResult::kStale;
+  for (int k = 0; k < 5 && read != IoResult::kFresh; ++k)
+    read = owner->Read(&m);
+  ASSERT_EQ(read, IoResult::kFresh);
+  EXPECT_NE(m.status & kRigFault, 0);
+  EXPECT_NE(m.status & kRigWatchdog, 0);
+  EXPECT_EQ(m.fault_code, kFaultCommandTimeout);
+  command.sequence = 60;
+  EXPECT_EQ(owner->Write(command), IoResult::kFresh);  // still obeyed
+  const Status released = owner->Deactivate();
+  EXPECT_TRUE(released.ok()) << released.message();
+}
+
 TEST_P(ModbusRigTest, TheOwnersConnectionClosingFaultsTheRigAndEndsTheClaim) {
   InProcessRig rig(map_, rig_clock());
   OtherClient observer(rig.port());
@@ -456,7 +530,7 @@ TEST_P(ModbusRigTest, TheOwnersConnectionClosingFaultsTheRigAndEndsTheClaim) {
     auto owner = Master(rig.port());
     ASSERT_TRUE(owner->Configure().ok());
     ASSERT_TRUE(owner->Activate().ok());
-    EXPECT_EQ(observer.Input(map_.owner), owner->session());
+    EXPECT_EQ(observer.Input(map_.owner), kOwnerHidden);
   }  // the connection closes with the rig enabled
   for (int k = 0; k < 200 && observer.Input(map_.owner) != 0; ++k) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -547,16 +621,7 @@ TEST_P(ModbusRigTest, MisbehavingClientsDoNotStallTheRig) {
   InProcessRig rig(map_, rig_clock());
   auto master = Master(rig.port());
   ASSERT_TRUE(master->Configure().ok());
-  auto connect_raw = [&] {
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_port = htons(static_cast<std::uint16_t>(rig.port()));
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    EXPECT_EQ(
-        connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
-    return fd;
-  };
+  auto connect_raw = [&] { return ConnectRaw(rig.port()); };
   const int partial = connect_raw();
   const std::uint8_t header[3] = {0, 1, 0};
   ASSERT_EQ(send(partial, header, 3, 0), 3);
@@ -607,6 +672,45 @@ TEST_P(ModbusRigTest, MisbehavingClientsDoNotStallTheRig) {
   close(partial);
   close(dribble);
   close(garbage);
+}
+
+// Connections opened and left idle (a crashed HMI, a port scan, an
+// attacker) take the places the rig serves; once they have been idle a
+// while, the master still gets in, runs, and holds its place against a
+// flood of new ones, and the rig says what it closed.
+TEST_P(ModbusRigTest, IdleConnectionsDoNotLockTheMasterOut) {
+  for (const int idle_count : {16, 200}) {
+    InProcessRig rig(map_, rig_clock());
+    std::vector<int> idle;
+    for (int k = 0; k < idle_count; ++k) idle.push_back(ConnectRaw(rig.port()));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1200));
+    auto master = Master(rig.port());
+    const Status configured = master->Configure();
+    ASSERT_TRUE(configured.ok()) << idle_count << ": " << configured.message();
+    ASSERT_TRUE(master->Activate().ok());
+    std::vector<int> flood;
+    RigMeasurement m;
+    RigCommand command;
+    command.enable = true;
+    int fresh = 0;
+    for (int k = 0; k < 200; ++k) {
+      if (k % 10 == 0) flood.push_back(ConnectRaw(rig.port()));
+      command.sequence = static_cast<std::uint16_t>(k);
+      fresh += master->Read(&m) == IoResult::kFresh;
+      EXPECT_NE(master->Write(command), IoResult::kError) << k;
+      Pass(1e-3);
+    }
+    EXPECT_GE(fresh, 190) << idle_count;
+    EXPECT_EQ(master->reconnects(), 0) << idle_count;
+    const Status released = master->Deactivate();
+    EXPECT_TRUE(released.ok()) << released.message();
+    EXPECT_NE(rig.Notes().find("connections (the most it serves): closed "
+                               "client"),
+              std::string::npos)
+        << rig.Notes();
+    for (int fd : idle) close(fd);
+    for (int fd : flood) close(fd);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(VirtualClock, ModbusRigTest,

@@ -8,7 +8,7 @@ spring of 2e6 N/m per axis (x = Fx / 2e6, ...), angles zero, a load cell that
 reads the set-point last written while enabled. Each read of the input
 registers takes a new sample (the counter goes up).
 
-It speaks protocol 2 as a rig front end that reports ownership but does not
+It speaks protocol 3 as a rig front end that reports ownership but does not
 enforce it: a claim (control word bit 2) with a session token makes that
 session the owner, a release (bit 3) ends it, and anyone's write is applied
 and echoed. That is what lets the controller's own check (the sequence echo)
@@ -85,7 +85,7 @@ class Inputs(ModbusSequentialDataBlock):
         super().__init__(0, [0] * 32)
         self.holding = holding
         self.sample = 0
-        super().setValues(REGMAP["protocol"], [2])
+        super().setValues(REGMAP["protocol"], [3])
 
     def getValues(self, address, count=1):
         self.sample += 1

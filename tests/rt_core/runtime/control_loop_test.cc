@@ -31,6 +31,7 @@ class FakeRig : public RigInterface {
   void OnError() override {}
   IoResult Read(RigMeasurement* m) override {
     if (silent) return IoResult::kError;
+    if (foreign) return IoResult::kForeign;
     if (counter_jumps_to != 0) sample_ = counter_jumps_to - 1;
     counter_jumps_to = 0;
     m->sample = ++sample_;
@@ -51,6 +52,7 @@ class FakeRig : public RigInterface {
   std::string CountersJson() const override { return "{}"; }
 
   bool silent = false;
+  bool foreign = false;                // reports another master in control
   std::uint32_t extra_samples = 0;     // taken after each read, for others
   std::uint32_t counter_jumps_to = 0;  // the next sample's number, once
   Vec3<double> force_offset = Vec3<double>::Zero();  // another master's push
@@ -201,6 +203,19 @@ TEST_F(ControlLoopTest, WatchdogTripsAfterTheConfiguredSilentCycles) {
   EXPECT_EQ(loop.result().read_errors, loop.result().cycles - 1000);
   EXPECT_FALSE(rig_.enabled.back());
   EXPECT_EQ(rig_.commands.back(), Vec3<double>::Zero());
+}
+
+// Another master in control: the loop trips and sends nothing more (its
+// ramp-down would fight the other master's commands); the rig's own limits
+// and watchdog stop the rig.
+TEST_F(ControlLoopTest, AForeignMasterTripsAndTheLoopStopsCommanding) {
+  ControlLoop loop(config_.model, options_, &rig_, &ring_, &stop_);
+  Step(&loop, 100000, [this](std::int64_t k) { rig_.foreign = k >= 1500; });
+  EXPECT_EQ(loop.result().cause, TripCause::kForeignMaster);
+  EXPECT_EQ(loop.result().trip_cycle, 1500);
+  EXPECT_EQ(rig_.commands.size(), 1500u);
+  EXPECT_EQ(loop.result().commands_after_trip, 0);
+  EXPECT_EQ(loop.result().withheld_after_trip, loop.result().cycles - 1500);
 }
 
 TEST_F(ControlLoopTest, AStopSignalRampsDownLikeATrip) {
