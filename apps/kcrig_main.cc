@@ -1,4 +1,6 @@
 // kcrig: thin entry point. Parses the command line, runs one subcommand.
+#include <glog/logging.h>
+
 #include <csignal>
 #include <cstdio>
 #include <exception>
@@ -27,6 +29,12 @@ int main(int argc, char** argv) {
   // Over a file-size limit (ulimit -f) a write then fails (EFBIG) and is
   // handled as a full disk, instead of the signal killing the process.
   std::signal(SIGXFSZ, SIG_IGN);
+  // The solver's own logging (Ceres, through glog) never reaches the
+  // terminal nor a log file: what it would say comes back as kcrig's one
+  // line (the solver's summary), never as a residual dump.
+  FLAGS_logtostderr = true;
+  FLAGS_minloglevel = google::GLOG_FATAL;
+  google::InitGoogleLogging(argv[0]);
   // Joins MPI under mpirun (kcrig validate spreads its cases), until exit.
   kcrig::Ranks ranks(&argc, &argv);
   CLI::App app{

@@ -350,10 +350,16 @@ class MatReader {
       return Error(name, "has " + std::to_string(values->size()) +
                              " elements, 't' has " + std::to_string(*rows));
     }
+    const double limit = PhysicalLimit(name);
     for (size_t j = 0; j < values->size(); ++j) {
       if (!std::isfinite((*values)[j])) {
         return Error(name, "element " + std::to_string(j + 1) +
                                " is not a finite number");
+      }
+      if (limit > 0 && std::abs((*values)[j]) > limit) {
+        return Error(name, "element " + std::to_string(j + 1) +
+                               " is beyond any rig (" +
+                               PhysicalLimitText(name) + ")");
       }
     }
     return Status::Ok();

@@ -158,6 +158,25 @@ bool ParseFinite(std::string_view text, double* value) {
   return result.ec == std::errc() && result.ptr == end && std::isfinite(*value);
 }
 
+// The value of `column` parsed, finite and within its physical limit.
+Status ParseChannel(std::string_view field, const char* column,
+                    const std::string& where, double* value) {
+  if (!ParseFinite(field, value)) {
+    return Status::Error(where + ": column '" + column +
+                         "': not a finite number ('" + std::string(field) +
+                         "')");
+  }
+  const double limit = PhysicalLimit(column);
+  if (limit > 0 && std::abs(*value) > limit) {
+    char text[64];
+    std::snprintf(text, sizeof(text), "%g", *value);
+    return Status::Error(where + ": column '" + column + "': " + text +
+                         " is beyond any rig (" + PhysicalLimitText(column) +
+                         ")");
+  }
+  return Status::Ok();
+}
+
 // safety, rig_sample, rig_status (whole numbers in their ranges) and the
 // live model prediction of one row.
 Status ParseLoopColumns(const std::vector<std::string_view>& fields,
@@ -380,11 +399,8 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
     double values[10] = {};
     for (int k = 0; k < 10; ++k) {
       if (column[k] < 0) continue;
-      if (!ParseFinite(fields[column[k]], &values[k])) {
-        return Status::Error(where + ": column '" + kChannels[k] +
-                             "': not a finite number ('" +
-                             std::string(fields[column[k]]) + "')");
-      }
+      KCRIG_RETURN_IF_ERROR(
+          ParseChannel(fields[column[k]], kChannels[k], where, &values[k]));
     }
     LogSample sample;
     sample.t = values[0];
@@ -393,10 +409,9 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
         values[9];
     if (log->has_commanded_force) {
       for (int k = 0; k < 3; ++k) {
-        if (!ParseFinite(fields[commanded[k]], &sample.commanded(k))) {
-          return Status::Error(where + ": column '" + kCommandedChannels[k] +
-                               "': not a finite number");
-        }
+        KCRIG_RETURN_IF_ERROR(ParseChannel(fields[commanded[k]],
+                                           kCommandedChannels[k], where,
+                                           &sample.commanded(k)));
       }
     }
     if (fresh_column >= 0) {
@@ -430,6 +445,23 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
   return ReadSidecar(SidecarPath(csv_path), log->samples.size(),
                      log->samples.front().t, log->samples.back().t,
                      &log->metadata);
+}
+
+double PhysicalLimit(std::string_view column) {
+  if (column.rfind("F", 0) == 0) return 1e6;  // Fx..Fz, Fx_cmd..Fz_cmd
+  if (column == "x" || column == "y" || column == "z") return 10;
+  if (column == "toe" || column == "camber" || column == "caster") return 7;
+  return 0;
+}
+
+std::string PhysicalLimitText(std::string_view column) {
+  const double limit = PhysicalLimit(column);
+  const char* unit = column.rfind("F", 0) == 0 ? "N"
+                     : limit == 10             ? "m"
+                                               : "rad";
+  char text[48];
+  std::snprintf(text, sizeof(text), "|value| <= %g %s", limit, unit);
+  return text;
 }
 
 std::string SidecarPath(const std::string& csv_path) {

@@ -72,6 +72,14 @@ struct RunLog {
   RunMetadata metadata;
 };
 
+// The magnitude beyond which a logged value of `column` is no measurement
+// of a K&C rig but a unit slip or a corrupt field: forces (Fx.., Fx_cmd..)
+// 1 MN, positions 10 m, angles 7 rad; 0 for a column without one. Both
+// readers (CSV, MAT) refuse such a value, naming it.
+double PhysicalLimit(std::string_view column);
+// "1 MN" style text of that limit with its unit, for messages.
+std::string PhysicalLimitText(std::string_view column);
+
 // run.csv -> run.json
 std::string SidecarPath(const std::string& csv_path);
 

@@ -1,5 +1,6 @@
 #include "rt_core/model/plant_effects.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -9,45 +10,60 @@
 namespace kcrig {
 namespace {
 
-enum Range { kPositive, kNonNegative, kAnyFinite };
-
+// A parameter's physical range: within [low, high], `low` itself excluded
+// when `open_low` (a stiffness, a time constant: > 0). The bounds are
+// what a suspension rig can show, far beyond it on both sides; a value
+// outside is a typo or a unit slip (1 m of sensor offset, 1e-300 N/m),
+// never an effect to simulate.
 struct Key {
   std::string_view name;
   double* value;
-  Range range;
+  double low, high;
+  bool open_low;
+  std::string_view unit;
 };
 
 std::vector<Key> KeysOf(std::string_view effect, PlantEffects* e) {
-  if (effect == "bushing_damping")
-    return {{"d", &e->bushing_damping.d, kPositive}};
+  if (effect == "bushing_damping") {
+    return {{"d", &e->bushing_damping.d, 0, 1e8, true, "N s/m"}};
+  }
   if (effect == "hysteresis") {
-    return {{"force", &e->hysteresis.force, kPositive},
-            {"sigma", &e->hysteresis.sigma, kPositive}};
+    return {{"force", &e->hysteresis.force, 0, 1e5, true, "N"},
+            {"sigma", &e->hysteresis.sigma, 0, 1e12, true, "N/m"}};
   }
   if (effect == "progressive_stiffness") {
-    return {{"c3", &e->progressive_stiffness.c3, kAnyFinite},
-            {"c2", &e->progressive_stiffness.c2, kAnyFinite},
-            {"a2", &e->progressive_stiffness.a2, kAnyFinite}};
+    return {{"c3", &e->progressive_stiffness.c3, -1e16, 1e16, false, "N/m^3"},
+            {"c2", &e->progressive_stiffness.c2, -1e13, 1e13, false, "N/m^2"},
+            {"a2", &e->progressive_stiffness.a2, -1e13, 1e13, false, "N/m^2"}};
   }
   if (effect == "actuator_lag") {
-    return {{"tau", &e->actuator_lag.tau, kPositive},
-            {"dead_time", &e->actuator_lag.dead_time, kNonNegative}};
+    return {{"tau", &e->actuator_lag.tau, 0, 1, true, "s"},
+            {"dead_time", &e->actuator_lag.dead_time, 0, 0.5, false, "s"}};
   }
   if (effect == "rig_compliance") {
-    return {{"k", &e->rig_compliance.k, kPositive},
-            {"k_rot", &e->rig_compliance.k_rot, kPositive}};
+    return {{"k", &e->rig_compliance.k, 1e4, 1e12, false, "N/m"},
+            {"k_rot", &e->rig_compliance.k_rot, 1e2, 1e10, false, "N m/rad"}};
   }
   if (effect == "sensor_offset") {
     PlantEffects::SensorOffset& s = e->sensor_offset;
-    return {{"x", &s.offset(0), kAnyFinite},
-            {"y", &s.offset(1), kAnyFinite},
-            {"z", &s.offset(2), kAnyFinite},
-            {"toe", &s.offset(3), kAnyFinite},
-            {"camber", &s.offset(4), kAnyFinite},
-            {"caster", &s.offset(5), kAnyFinite},
-            {"scale", &s.scale, kPositive}};
+    return {{"x", &s.offset(0), -0.05, 0.05, false, "m"},
+            {"y", &s.offset(1), -0.05, 0.05, false, "m"},
+            {"z", &s.offset(2), -0.05, 0.05, false, "m"},
+            {"toe", &s.offset(3), -0.1, 0.1, false, "rad"},
+            {"camber", &s.offset(4), -0.1, 0.1, false, "rad"},
+            {"caster", &s.offset(5), -0.1, 0.1, false, "rad"},
+            {"scale", &s.scale, 0.5, 2, false, "-"}};
   }
   return {};
+}
+
+// "must be within (0, 1e+08] N s/m"
+std::string RangeText(const Key& key) {
+  char text[96];
+  std::snprintf(text, sizeof(text), "must be a number within %c%g, %g] %s",
+                key.open_low ? '(' : '[', key.low, key.high,
+                std::string(key.unit).c_str());
+  return text;
 }
 
 bool* EnabledFlag(std::string_view effect, PlantEffects* e) {
@@ -179,6 +195,7 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
   std::string_view rest =
       colon == std::string_view::npos ? "" : text.substr(colon + 1);
   bool rotation_given = false;
+  std::vector<std::string_view> given;
   while (!rest.empty()) {
     const size_t comma = rest.find(',');
     const std::string_view item = rest.substr(0, comma);
@@ -215,16 +232,18 @@ Status ParseEffect(std::string_view text, PlantEffects* effects) {
       return Status::Error(where + ": unknown parameter of " +
                            std::string(name) + " (one of " + allowed + ")");
     }
+    if (std::find(given.begin(), given.end(), key) != given.end()) {
+      return Status::Error(where + ": " + std::string(key) + " given twice");
+    }
+    given.push_back(key);
     char* end = nullptr;
     const double value = std::strtod(value_text.c_str(), &end);
-    const bool in_range = match->range == kAnyFinite ||
-                          (match->range == kPositive && value > 0) ||
-                          (match->range == kNonNegative && value >= 0);
+    const bool in_range =
+        value <= match->high &&
+        (match->open_low ? value > match->low : value >= match->low);
     if (value_text.empty() || *end != '\0' || !std::isfinite(value) ||
         !in_range) {
-      static constexpr const char* kRangeText[] = {" > 0", " >= 0", ""};
-      return Status::Error(where + ": must be a finite number" +
-                           kRangeText[match->range]);
+      return Status::Error(where + ": " + RangeText(*match));
     }
     *match->value = value;
     rotation_given = rotation_given || key == "k_rot";

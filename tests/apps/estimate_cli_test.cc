@@ -175,6 +175,19 @@ TEST_F(EstimateCliTest, BadInputFailsCleanly) {
     std::ofstream(Path("run.csv")) << text;
   }
   ExpectCleanFailure(RunKcrig("estimate" + log + out), "not a finite number");
+  // A force no rig applies (a unit slip, a corrupt field): refused in one
+  // line, no solver output.
+  {
+    std::ifstream in(Path("run.csv"));
+    std::string text((std::istreambuf_iterator<char>(in)), {});
+    const size_t line_start = text.find("\n0.5,") + 1;
+    text.replace(line_start, text.find(',', line_start + 4) - line_start,
+                 "0.5,1.7e308");
+    std::ofstream(Path("run.csv")) << text;
+  }
+  ExpectCleanFailure(RunKcrig("estimate" + log + out),
+                     "column 'Fx': 1.7e+308 is beyond any rig (|value| <= "
+                     "1e+06 N)");
   // A field carrying terminal escapes (set the title, clear the screen) and
   // a stray C1 byte: echoed as \xNN, never raw.
   {

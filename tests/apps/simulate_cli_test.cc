@@ -182,7 +182,7 @@ TEST_F(SimulateCliTest, InconsistentRateAndEffectsFailCleanly) {
                      "--plant-step: must be within (0, integrator.step");
   ExpectCleanFailure(
       RunKcrig("simulate --effect hysteresis:force=-3 --out " + Out()),
-      "'force=-3': must be a finite number > 0");
+      "'force=-3': must be a number within (0, 100000] N");
   ExpectCleanFailure(
       RunKcrig("simulate --effect rig_compliance:q=3 --out " + Out()),
       "unknown parameter of rig_compliance (one of k, k_rot, at)");

@@ -338,14 +338,21 @@ TEST(PlantEffectsTest, BadEffectTextIsAOneLineErrorAndChangesNothing) {
        "unknown component 'bushing:V1' (fixture:x, fixture:y, fixture:z, "
        "fixture:rx or fixture:ry, joined by +)"},
       {"rig_compliance:at=fixture:rz", "unknown component 'fixture:rz'"},
-      {"rig_compliance:k_rot=0", "must be a finite number > 0"},
+      {"rig_compliance:k_rot=0",
+       "must be a number within [100, 1e+10] N m/rad"},
       {"rig_compliance:k_rot=3e5",
        "k_rot needs a rotational axis in at (fixture:rx or fixture:ry)"},
-      {"hysteresis:force=-1", "must be a finite number > 0"},
-      {"actuator_lag:dead_time=-0.1", "must be a finite number >= 0"},
-      {"rig_compliance:k=nan", "must be a finite number > 0"},
-      {"rig_compliance:k=5e7x", "must be a finite number > 0"},
-      {"sensor_offset:x=", "must be a finite number"},
+      {"hysteresis:force=-1", "must be a number within (0, 100000] N"},
+      {"actuator_lag:dead_time=-0.1", "must be a number within [0, 0.5] s"},
+      {"rig_compliance:k=nan", "must be a number within [10000, 1e+12] N/m"},
+      {"rig_compliance:k=5e7x", "must be a number within [10000, 1e+12] N/m"},
+      // Physically absurd values, a unit slip or a typo: refused.
+      {"rig_compliance:k=1e-300", "'k=1e-300': must be a number within"},
+      {"bushing_damping:d=1e300", "must be a number within (0, 1e+08] N s/m"},
+      {"actuator_lag:tau=1e6", "must be a number within (0, 1] s"},
+      {"sensor_offset:x=1", "must be a number within [-0.05, 0.05] m"},
+      {"rig_compliance:k=2e7,k=3e7", "'k=3e7': k given twice"},
+      {"sensor_offset:x=", "must be a number within [-0.05, 0.05] m"},
   };
   for (const auto& c : cases) {
     const Status status = ParseEffect(c.text, &effects);
