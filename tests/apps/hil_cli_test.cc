@@ -74,7 +74,10 @@ class HilCliTest : public TempDirTest {
         "--config",     config.empty() ? config_ : config,
         "--modbus-tcp", "127.0.0.1:0"};
     argv.insert(argv.end(), extra.begin(), extra.end());
-    emulator_ = std::make_unique<ChildProcess>(argv, Path("emulate.out"));
+    // Each emulator its own output file: a second one's port is never read
+    // from the first one's lines.
+    emulator_ = std::make_unique<ChildProcess>(
+        argv, Path("emulate" + std::to_string(++emulators_) + ".out"));
     const std::string port = emulator_->WaitForOutput(
         "serving modbus-tcp://127\\.0\\.0\\.1:([0-9]+)");
     EXPECT_FALSE(port.empty()) << emulator_->Output();
@@ -116,6 +119,7 @@ class HilCliTest : public TempDirTest {
 
   std::string config_;  // config/ with both processes pinned to one CPU
   std::unique_ptr<ChildProcess> emulator_;
+  int emulators_ = 0;  // started so far
 };
 
 TEST_F(HilCliTest, FullRampLogsEveryCycleAndTheEstimateFindsTheTruePlant) {
@@ -865,6 +869,15 @@ TEST_F(HilCliTest, TimingCheckReportsPhasesBaselineAndBudget) {
   }
   EXPECT_GT(timing["baseline_wakeup"]["count"].get<long>(), 450);
   EXPECT_EQ(r.exit_code == 0, timing["budget"]["within"].get<bool>());
+  // So is the link: a pass had no failed read or write, no stale sample.
+  const nlohmann::json& link = timing["link"];
+  ASSERT_TRUE(link.is_object()) << timing.dump();
+  if (r.exit_code == 0) {
+    EXPECT_EQ(link["read_errors"], 0) << link.dump();
+    EXPECT_EQ(link["write_errors"], 0) << link.dump();
+    EXPECT_EQ(link["stale_samples"], 0) << link.dump();
+    EXPECT_TRUE(link["release_error"].is_null()) << link.dump();
+  }
   // Overruns are part of the budget.
   EXPECT_EQ(timing["budget"]["overrun_max_fraction"], 0.001);
   const bool overran =
