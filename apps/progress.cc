@@ -39,7 +39,22 @@ extern "C" void OnStopSignal(int signal) {
 static_assert(std::atomic<int>::is_always_lock_free,
               "the signal handler counts into it");
 
+std::atomic<bool> g_emergency_stop{false};
+
+extern "C" void OnEmergencyStop(int) { g_emergency_stop.store(true); }
+
 }  // namespace
+
+std::atomic<bool>& EmergencyStopButton() {
+  static const bool installed = [] {
+    struct sigaction action {};
+    action.sa_handler = OnEmergencyStop;
+    sigemptyset(&action.sa_mask);
+    return sigaction(SIGUSR1, &action, nullptr) == 0;
+  }();
+  (void)installed;
+  return g_emergency_stop;
+}
 
 const std::atomic<int>& InstallStopSignalHandlers() {
   struct sigaction action {};

@@ -17,6 +17,8 @@ constexpr std::pair<const char*, InjectedFault::Kind> kKinds[] = {
     {"silent", InjectedFault::Kind::kSilent},
     {"stuck", InjectedFault::Kind::kStuck},
     {"nan", InjectedFault::Kind::kNan},
+    {"foreign", InjectedFault::Kind::kForeign},
+    {"estop", InjectedFault::Kind::kEstop},
 };
 
 constexpr const char* kForceNames[3] = {"Fx", "Fy", "Fz"};
@@ -103,7 +105,7 @@ Status ParseInjectedFault(std::string_view text, InjectedFault* fault) {
   if (!known) {
     return Status::Error(given + ": unknown fault '" + std::string(name) +
                          "' (one of late, stale, lost, corrupt, silent, "
-                         "stuck, nan)");
+                         "stuck, nan, foreign, estop)");
   }
   std::string_view rest =
       colon == std::string_view::npos ? "" : text.substr(colon + 1);

@@ -22,6 +22,9 @@ struct InjectedFault {
     kSilent,   // the rig stops answering, for good
     kStuck,    // `channel` keeps the value it had at `at`, for good
     kNan,      // `channel` reads NaN once
+    kForeign,  // another master's command reaches the rig (a front end
+               // that does not enforce ownership), then it falls silent
+    kEstop,    // the rig's own emergency stop: it faults and ramps down
   };
   Kind kind = Kind::kLost;
   // The loop's read at which it happens, from 0 (the cycle, when no cycle
@@ -37,7 +40,8 @@ struct InjectedFault {
 
 // Parses "late:at=1500,delay=0.03", "stale:at=1500,cycles=30",
 // "lost:at=1500", "corrupt:at=1500", "silent:at=1500",
-// "stuck:at=1500,channel=z", "nan:at=1500,channel=Fx". One-line errors
+// "stuck:at=1500,channel=z", "nan:at=1500,channel=Fx", "foreign:at=1500",
+// "estop:at=1500". One-line errors
 // that name the item.
 Status ParseInjectedFault(std::string_view text, InjectedFault* fault);
 

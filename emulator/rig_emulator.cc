@@ -63,6 +63,7 @@ void RigEmulator::Step() {
 
 void RigEmulator::AdvanceTo(double now) {
   while (time_ + config_.step <= now) Step();
+  if (button_ != nullptr && button_->exchange(false)) EmergencyStop();
 }
 
 // An unclaimed rig is never enabled: one that was faults and ramps down.

@@ -10,6 +10,7 @@
 #ifndef KCRIG_EMULATOR_RIG_EMULATOR_H_
 #define KCRIG_EMULATOR_RIG_EMULATOR_H_
 
+#include <atomic>
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -50,6 +51,13 @@ class RigEmulator {
   // and an enabled rig faults (kFaultOwnerLost) and ramps its force down.
   void ConnectionClosed(int connection);
 
+  // The rig's own emergency stop (its operator's button): it faults and
+  // ramps its force down, whatever its master commands.
+  void EmergencyStop() { Fault(kFaultEmergencyStop); }
+  // A button pressed from another thread (kcrig emulate: SIGUSR1): each
+  // press, seen at the next AdvanceTo, is an EmergencyStop. Optional.
+  void WireEmergencyStop(std::atomic<bool>* button) { button_ = button; }
+
   // Takes one sample of every sensor (sample counter + 1).
   RigMeasurement TakeSample();
 
@@ -86,6 +94,7 @@ class RigEmulator {
   std::uint32_t sample_ = 0;
   std::uint16_t last_sequence_ = 0;
   RigOwnership ownership_;
+  std::atomic<bool>* button_ = nullptr;
   std::mt19937_64 rng_;
   std::normal_distribution<double> normal_{0.0, 1.0};
 };

@@ -62,16 +62,21 @@ class SilLink final : public RigInterface {
 
   IoResult Read(RigMeasurement* measurement) override {
     const std::int64_t read = reads_++;
-    if (Active(Kind::kSilent, read)) return IoResult::kError;
     if (const InjectedFault* late = Find(Kind::kLate, read)) {
       clock_->Advance(std::llround(late->delay * 1e9));
     }
-    if (Active(Kind::kStale, read)) return IoResult::kStale;
+    // The rig lives on whatever reaches the loop (its own watchdog too).
     rig_->AdvanceTo(clock_->Seconds());
+    if (Active(Kind::kSilent, read)) return IoResult::kError;
+    if (Active(Kind::kStale, read)) return IoResult::kStale;
+    if (Find(Kind::kEstop, read) != nullptr) rig_->EmergencyStop();
+    if (Find(Kind::kForeign, read) != nullptr) ForeignCommand();
     RigMeasurement m = rig_->TakeSample();
     if (Find(Kind::kLost, read) != nullptr) return IoResult::kError;
     Garble(read, &m);
     *measurement = m;
+    // The rig echoes a command this controller did not send.
+    if (rig_->last_sequence() != last_obeyed_) return IoResult::kForeign;
     return IoResult::kFresh;
   }
 
@@ -97,6 +102,24 @@ class SilLink final : public RigInterface {
  private:
   bool Send(const RigCommand& command, bool claim, bool release,
             bool reset_fault) {
+    if (!Apply(command, claim, release, reset_fault)) return false;
+    last_obeyed_ = command.sequence;
+    return true;
+  }
+
+  // Another master, through a front end that lets it in under this
+  // session: its one command holds the rig's set-point, then it is silent.
+  void ForeignCommand() {
+    RigCommand command;
+    command.enable = true;
+    command.force = rig_->actuator_force();
+    command.z_a = rig_->plant().z_a();
+    command.sequence = static_cast<std::uint16_t>(last_obeyed_ + 0x8000);
+    Apply(command, false, false, false);
+  }
+
+  bool Apply(const RigCommand& command, bool claim, bool release,
+             bool reset_fault) {
     rig_->AdvanceTo(clock_->Seconds());
     RigRequest request;
     request.command = command;
@@ -157,6 +180,8 @@ class SilLink final : public RigInterface {
   std::vector<std::optional<double>> stuck_ =
       std::vector<std::optional<double>>(faults_.size());
   std::int64_t reads_ = 0;
+  // The sequence of this controller's last command the rig obeyed.
+  std::uint16_t last_obeyed_ = 0;
 };
 
 }  // namespace

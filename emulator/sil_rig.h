@@ -42,6 +42,10 @@ class SilRig {
   // The time the loop must run on.
   VirtualClock* clock() { return &clock_; }
 
+  // The rig's true state (its actuator's force, its status), for what a
+  // test or a rehearsal observes beyond the loop's view.
+  const RigEmulator& emulator() const { return emulator_; }
+
   // What a log's sidecar records of the rig: its true parameters and
   // effects, that its sensors add noise, and the noise seed.
   RunMetadata Truth() const;

@@ -63,6 +63,7 @@ class BasicRigPlant {
 
   // Moves the force's acting point (the rig's fixture) [m].
   void set_z_a(const T& z_a) { z_a_ = z_a; }
+  const T& z_a() const { return z_a_; }
 
   double step() const { return step_; }
   // True pose: x, y, z [m], toe, camber, caster [rad].

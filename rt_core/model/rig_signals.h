@@ -27,6 +27,7 @@ enum RigFaultCode : std::uint16_t {
   kFaultCommandTimeout = 2,  // enabled, no command within its timeout
   kFaultDiverged = 3,        // its plant left the finite range
   kFaultOwnerLost = 4,       // the owner's connection closed while enabled
+  kFaultEmergencyStop = 5,   // its own emergency stop was pressed
 };
 
 // What a fault code means, for messages ("" for none, "an unknown fault
@@ -44,6 +45,8 @@ inline const char* RigFaultMeaning(std::uint16_t code) {
       return "its plant diverged";
     case kFaultOwnerLost:
       return "the owner's connection closed while it was enabled";
+    case kFaultEmergencyStop:
+      return "its emergency stop";
   }
   return "a fault code kcrig does not know";
 }

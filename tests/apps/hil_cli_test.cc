@@ -605,6 +605,60 @@ TEST_F(HilCliTest, AStallIsNamedAsTheRigsWatchdogAndTheClaimStays) {
   EXPECT_EQ(hil["undelivered_after_trip"], 0) << hil.dump();
 }
 
+// The fault-reaction matrix's Modbus TCP rows (README 2.5): an operator
+// stop, the rig's own emergency stop (SIGUSR1 to kcrig emulate) and a
+// travel limit reached, each timed from run.csv in cycles from the trip:
+// every axis of the load cell below 5 % of force_max, and the disable.
+// Within the loop's ramp-down (500 cycles) and the actuator's lag.
+TEST_F(HilCliTest, FaultReactionsOverModbusAreTimedFromTheLog) {
+  auto timed = [&](const std::string& name, const std::string& log_dir,
+                   const std::string& cause) {
+    const nlohmann::json sidecar = ReadJson(log_dir + "/run.json");
+    EXPECT_EQ(sidecar["hil"]["safety"]["cause"], cause) << name;
+    const Csv csv = ReadCsv(log_dir + "/run.csv");
+    const auto trip = static_cast<size_t>(std::lround(
+        sidecar["hil"]["safety"]["trip_time_s"].get<double>() / 1e-3));
+    long low = -1, off = -1;
+    for (size_t j = trip; j < csv.rows.size(); ++j) {
+      const double force =
+          std::max({std::abs(csv.Value(j, "Fx")), std::abs(csv.Value(j, "Fy")),
+                    std::abs(csv.Value(j, "Fz"))});
+      if (low < 0 && force < 0.05 * 5000) low = static_cast<long>(j - trip);
+      if (off < 0 && csv.rows[j][csv.Column("safety")] == "2") {
+        off = static_cast<long>(j - trip);
+      }
+    }
+    std::printf("| %s (Modbus TCP) | %s | 0 | | %ld | %ld |\n", name.c_str(),
+                cause.c_str(), low, off);
+    EXPECT_GE(low, 0) << name;
+    EXPECT_LE(low, 510) << name;
+    EXPECT_GE(off, 0) << name;
+    EXPECT_LE(off, 502) << name;
+  };
+  int port = StartEmulator();
+  auto run = StartRun(port, Path("stop"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(3000));
+  run->Signal(SIGINT);
+  EXPECT_EQ(run->Wait(), 3) << run->Output();
+  timed("operator stop (SIGINT)", Path("stop"), "signal");
+
+  run = StartRun(port, Path("estop"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(3000));
+  emulator_->Signal(SIGUSR1);
+  EXPECT_EQ(run->Wait(), 3) << run->Output();
+  EXPECT_NE(run->Output().find("fault 5: its emergency stop"),
+            std::string::npos)
+      << run->Output();
+  timed("rig-side fault (its e-stop)", Path("estop"), "rig_fault");
+
+  const std::string config =
+      EditedConfig("rig.yaml", "travel_max: 0.05", "travel_max: 0.0008");
+  port = StartEmulator({}, config);
+  run = StartRun(port, Path("limit"), {}, config);
+  EXPECT_EQ(run->Wait(), 3) << run->Output();
+  timed("limit reached (travel 0.8 mm)", Path("limit"), "travel_limit");
+}
+
 // Modbus RTU over a pseudo-terminal pair (socat): the emulator serves RTU
 // on one end and kcrig runs on the other, at a period that fits the wire
 // time at 115200 baud (a cycle's read and write take about 10 ms there); a

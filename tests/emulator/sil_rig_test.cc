@@ -4,8 +4,12 @@
 // rules say, every time.
 #include "emulator/sil_rig.h"
 
+#include <atomic>
 #include <cmath>
+#include <csignal>
+#include <cstdio>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -274,6 +278,188 @@ TEST(InjectedFaultTest, RefusesWhatItCannotInject) {
   EXPECT_EQ(fault.cycles, 1);
   ASSERT_TRUE(ParseInjectedFault("nan:at=7,channel=Fz", &fault).ok());
   EXPECT_EQ(fault.channel, 8);
+}
+
+// The SIL link as the loop sees it, watched from the rig's side: after
+// each read, the rig's true actuator force and status and the time; and
+// the operator's stop pressed at a chosen read.
+class WatchedLink final : public RigInterface {
+ public:
+  WatchedLink(std::unique_ptr<RigInterface> link, const SilRig& rig,
+              std::atomic<int>* stop, std::int64_t stop_at)
+      : link_(std::move(link)), rig_(rig), stop_(stop), stop_at_(stop_at) {
+    force_.reserve(20000);
+    status_.reserve(20000);
+    time_.reserve(20000);
+  }
+  Status Configure() override { return link_->Configure(); }
+  Status Activate() override { return link_->Activate(); }
+  Status Deactivate() override { return link_->Deactivate(); }
+  void OnError() override { link_->OnError(); }
+  IoResult Read(RigMeasurement* m) override {
+    if (static_cast<std::int64_t>(time_.size()) == stop_at_) *stop_ = SIGINT;
+    const IoResult result = link_->Read(m);
+    force_.push_back(rig_.emulator().actuator_force().cwiseAbs().maxCoeff());
+    status_.push_back(rig_.emulator().status());
+    time_.push_back(const_cast<SilRig&>(rig_).clock()->Seconds());
+    return result;
+  }
+  IoResult Write(const RigCommand& command) override {
+    return link_->Write(command);
+  }
+  std::string Describe() const override { return link_->Describe(); }
+  std::string CountersJson() const override { return link_->CountersJson(); }
+
+  std::vector<double> force_;  // the rig's largest axis force [N]
+  std::vector<std::uint16_t> status_;
+  std::vector<double> time_;  // [s]
+
+ private:
+  std::unique_ptr<RigInterface> link_;
+  const SilRig& rig_;
+  std::atomic<int>* stop_;
+  std::int64_t stop_at_;
+};
+
+// One row of the fault-reaction matrix: latencies in cycles from the fault
+// (-1: never within the run).
+struct Reaction {
+  std::string cause;       // the loop's trip cause, "none" without a trip
+  std::int64_t trip = -1;  // the loop's first safe command (its trip)
+  std::int64_t rig = -1;   // the rig faults itself
+  std::int64_t low = -1;   // every axis of the rig's force < 5 % force_max
+  std::int64_t off = -1;   // disabled: the loop's command, or the rig's own
+                           // with its force under 1 N
+  bool withheld = false;   // the loop sent nothing after its trip
+};
+
+class FaultReactionTest : public SilRigTest {
+ protected:
+  // A run with `inject` (or the operator's stop) at read kAt, or with the
+  // fault at the loop's trip when `at_trip` (a limit reached).
+  Reaction Measure(const std::string& inject, bool stop = false,
+                   bool at_trip = false) {
+    SilRig rig(config_, plant_);
+    EXPECT_TRUE(rig.Start().ok());
+    std::vector<InjectedFault> faults(inject.empty() ? 0 : 1);
+    if (!inject.empty()) {
+      EXPECT_TRUE(ParseInjectedFault(inject, &faults[0]).ok()) << inject;
+    }
+    std::atomic<int> signal{0};
+    WatchedLink link(rig.Connect(faults), rig, &signal, stop ? kAt : -1);
+    RigSessionOptions options;
+    options.excitation = excitation_;
+    options.log_dir = Path("r");
+    options.clock = rig.clock();
+    options.stop_signal = &signal;
+    RigSessionResult result;
+    EXPECT_TRUE(
+        RunRigSession(config_, rig_config_, &link, options, &result).ok());
+    Reaction r;
+    r.cause = TripCauseName(result.loop.cause);
+    r.withheld = result.loop.withheld_after_trip > 0;
+    const double period = rig_config_.period;
+    const std::int64_t at = at_trip ? result.loop.trip_cycle : kAt;
+    if (at < 0 || at >= static_cast<std::int64_t>(link.time_.size())) {
+      return r;
+    }
+    const double t0 = link.time_[at];
+    auto cycles = [&](size_t i) {
+      return std::llround((link.time_[i] - t0) / period);
+    };
+    if (result.loop.trip_cycle < 0) return r;  // no trip: nothing to time
+    r.trip = result.loop.trip_cycle - at;
+    const double low = 0.05 * rig_config_.safety.force_max;
+    for (size_t i = at; i < link.time_.size(); ++i) {
+      const bool faulted = link.status_[i] & kRigFault;
+      const bool enabled = link.status_[i] & kRigEnabled;
+      if (r.rig < 0 && faulted) r.rig = cycles(i);
+      if (r.low < 0 && link.force_[i] < low) r.low = cycles(i);
+      if (r.off < 0 && !enabled && link.force_[i] < 1.0) r.off = cycles(i);
+    }
+    // Else the loop's disable, at its last cycle, if it reached the rig.
+    if (r.off < 0 && !r.withheld && result.loop.undelivered_after_trip == 0) {
+      r.off = cycles(link.time_.size() - 1);
+    }
+    return r;
+  }
+};
+
+std::string Cell(std::int64_t cycles) {
+  return cycles < 0 ? "—" : std::to_string(cycles);
+}
+
+// The fault-reaction matrix of README 2.5, on the SIL rig at 1 kHz: each
+// fault at cycle 2000 (the settle phase, at -Fmax = 4 kN), its reaction and
+// latencies from the fault: to the loop's first safe command, to the rig's
+// own fault, to every axis of the rig's force below 5 % of force_max, and
+// to disabled (the loop's disable reaching the rig, or the rig's own at
+// under 1 N). Printed as the README's table; every latency within the
+// bounds the README states.
+TEST_F(FaultReactionTest, EveryFaultsReactionIsMeasuredAndWithinItsBounds) {
+  const struct {
+    const char* fault;
+    std::string inject;
+    bool stop, at_trip;
+    const char* reaction;
+  } cases[] = {
+      {"link lost (rig silent), controller killed", "silent:at=2000", false,
+       false,
+       "watchdog trip, ramp-down (undelivered); the rig's own "
+       "watchdog faults and ramps down"},
+      {"stale samples (20 reads)", "stale:at=2000,cycles=20", false, false,
+       "watchdog trip, ramp-down, disable"},
+      {"reply lost (one)", "lost:at=2000", false, false,
+       "indicate (counted), no trip"},
+      {"late reply 30 ms (overrun)", "late:at=2000,delay=0.03", false, false,
+       "indicate (overrun counted), no trip"},
+      {"late reply 60 ms (no command for 60 ms)", "late:at=2000,delay=0.06",
+       false, false, "the rig's watchdog faults; rig_fault trip, ramp-down"},
+      {"corrupted reply", "corrupt:at=2000", false, false,
+       "travel_limit trip, ramp-down, disable"},
+      {"sensor NaN (caster)", "nan:at=2000,channel=caster", false, false,
+       "invalid_measurement trip, ramp-down, disable"},
+      {"sensor stuck (z)", "stuck:at=2000,channel=z", false, false,
+       "model_error trip once the model leaves it, ramp-down, disable"},
+      {"limit reached (travel 0.5 mm)", "", false, true,
+       "travel_limit trip, ramp-down, disable"},
+      {"foreign master", "foreign:at=2000", false, false,
+       "foreign_master trip, commands withheld; the rig's watchdog faults "
+       "and ramps down"},
+      {"rig-side fault (its e-stop)", "estop:at=2000", false, false,
+       "the rig ramps down; rig_fault trip, ramp-down, disable"},
+      {"operator stop (SIGINT)", "", true, false,
+       "signal trip, ramp-down, disable"},
+  };
+  const double ramp_down = rig_config_.safety.ramp_down_time / 1e-3;
+  const double rig_timeout = plant_.command_timeout / 1e-3;
+  const double rig_ramp = plant_.ramp_down_time / 1e-3;
+  std::printf(
+      "| fault | reaction | loop trips | rig faults | force < 5 %% | "
+      "disabled |\n|---|---|---|---|---|---|\n");
+  for (const auto& c : cases) {
+    const RigConfig saved = rig_config_;
+    if (c.at_trip) rig_config_.safety.travel_max = 5e-4;
+    const Reaction r = Measure(c.inject, c.stop, c.at_trip);
+    rig_config_ = saved;
+    std::printf("| %s | %s | %s | %s | %s | %s |\n", c.fault, c.reaction,
+                r.withheld ? (Cell(r.trip) + ", withheld").c_str()
+                           : Cell(r.trip).c_str(),
+                Cell(r.rig).c_str(), Cell(r.low).c_str(), Cell(r.off).c_str());
+    if (r.cause == "none") continue;  // indicated: the run went on
+    // The loop trips within its watchdog's count (a stuck sensor: within
+    // a second, once the model leaves it).
+    EXPECT_GE(r.trip, 0) << c.fault;
+    EXPECT_LE(r.trip, c.inject.rfind("stuck", 0) == 0 ? 1000 : 20) << c.fault;
+    // Force below 5 %: by the loop's ramp-down (its time, the actuator's
+    // lag), or by the rig's own ramp after its watchdog.
+    const double by_loop = r.trip + ramp_down;
+    const double by_rig = rig_timeout + rig_ramp;
+    EXPECT_GE(r.low, 0) << c.fault;
+    EXPECT_LE(r.low, std::max(by_loop, by_rig) + 10) << c.fault;
+    EXPECT_GE(r.off, 0) << c.fault;
+    EXPECT_LE(r.off, std::max(by_loop, by_rig) + 60) << c.fault;
+  }
 }
 
 }  // namespace
