@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -50,8 +51,17 @@ class YamlReader {
     if (!child) {
       return Status::Error(Where(parent) + full + ": missing key");
     }
+    read_.insert(full);
     *out = child;
     return Status::Ok();
+  }
+
+  // After a loader read what it knows: a key it never read is a typo (a
+  // misspelt safety key would silently keep its default) and refused,
+  // naming the keys known beside it. Mappings a loader took whole (by
+  // iterating them) are not looked into.
+  Status CheckNoUnknownKeys(const YAML::Node& root) const {
+    return CheckKnown(root, "");
   }
 
   Status Number(const YAML::Node& parent, const std::string& parent_key,
@@ -198,6 +208,40 @@ class YamlReader {
     return Status::Ok();
   }
 
+  Status CheckKnown(const YAML::Node& node, const std::string& path) const {
+    for (auto it = node.begin(); it != node.end(); ++it) {
+      const std::string key = it->first.IsScalar() ? it->first.Scalar() : "?";
+      const std::string full = Join(path, key);
+      if (read_.count(full) == 0) {
+        return Error(it->first, full,
+                     "unknown key (known here: " + KnownBeside(path) + ")");
+      }
+      if (it->second.IsMap() && ReadBelow(full)) {
+        KCRIG_RETURN_IF_ERROR(CheckKnown(it->second, full));
+      }
+    }
+    return Status::Ok();
+  }
+
+  // Whether a key below `path` was read one by one.
+  bool ReadBelow(const std::string& path) const {
+    const auto next = read_.lower_bound(path + ".");
+    return next != read_.end() && next->rfind(path + ".", 0) == 0;
+  }
+
+  // The keys read directly under `path`, comma-separated.
+  std::string KnownBeside(const std::string& path) const {
+    const std::string prefix = path.empty() ? "" : path + ".";
+    std::string known;
+    for (const std::string& key : read_) {
+      if (key.rfind(prefix, 0) != 0) continue;
+      const std::string rest = key.substr(prefix.size());
+      if (rest.find('.') != std::string::npos) continue;
+      known += (known.empty() ? "" : ", ") + rest;
+    }
+    return known;
+  }
+
   std::string Where(const YAML::Node& node) const {
     const YAML::Mark mark = node.Mark();
     if (mark.line < 0) return file_ + ": ";
@@ -222,6 +266,7 @@ class YamlReader {
   }
 
   std::string file_;
+  mutable std::set<std::string> read_;  // keys read, "section.key"
 };
 
 }  // namespace kcrig

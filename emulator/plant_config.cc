@@ -31,6 +31,33 @@ Status ReadEffects(const YamlReader& reader, const YAML::Node& root,
   return Status::Ok();
 }
 
+// The unit of parameter `name` ("N/m", "N s/m", "m", ...).
+std::string UnitOf(SuspensionParameters<double>* model,
+                   const std::string& name) {
+  for (const NamedParameter<double>& p : ListParameters(model)) {
+    if (p.name == name) return p.unit;
+  }
+  return "";
+}
+
+// A true stiffness, damping or coordinate within what a suspension can
+// have, named with its line (a stiffness of 4.9e-324 N/m is a typo).
+Status CheckTrueValue(const YamlReader& reader, const YAML::Node& node,
+                      const std::string& name, const std::string& unit,
+                      double value) {
+  const std::string key = "true_parameters." + name;
+  if (unit == "N/m" && !(value >= 1e3 && value <= 1e12)) {
+    return reader.Error(node, key, "must be within [1000, 1e+12] N/m");
+  }
+  if (unit == "N s/m" && !(value >= 0 && value <= 1e12)) {
+    return reader.Error(node, key, "must be within [0, 1e+12] N s/m");
+  }
+  if (unit == "m" && !(std::abs(value) <= 10)) {
+    return reader.Error(node, key, "must be within [-10, 10] m");
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status LoadPlantConfig(const std::string& directory,
@@ -57,6 +84,8 @@ Status LoadPlantConfig(const std::string& directory,
     }
     KCRIG_RETURN_IF_ERROR(
         reader.Number(truth, "true_parameters", name, parameter));
+    KCRIG_RETURN_IF_ERROR(CheckTrueValue(
+        reader, entry.second, name, UnitOf(&plant->model, name), *parameter));
   }
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "sensors", &sensors));
   KCRIG_RETURN_IF_ERROR(
@@ -71,11 +100,11 @@ Status LoadPlantConfig(const std::string& directory,
   std::vector<double> offset;
   KCRIG_RETURN_IF_ERROR(reader.List(sensors, "sensors", "offset", 6, &offset));
   for (int k = 0; k < 6; ++k) plant->sensor_offset(k) = offset[k];
-  KCRIG_RETURN_IF_ERROR(reader.Positive(sensors, "sensors",
-                                        "position_resolution",
-                                        &plant->position_resolution, false));
-  KCRIG_RETURN_IF_ERROR(reader.Positive(sensors, "sensors", "angle_resolution",
-                                        &plant->angle_resolution, false));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(sensors, "sensors",
+                                       "position_resolution", 0, 1e-3,
+                                       &plant->position_resolution));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(sensors, "sensors", "angle_resolution",
+                                       0, 1e-2, &plant->angle_resolution));
   YAML::Node actuator, rig, load_cell;
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "actuator", &actuator));
   KCRIG_RETURN_IF_ERROR(reader.InRange(actuator, "actuator", "tau", 1e-5, 1,
@@ -116,11 +145,12 @@ Status LoadPlantConfig(const std::string& directory,
         reader.Boolean(rig, "rig", "keeps_state", &plant->keeps_state));
   }
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "load_cell", &load_cell));
-  KCRIG_RETURN_IF_ERROR(reader.Positive(load_cell, "load_cell", "sigma",
-                                        &plant->load_cell_sigma, false));
-  KCRIG_RETURN_IF_ERROR(reader.Positive(load_cell, "load_cell", "resolution",
-                                        &plant->load_cell_resolution, false));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(load_cell, "load_cell", "sigma", 0, 1e3,
+                                       &plant->load_cell_sigma));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(load_cell, "load_cell", "resolution", 0,
+                                       100, &plant->load_cell_resolution));
   KCRIG_RETURN_IF_ERROR(ReadEffects(reader, root, &plant->effects));
+  KCRIG_RETURN_IF_ERROR(reader.CheckNoUnknownKeys(root));
   return ValidateModel(plant->model, file);
 }
 

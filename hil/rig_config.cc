@@ -15,20 +15,24 @@ Status LoadRigConfig(const std::string& directory, RigConfig* rig) {
   KCRIG_RETURN_IF_ERROR(LoadLoopConfig(reader, root, rig));
   KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "timing_budget", &budget));
   TimingBudget& b = rig->budget;
-  KCRIG_RETURN_IF_ERROR(reader.Positive(budget, "timing_budget",
-                                        "compute_p999_fraction",
-                                        &b.compute_p999_fraction));
-  KCRIG_RETURN_IF_ERROR(
-      reader.Positive(budget, "timing_budget", "wakeup_p99", &b.wakeup_p99));
-  KCRIG_RETURN_IF_ERROR(reader.Positive(
-      budget, "timing_budget", "cycle_p999_fraction", &b.cycle_p999_fraction));
+  // A budget beyond these always passes: no budget at all.
+  KCRIG_RETURN_IF_ERROR(reader.InRange(budget, "timing_budget",
+                                       "compute_p999_fraction", 1e-3, 1,
+                                       &b.compute_p999_fraction));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(budget, "timing_budget", "wakeup_p99",
+                                       1e-6, 1, &b.wakeup_p99));
+  KCRIG_RETURN_IF_ERROR(reader.InRange(budget, "timing_budget",
+                                       "cycle_p999_fraction", 1e-3, 1,
+                                       &b.cycle_p999_fraction));
   KCRIG_RETURN_IF_ERROR(reader.InRange(budget, "timing_budget",
                                        "overrun_max_fraction", 0.0, 1.0,
                                        &b.overrun_max_fraction));
 
   KCRIG_RETURN_IF_ERROR(
       LoadModbusSettings(reader, root, directory, rig->period, &rig->modbus));
-  return LoadCanSettings(reader, root, directory, rig->period, &rig->can);
+  KCRIG_RETURN_IF_ERROR(
+      LoadCanSettings(reader, root, directory, rig->period, &rig->can));
+  return reader.CheckNoUnknownKeys(root);
 }
 
 }  // namespace kcrig

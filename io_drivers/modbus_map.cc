@@ -96,7 +96,7 @@ Status LoadModbusMap(const std::string& file, ModbusMap* map) {
                          ": the map must fit one request per table (<= 125 "
                          "input, <= 123 holding registers)");
   }
-  return Status::Ok();
+  return reader.CheckNoUnknownKeys(root);
 }
 
 }  // namespace kcrig

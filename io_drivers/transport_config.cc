@@ -29,12 +29,8 @@ Status LoadModbusSettings(const YamlReader& reader, const YAML::Node& root,
                         "must be <= half of loop.period (a read and a write "
                         "share one cycle)");
   }
-  KCRIG_RETURN_IF_ERROR(reader.Positive(modbus, "modbus", "reconnect_interval",
-                                        &m.reconnect_interval));
-  if (m.reconnect_interval < 0.01) {
-    return reader.Error(modbus["reconnect_interval"],
-                        "modbus.reconnect_interval", "must be >= 0.01 s");
-  }
+  KCRIG_RETURN_IF_ERROR(reader.InRange(modbus, "modbus", "reconnect_interval",
+                                       0.01, 10, &m.reconnect_interval));
   KCRIG_RETURN_IF_ERROR(reader.Child(modbus, "modbus", "rtu", &rtu));
   KCRIG_RETURN_IF_ERROR(
       reader.Integer(rtu, "modbus.rtu", "baud", 300, 4000000, &m.baud));

@@ -206,6 +206,28 @@ Status ParseLoopColumns(const std::vector<std::string_view>& fields,
   return Status::Ok();
 }
 
+// The sidecar's format and the kinds of its fields a reader relies on: a
+// newer format is refused by name, a sample count must be a whole number.
+Status CheckSidecarKinds(const nlohmann::json& doc, const std::string& path,
+                         size_t rows) {
+  constexpr const char* kFormat = "kcrig run log 1";
+  if (doc.contains("format") &&
+      (!doc["format"].is_string() || doc["format"] != kFormat)) {
+    return Status::Error(path + ": format " + doc["format"].dump() +
+                         ": this kcrig reads \"" + kFormat + "\"");
+  }
+  if (doc.contains("samples") && !doc["samples"].is_number_unsigned()) {
+    return Status::Error(path + ": samples must be a whole number >= 0 (the " +
+                         "CSV has " + std::to_string(rows) + ")");
+  }
+  const nlohmann::json& ex = doc["excitation"];
+  if (ex.contains("type") && ex["type"] != "linear_ramp") {
+    return Status::Error(path + ": excitation.type " + ex["type"].dump() +
+                         ": only \"linear_ramp\" is known");
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status ParseSidecar(const nlohmann::json& doc, const std::string& path,
@@ -230,6 +252,7 @@ Status ParseSidecar(const nlohmann::json& doc, const std::string& path,
                          ": not a kcrig run sidecar (no excitation or "
                          "measurement_sigma)");
   }
+  KCRIG_RETURN_IF_ERROR(CheckSidecarKinds(doc, path, rows));
   const nlohmann::json& ex = doc["excitation"];
   const nlohmann::json& sigma = doc["measurement_sigma"];
   RampExcitation<double>* e = &m->excitation;
@@ -246,14 +269,27 @@ Status ParseSidecar(const nlohmann::json& doc, const std::string& path,
   if (!(m->rate >= 1 && m->rate <= 1e5)) {
     return Status::Error(path + ": rate_hz must be within [1, 100000] Hz");
   }
-  if (!(m->sigma_position > 0) || !(m->sigma_angle > 0)) {
-    return Status::Error(path + ": measurement sigmas must be > 0");
+  if (!(m->sigma_position > 0 && m->sigma_position <= 0.1) ||
+      !(m->sigma_angle > 0 && m->sigma_angle <= 0.2)) {
+    return Status::Error(path +
+                         ": measurement sigmas must be within (0, 0.1] m "
+                         "and (0, 0.2] rad");
+  }
+  if (!(e->fmax >= 0 && e->fmax <= 1e5)) {
+    return Status::Error(path +
+                         ": excitation.fmax_n must be within [0, 100000] N");
+  }
+  if (!(std::abs(e->phi) <= 2 * M_PI + 1e-9)) {
+    return Status::Error(path +
+                         ": excitation.phi_rad must be within [-2 pi, 2 pi]");
+  }
+  if (!(std::abs(e->z_a) <= 2)) {
+    return Status::Error(path + ": excitation.z_a_m must be within [-2, 2] m");
   }
   if (!(e->duration > 0 && e->duration <= 3600)) {
     return Status::Error(path + ": excitation.tf_s must be within (0, 3600] s");
   }
-  if (doc.contains("samples") && doc["samples"].is_number_unsigned() &&
-      doc["samples"].get<size_t>() != rows) {
+  if (doc.contains("samples") && doc["samples"].get<size_t>() != rows) {
     return Status::Error(path + ": says " +
                          std::to_string(doc["samples"].get<size_t>()) +
                          " samples, the CSV has " + std::to_string(rows) +

@@ -42,6 +42,7 @@ Status LoadModel(const std::string& file, SuspensionParameters<double>* model) {
   }
   KCRIG_RETURN_IF_ERROR(
       LoadElement(reader, root, "", "spring", &model->spring));
+  KCRIG_RETURN_IF_ERROR(reader.CheckNoUnknownKeys(root));
   return ValidateModel(*model, file);
 }
 
@@ -125,7 +126,7 @@ Status LoadExperiment(const std::string& file, ExperimentConfig* experiment) {
     return reader.Error(bounds["z_a"], "design_bounds.z_a",
                         "lower bound must be below the upper bound");
   }
-  return Status::Ok();
+  return reader.CheckNoUnknownKeys(root);
 }
 
 }  // namespace

@@ -125,6 +125,10 @@ Status LoadLoopConfig(const YamlReader& reader, const YAML::Node& root,
                                        config->period, 60, &p.lead_in));
   KCRIG_RETURN_IF_ERROR(
       reader.InRange(profile, "run_profile", "settle", 0, 60, &p.settle));
+  if (p.settle > 0 && p.settle < config->period) {
+    return reader.Error(profile["settle"], "run_profile.settle",
+                        "must be 0 or within [loop.period, 60] s");
+  }
   KCRIG_RETURN_IF_ERROR(reader.InRange(profile, "run_profile", "ramp_down",
                                        config->period, 60, &p.ramp_down));
   return LoadSafetyLimits(reader, root, config->period, &config->safety);

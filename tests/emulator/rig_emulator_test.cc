@@ -96,9 +96,18 @@ TEST_F(PlantConfigTest, SafetyValuesOutOfRangeNameFileLineAndKey) {
        "rig.command_timeout: must be within [0.001, 1]"},
       {"force_max: 5000.0", "force_max: 5000.0\n  force_max: 1e9",
        "actuator.force_max: duplicate key (first at line"},
+      {"sigma: 0.5 ", "sigma: 1e300 ",
+       "load_cell.sigma: must be within [0, 1000]"},
+      {"resolution: 0.1 ", "resolution: 1e300 ",
+       "load_cell.resolution: must be within [0, 100]"},
+      {"c_O1: 3.6e6", "c_O1: 4.9e-324",
+       "plant.yaml:6: true_parameters.c_O1: must be within [1000, 1e+12] N/m"},
+      {"command_timeout: 0.05", "command_timeout: 0.05\n  comand_timeout: 9",
+       "rig.comand_timeout: unknown key (known here: "},
   };
+  int index = 0;
   for (const auto& c : cases) {
-    const std::string dir = Path(std::string("case") + c.to[0] + c.to[1]);
+    const std::string dir = Path("case" + std::to_string(index++));
     EditConfig(dir, "plant.yaml", c.from, c.to);
     PlantConfig plant;
     const Status status = LoadPlantConfig(dir, config.model, &plant);

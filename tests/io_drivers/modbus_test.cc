@@ -117,6 +117,16 @@ TEST_F(ModbusConfigTest, BadMapsAndRigConfigsNameFileLineAndKey) {
       {"rig.yaml", "  force_max: 5000.0",
        "  force_max: 5000.0\n  force_max: 9e3",
        "safety.force_max: duplicate key (first at line"},
+      // A budget that always passes, a reconnect every 3e292 years, a
+      // settle of no cycle; a misspelt safety key (a silent default).
+      {"rig.yaml", "wakeup_p99: 0.0005", "wakeup_p99: 1e300",
+       "timing_budget.wakeup_p99: must be within [1e-06, 1]"},
+      {"rig.yaml", "reconnect_interval: 0.1", "reconnect_interval: 1e300",
+       "modbus.reconnect_interval: must be within [0.01, 10]"},
+      {"rig.yaml", "settle: 0.5", "settle: 1e-300",
+       "run_profile.settle: must be 0 or within [loop.period, 60] s"},
+      {"rig.yaml", "travel_max: 0.05", "travel_max: 0.05\n  travle_max: 0.01",
+       "safety.travle_max: unknown key (known here: "},
       {"rig.yaml", "priority: 80", "priority: 120",
        "realtime.priority: must be a whole number in [0, 99]"},
       {"rig.yaml", "map: modbus_map.yaml", "map: [a, b]",

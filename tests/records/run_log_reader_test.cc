@@ -171,6 +171,31 @@ TEST_F(RunLogReaderTest, HostileSidecarsAndFilesAreOneLineErrors) {
   with("\"tf_s\": 0.004", "\"tf_s\": 1e9");
   EXPECT_NE(Error().find("excitation.tf_s must be within (0, 3600] s"),
             std::string::npos);
+  // Every field a reader relies on, validated: counts, format, kinds,
+  // ranges.
+  const struct {
+    const char* from;
+    const char* to;
+    const char* message;
+  } fields[] = {
+      {"\"samples\": 5", "\"samples\": 1e20",
+       "samples must be a whole number >= 0"},
+      {"\"samples\": 5", "\"samples\": -5",
+       "samples must be a whole number >= 0"},
+      {"\"format\": \"kcrig run log 1\"", "\"format\": \"kcrig run log 99\"",
+       "format \"kcrig run log 99\": this kcrig reads \"kcrig run log 1\""},
+      {"\"type\": \"linear_ramp\"", "\"type\": \"sine\"",
+       "excitation.type \"sine\": only \"linear_ramp\" is known"},
+      {"\"fmax_n\": ", "\"fmax_n\": -4000, \"x\": ",
+       "excitation.fmax_n must be within [0, 100000] N"},
+      {"\"phi_rad\": ", "\"phi_rad\": 1e308, \"x\": ",
+       "excitation.phi_rad must be within [-2 pi, 2 pi]"},
+  };
+  for (const auto& f : fields) {
+    with(f.from, f.to);
+    EXPECT_NE(Error().find(f.message), std::string::npos)
+        << f.to << ": " << Error();
+  }
   std::ofstream(dir_ / "run.json") << json;
   ReplaceLine(1, "t,Fx,Fy,Fz,x,y,z,toe,camber,caster,x");
   EXPECT_NE(Error().find(":1: column 'x' appears twice"), std::string::npos);
