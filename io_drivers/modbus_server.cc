@@ -268,10 +268,10 @@ class Connections {
     }
     if (static_cast<int>(clients_.size()) >= ModbusServer::kMaxClients &&
         !MakeRoom()) {
-      close(fd);
       Note("refused a connection: it serves " +
            std::to_string(ModbusServer::kMaxClients) +
            " connections and none has been idle for 1 s");
+      close(fd);
       return true;
     }
     // Without TCP_NODELAY, Nagle holds each small reply until the client

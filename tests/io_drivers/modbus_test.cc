@@ -723,6 +723,29 @@ TEST_P(ModbusRigTest, IdleConnectionsDoNotLockTheMasterOut) {
   }
 }
 
+// Sixteen clients at work (each sent a request within the second): no
+// place to take, so a new master is turned away at once, and its error
+// says so instead of "Connection reset by peer".
+TEST_P(ModbusRigTest, AMasterTurnedAwayIsToldWhy) {
+  InProcessRig rig(map_, rig_clock());
+  std::vector<int> busy;
+  const std::uint8_t read[12] = {0, 1, 0, 0, 0, 6, 1, 4, 0, 0, 0, 1};
+  for (int k = 0; k < ModbusServer::kMaxClients; ++k) {
+    busy.push_back(ConnectRaw(rig.port()));
+    ASSERT_EQ(send(busy.back(), read, sizeof(read), MSG_NOSIGNAL), 12);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  auto master = Master(rig.port());
+  const Status refused = master->Configure();
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.message().find("the rig closed the connection at once"),
+            std::string::npos)
+      << refused.message();
+  EXPECT_NE(rig.Notes().find("refused a connection"), std::string::npos)
+      << rig.Notes();
+  for (int fd : busy) close(fd);
+}
+
 INSTANTIATE_TEST_SUITE_P(VirtualClock, ModbusRigTest,
                          ::testing::Values(RigTime::kVirtual),
                          ::testing::PrintToStringParamName());
