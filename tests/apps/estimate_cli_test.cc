@@ -188,6 +188,23 @@ TEST_F(EstimateCliTest, BadInputFailsCleanly) {
   ExpectCleanFailure(RunKcrig("estimate" + log + out),
                      "column 'Fx': 1.7e+308 is beyond any rig (|value| <= "
                      "1e+06 N)");
+  // Forces a rig could log but no suspension survives: the solver fails,
+  // and says so in kcrig's one line, never through its own logging.
+  {
+    Simulate("");
+    std::ifstream in(Path("run.csv"));
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+    for (size_t j = 300; j + 1 < lines.size() && j < 3000; j += 7) {
+      const size_t fx = lines[j].find(',') + 1;
+      const size_t fy = lines[j].find(',', fx) + 1;
+      const size_t fz = lines[j].find(',', fy);
+      lines[j] = lines[j].substr(0, fx) + "9.9e5,-9.9e5" + lines[j].substr(fz);
+    }
+    std::ofstream out(Path("run.csv"));
+    for (const std::string& line : lines) out << line << "\n";
+  }
+  ExpectCleanFailure(RunKcrig("estimate" + log + out), "estimation failed");
   // A field carrying terminal escapes (set the title, clear the screen) and
   // a stray C1 byte: echoed as \xNN, never raw.
   {
