@@ -88,7 +88,7 @@ int RunEmulate(const EmulateArgs& args) {
   const std::atomic<int>& stop = InstallStopSignalHandlers();
   RigEmulator rig(config, plant, effects);
   // SIGUSR1 presses the rig's emergency stop (a rehearsal of a rig-side
-  // fault: kill -USR1 PID).
+  // fault: kill -USR1 PID), SIGUSR2 releases it.
   rig.WireEmergencyStop(&EmergencyStopButton());
   const MonotonicClock clock;
   std::string effect_text;

@@ -3,6 +3,7 @@
 #include <sys/ioctl.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <utility>
@@ -12,7 +13,7 @@ namespace {
 
 std::atomic<int> g_stop_signal{0};
 static_assert(std::atomic<int>::is_always_lock_free,
-              "the signal handler stores into it");
+              "the signal handlers store into it");
 
 std::atomic<int> g_stop_count{0};
 
@@ -25,32 +26,34 @@ extern "C" void OnStopSignal(int signal) {
   if (count == 1) {
     g_stop_signal.store(signal);
   } else if (count == 2) {
+    const int saved_errno = errno;  // the interrupted code's
     constexpr char kLine[] =
         "\nkcrig: stopping safely (a rig ramps down to zero force first); "
         "once more to kill at once (a rig's own watchdog then stops it)\n";
     [[maybe_unused]] const ssize_t n =
         write(STDERR_FILENO, kLine, sizeof(kLine) - 1);
+    errno = saved_errno;
   } else {
     std::signal(signal, SIG_DFL);
     raise(signal);
   }
 }
 
-static_assert(std::atomic<int>::is_always_lock_free,
-              "the signal handler counts into it");
+std::atomic<int> g_emergency_stop{0};
 
-std::atomic<bool> g_emergency_stop{false};
-
-extern "C" void OnEmergencyStop(int) { g_emergency_stop.store(true); }
+extern "C" void OnEmergencyStop(int signal) {
+  g_emergency_stop.store(signal == SIGUSR1 ? 1 : 2);
+}
 
 }  // namespace
 
-std::atomic<bool>& EmergencyStopButton() {
+std::atomic<int>& EmergencyStopButton() {
   static const bool installed = [] {
     struct sigaction action {};
     action.sa_handler = OnEmergencyStop;
     sigemptyset(&action.sa_mask);
-    return sigaction(SIGUSR1, &action, nullptr) == 0;
+    return sigaction(SIGUSR1, &action, nullptr) == 0 &&
+           sigaction(SIGUSR2, &action, nullptr) == 0;
   }();
   (void)installed;
   return g_emergency_stop;

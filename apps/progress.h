@@ -46,9 +46,10 @@ class ProgressLine {
 // only says that a third kills at once.
 const std::atomic<int>& InstallStopSignalHandlers();
 
-// A flag that SIGUSR1 sets (installs its handler on the first call): the
-// emulated rig's emergency-stop button.
-std::atomic<bool>& EmergencyStopButton();
+// The emulated rig's emergency-stop button (RigEmulator::Button): SIGUSR1
+// presses it (1), SIGUSR2 releases it (2); the handlers are installed on
+// the first call.
+std::atomic<int>& EmergencyStopButton();
 
 // SIGINT and SIGTERM in a long offline command (estimate, screen,
 // diagnose, design, campaign, report), through the HIL commands' handlers

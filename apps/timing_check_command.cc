@@ -166,9 +166,9 @@ int RunTimingCheck(const TimingCheckArgs& args) {
       timing.release_error.empty()
           ? "ok"
           : ("failed (" + timing.release_error + ")").c_str());
-  if (timing.read_errors + timing.write_errors + timing.stale_samples +
-              timing.lost_rig_samples >
-          0 ||
+  // Lost rig samples are reported but pass: another client reading the
+  // rig (an HMI) takes samples this loop never sees.
+  if (timing.read_errors + timing.write_errors + timing.stale_samples > 0 ||
       !timing.release_error.empty()) {
     timing.violations.push_back("the link failed (see link)");
     timing.within_budget = false;

@@ -8,8 +8,9 @@
 
 namespace kcrig {
 
-// `text` with every control character (C0, DEL, C1) and every byte that is
-// not part of valid UTF-8 shown as \xNN: a message that echoes input (a
+// `text` with every control character (C0, DEL, C1, the line separators and
+// the bidirectional controls) and every byte that is not part of valid
+// UTF-8 shown as \xNN: a message that echoes input (a
 // CSV field, a config value, a path) must not drive the terminal it is
 // printed on (a title set, a cleared screen) nor break its one line.
 inline std::string EscapeControl(const std::string& text) {
@@ -41,9 +42,19 @@ inline std::string EscapeControl(const std::string& text) {
     }
     const bool overlong = (length == 3 && code_point < 0x800) ||
                           (length == 4 && code_point < 0x10000);
-    if (valid && !overlong && code_point > 0x9f && code_point <= 0x10ffff &&
+    // Line separators and bidirectional controls reorder or break the
+    // line a reader sees: escaped like control characters.
+    const bool reorders = (code_point >= 0x2028 && code_point <= 0x202e) ||
+                          (code_point >= 0x2066 && code_point <= 0x2069);
+    if (valid && !overlong && !reorders && code_point > 0x9f &&
+        code_point <= 0x10ffff &&
         !(code_point >= 0xd800 && code_point < 0xe000)) {
       out.append(text, i, length);
+      i += length;
+    } else if (valid && !overlong && reorders) {
+      for (int k = 0; k < length; ++k) {
+        escape(static_cast<unsigned char>(text[i + k]));
+      }
       i += length;
     } else {
       escape(byte);

@@ -212,7 +212,7 @@ class YamlReader {
     for (auto it = node.begin(); it != node.end(); ++it) {
       const std::string key = it->first.IsScalar() ? it->first.Scalar() : "?";
       const std::string full = Join(path, key);
-      if (read_.count(full) == 0) {
+      if (read_.count(full) == 0 || key.find('.') != std::string::npos) {
         return Error(it->first, full,
                      "unknown key (known here: " + KnownBeside(path) + ")");
       }

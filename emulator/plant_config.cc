@@ -14,8 +14,9 @@ namespace {
 // The optional `effects` list, each entry in the --effect syntax.
 Status ReadEffects(const YamlReader& reader, const YAML::Node& root,
                    PlantEffects* effects) {
-  const YAML::Node list = root["effects"];
-  if (!list) return Status::Ok();
+  if (!root["effects"]) return Status::Ok();
+  YAML::Node list;
+  KCRIG_RETURN_IF_ERROR(reader.Child(root, "", "effects", &list));
   if (!list.IsSequence()) {
     return reader.Error(list, "effects",
                         "expected a list of effects NAME[:k=v,...]");

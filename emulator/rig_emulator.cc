@@ -27,7 +27,8 @@ void RigEmulator::Fault(RigFaultCode code) {
   if (fault_ != kFaultNone) return;
   fault_ = code;
   fault_time_ = time_;
-  fault_setpoint_ = setpoint_;
+  // A disabled rig applies no set-point: its fault ramps from nothing.
+  fault_setpoint_ = enabled_ ? setpoint_ : Vec3<double>::Zero();
 }
 
 void RigEmulator::Step() {
@@ -63,7 +64,15 @@ void RigEmulator::Step() {
 
 void RigEmulator::AdvanceTo(double now) {
   while (time_ + config_.step <= now) Step();
-  if (button_ != nullptr && button_->exchange(false)) EmergencyStop();
+  if (button_ == nullptr) return;
+  const int pressed = button_->exchange(kButtonNone);
+  if (pressed == kButtonStop) EmergencyStop();
+  if (pressed == kButtonRelease) ReleaseEmergencyStop();
+}
+
+void RigEmulator::EmergencyStop() {
+  emergency_stop_pressed_ = true;
+  Fault(kFaultEmergencyStop);
 }
 
 // An unclaimed rig is never enabled: one that was faults and ramps down.
@@ -83,7 +92,10 @@ bool RigEmulator::Request(const RigRequest& request) {
       return true;
     }
     case RigOwnership::Verdict::kObey:
-      ApplyCommand(request.command, request.reset_fault);
+      // Only the owner resets a fault (an unclaimed rig obeys disabled
+      // commands from anyone).
+      ApplyCommand(request.command,
+                   request.reset_fault && ownership_.owner() != 0);
       return true;
   }
   return false;
@@ -96,7 +108,9 @@ void RigEmulator::ConnectionClosed(int connection) {
 void RigEmulator::ApplyCommand(const RigCommand& command, bool reset_fault) {
   last_command_ = time_;
   last_sequence_ = command.sequence;
-  if (reset_fault && fault_ != kFaultNone && actuator_force_.norm() < 1.0) {
+  // An emergency stop stays until it is released at the rig.
+  if (reset_fault && fault_ != kFaultNone && !emergency_stop_pressed_ &&
+      actuator_force_.norm() < 1.0) {
     fault_ = kFaultNone;
   }
   enabled_ = command.enable;

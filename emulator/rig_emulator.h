@@ -52,11 +52,14 @@ class RigEmulator {
   void ConnectionClosed(int connection);
 
   // The rig's own emergency stop (its operator's button): it faults and
-  // ramps its force down, whatever its master commands.
-  void EmergencyStop() { Fault(kFaultEmergencyStop); }
-  // A button pressed from another thread (kcrig emulate: SIGUSR1): each
-  // press, seen at the next AdvanceTo, is an EmergencyStop. Optional.
-  void WireEmergencyStop(std::atomic<bool>* button) { button_ = button; }
+  // ramps its force down, whatever its master commands; no reset clears
+  // the fault until the button is released at the rig.
+  void EmergencyStop();
+  void ReleaseEmergencyStop() { emergency_stop_pressed_ = false; }
+  // Buttons pressed from another thread (kcrig emulate: SIGUSR1 stop,
+  // SIGUSR2 release), seen at the next AdvanceTo. Optional.
+  enum Button : int { kButtonNone = 0, kButtonStop = 1, kButtonRelease = 2 };
+  void WireEmergencyStop(std::atomic<int>* button) { button_ = button; }
 
   // Takes one sample of every sensor (sample counter + 1).
   RigMeasurement TakeSample();
@@ -94,7 +97,8 @@ class RigEmulator {
   std::uint32_t sample_ = 0;
   std::uint16_t last_sequence_ = 0;
   RigOwnership ownership_;
-  std::atomic<bool>* button_ = nullptr;
+  std::atomic<int>* button_ = nullptr;
+  bool emergency_stop_pressed_ = false;
   std::mt19937_64 rng_;
   std::normal_distribution<double> normal_{0.0, 1.0};
 };

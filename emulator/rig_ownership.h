@@ -7,8 +7,8 @@
 // (VisibleOwner). The owner gives control back by request, and loses it
 // when it stays silent for the claim timeout or its connection closes.
 // Nothing enables an unclaimed rig. Transport-free: the front end says
-// which connection a request came on (-1 on a shared bus, where the token
-// alone names the owner).
+// which connection a request came on (-1 on a CAN bus, 1 on an RTU line:
+// on a shared wire the token is all that names the owner).
 #ifndef KCRIG_EMULATOR_RIG_OWNERSHIP_H_
 #define KCRIG_EMULATOR_RIG_OWNERSHIP_H_
 

@@ -208,7 +208,7 @@ Status SilRig::BeginRun(std::uint16_t* session) {
   ran_ = true;
   // A session token per run, as each `kcrig run` draws its own.
   *session = next_session_++;
-  if (next_session_ == 0) next_session_ = 1;
+  if (next_session_ == 0 || next_session_ == kOwnerHidden) next_session_ = 1;
   return Status::Ok();
 }
 

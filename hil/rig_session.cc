@@ -93,9 +93,9 @@ std::string TripMessage(const LoopResult& loop, double period,
   std::string outcome = "; force ramped to zero and disabled";
   if (loop.withheld_after_trip > 0) {
     outcome =
-        "; this controller sent nothing more (its commands would fight the "
-        "other master's): the rig's own limits and command watchdog must "
-        "stop it";
+        "; this controller's loop sent no more commands (they would fight "
+        "the other master's): the rig's own limits and command watchdog "
+        "must stop it";
   } else if (loop.commands_after_trip > 0 &&
              loop.undelivered_after_trip == loop.commands_after_trip) {
     outcome =

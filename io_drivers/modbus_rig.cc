@@ -155,7 +155,11 @@ std::string ModbusRig::CountersJson() const {
     json += ", \"fault\": \"the rig obeys another master: ";
     json += foreign_echo_ours_
                 ? "it reports " + OwnerText(foreign_owner_) +
-                      " in control, not this controller's " + Hex(session_)
+                      " in control, not this controller's " + Hex(session_) +
+                      (reconnects_.load() > 0 && foreign_owner_ == kOwnerHidden
+                           ? " (after a reconnect: perhaps this controller's "
+                             "previous connection, not yet closed at the rig)"
+                           : "")
                 : "it echoes command sequence " +
                       std::to_string(foreign_echo_) +
                       ", which this controller did not send (a second "

@@ -268,9 +268,12 @@ class Connections {
     }
     if (static_cast<int>(clients_.size()) >= ModbusServer::kMaxClients &&
         !MakeRoom()) {
-      Note("refused a connection: it serves " +
-           std::to_string(ModbusServer::kMaxClients) +
-           " connections and none has been idle for 1 s");
+      char line[128];
+      std::snprintf(line, sizeof(line),
+                    "refused a connection: it serves %d connections and none "
+                    "has been idle for %.0f s",
+                    ModbusServer::kMaxClients, ModbusServer::kEvictableIdle);
+      Note(line);
       close(fd);
       return true;
     }

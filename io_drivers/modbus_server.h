@@ -6,8 +6,10 @@
 // never blocks on one of them: each connection has its own receive buffer,
 // a request is answered once its whole frame has arrived, and a frame left
 // unfinished for kPartialFrameTimeout or a malformed header closes that
-// connection only. Connections are bounded so that none can lock the
-// master out: one without a whole request for kIdleTimeout is closed, and
+// connection only. Connections are bounded so that idle ones cannot lock
+// the master out (16 clients at work can: the new one is then closed at
+// once, and says why): one without a whole request for kIdleTimeout is
+// closed, and
 // a new connection beyond kMaxClients takes the place of the longest idle
 // one if that one has been idle for kEvictableIdle (a flood of new
 // connections cannot push out a client at work), never of a protected one

@@ -22,6 +22,8 @@
 namespace kcrig {
 namespace {
 
+constexpr const char* kSidecarFormat = "kcrig run log 1";
+
 // Shortest text that reads back to the same double: logs re-read exactly.
 void AppendNumber(double value, std::string* out) {
   char buffer[32];
@@ -89,7 +91,7 @@ std::string FormatCsv(const RunLog& log) {
 std::string FormatSidecar(const RunLog& log, std::int64_t rows) {
   const RunMetadata& m = log.metadata;
   nlohmann::ordered_json doc;
-  doc["format"] = "kcrig run log 1";
+  doc["format"] = kSidecarFormat;
   doc["software_version"] = KCRIG_VERSION;
   doc["units"] = {{"t", "s"},       {"Fx", "N"},    {"Fy", "N"},
                   {"Fz", "N"},      {"x", "m"},     {"y", "m"},
@@ -210,11 +212,10 @@ Status ParseLoopColumns(const std::vector<std::string_view>& fields,
 // newer format is refused by name, a sample count must be a whole number.
 Status CheckSidecarKinds(const nlohmann::json& doc, const std::string& path,
                          size_t rows) {
-  constexpr const char* kFormat = "kcrig run log 1";
   if (doc.contains("format") &&
-      (!doc["format"].is_string() || doc["format"] != kFormat)) {
+      (!doc["format"].is_string() || doc["format"] != kSidecarFormat)) {
     return Status::Error(path + ": format " + doc["format"].dump() +
-                         ": this kcrig reads \"" + kFormat + "\"");
+                         ": this kcrig reads \"" + kSidecarFormat + "\"");
   }
   if (doc.contains("samples") && !doc["samples"].is_number_unsigned()) {
     return Status::Error(path + ": samples must be a whole number >= 0 (the " +

@@ -81,6 +81,20 @@ double Y(const Trace& trace, double t) {
 // must not become a ramp-down of days or a travel limit of kilometres.
 class PlantConfigTest : public TempDirTest {};
 
+// plant.yaml's optional effects list (every key known, read through the
+// one reader).
+TEST_F(PlantConfigTest, AnEffectsListLoads) {
+  const KcrigConfig config = SourceConfig();
+  const std::string dir = Path("effects");
+  EditConfig(dir, "plant.yaml",
+             "load_cell:", "effects: [\"rig_compliance:k=2e7\"]\nload_cell:");
+  PlantConfig plant;
+  const Status status = LoadPlantConfig(dir, config.model, &plant);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_TRUE(plant.effects.rig_compliance.enabled);
+  EXPECT_EQ(plant.effects.rig_compliance.k, 2e7);
+}
+
 TEST_F(PlantConfigTest, SafetyValuesOutOfRangeNameFileLineAndKey) {
   const KcrigConfig config = SourceConfig();
   const struct {
@@ -149,6 +163,51 @@ TEST(RigEmulatorTest, ASilentControllerFaultsTheRigAndItsForceRampsDown) {
   EXPECT_TRUE(rig.status() & kRigWatchdog);
   rig.AdvanceTo(0.4);  // ramp_down_time 0.2 s + lag
   EXPECT_LT(std::abs(rig.actuator_force()(kLateral)), 1.0);
+}
+
+// The rig's emergency stop: it ramps down from what the rig applies (a
+// disabled rig applies nothing, whatever set-point an unclaimed write
+// left), and no reset clears it until it is released at the rig; only the
+// owner resets a fault.
+TEST(RigEmulatorTest, AnEmergencyStopHoldsUntilReleasedAtTheRig) {
+  const KcrigConfig config = SourceConfig();
+  PlantConfig plant;
+  ASSERT_TRUE(
+      LoadPlantConfig(KCRIG_TEST_CONFIG_DIR, config.model, &plant).ok());
+  RigEmulator rig(config, plant, PlantEffects());
+  ASSERT_TRUE(rig.Start(0.0).ok());
+  RigRequest anonymous;  // unclaimed, disabled, 5 kN: obeyed, harmless
+  anonymous.command.force << 0, 5000, 0;
+  anonymous.ownership.has_session = true;
+  anonymous.ownership.session = 9;
+  ASSERT_TRUE(rig.Request(anonymous));
+  std::atomic<int> button{RigEmulator::kButtonStop};
+  rig.WireEmergencyStop(&button);
+  for (double t = 0.001; t < 0.3; t += 0.001) {
+    rig.AdvanceTo(t);
+    ASSERT_LT(rig.actuator_force().norm(), 1e-9) << t;
+  }
+  EXPECT_EQ(rig.fault(), kFaultEmergencyStop);
+  // Reset by anyone, by the owner: still stopped while the button is in.
+  anonymous.reset_fault = true;
+  rig.Request(anonymous);
+  EXPECT_EQ(rig.fault(), kFaultEmergencyStop);
+  RigRequest owner;
+  owner.reset_fault = true;
+  owner.ownership.has_session = true;
+  owner.ownership.session = 7;
+  owner.ownership.claim = true;
+  ASSERT_TRUE(rig.Request(owner));
+  EXPECT_EQ(rig.fault(), kFaultEmergencyStop);
+  // Released at the rig: the owner's reset clears it; an anonymous one
+  // would not have.
+  button = RigEmulator::kButtonRelease;
+  rig.AdvanceTo(0.31);
+  anonymous.ownership.session = 9;
+  rig.Request(anonymous);
+  EXPECT_EQ(rig.fault(), kFaultEmergencyStop);
+  ASSERT_TRUE(rig.Request(owner));
+  EXPECT_EQ(rig.fault(), kFaultNone);
 }
 
 // Each effect against the nominal rig under the same commands.

@@ -178,7 +178,8 @@ struct FaultCase {
 class SilRigFaultTest : public SilRigTest,
                         public ::testing::WithParamInterface<FaultCase> {};
 
-constexpr std::int64_t kAt = 2000;  // in the settle phase, at -Fmax
+// 0.3 s into the ramp (tare 0.2, lead-in 1.0, settle 0.5 s), at -3.4 kN.
+constexpr std::int64_t kAt = 2000;
 
 TEST_P(SilRigFaultTest, TripsAtTheCycleTheSafetyRulesSay) {
   const FaultCase& c = GetParam();
@@ -390,7 +391,7 @@ std::string Cell(std::int64_t cycles) {
 }
 
 // The fault-reaction matrix of README 2.5, on the SIL rig at 1 kHz: each
-// fault at cycle 2000 (the settle phase, at -Fmax = 4 kN), its reaction and
+// fault at cycle 2000 (0.3 s into the ramp, at -3.4 kN), its reaction and
 // latencies from the fault: to the loop's first safe command, to the rig's
 // own fault, to every axis of the rig's force below 5 % of force_max, and
 // to disabled (the loop's disable reaching the rig, or the rig's own at
@@ -402,34 +403,39 @@ TEST_F(FaultReactionTest, EveryFaultsReactionIsMeasuredAndWithinItsBounds) {
     std::string inject;
     bool stop, at_trip;
     const char* reaction;
+    const char* cause;  // the loop's trip, "none"
   } cases[] = {
       {"link lost (rig silent), controller killed", "silent:at=2000", false,
        false,
        "watchdog trip, ramp-down (undelivered); the rig's own "
-       "watchdog faults and ramps down"},
+       "watchdog faults and ramps down",
+       "watchdog"},
       {"stale samples (20 reads)", "stale:at=2000,cycles=20", false, false,
-       "watchdog trip, ramp-down, disable"},
+       "watchdog trip, ramp-down, disable", "watchdog"},
       {"reply lost (one)", "lost:at=2000", false, false,
-       "indicate (counted), no trip"},
+       "indicate (counted), no trip", "none"},
       {"late reply 30 ms (overrun)", "late:at=2000,delay=0.03", false, false,
-       "indicate (overrun counted), no trip"},
+       "indicate (overrun counted), no trip", "none"},
       {"late reply 60 ms (no command for 60 ms)", "late:at=2000,delay=0.06",
-       false, false, "the rig's watchdog faults; rig_fault trip, ramp-down"},
+       false, false, "the rig's watchdog faults; rig_fault trip, ramp-down",
+       "rig_fault"},
       {"corrupted reply", "corrupt:at=2000", false, false,
-       "travel_limit trip, ramp-down, disable"},
+       "travel_limit trip, ramp-down, disable", "travel_limit"},
       {"sensor NaN (caster)", "nan:at=2000,channel=caster", false, false,
-       "invalid_measurement trip, ramp-down, disable"},
+       "invalid_measurement trip, ramp-down, disable", "invalid_measurement"},
       {"sensor stuck (z)", "stuck:at=2000,channel=z", false, false,
-       "model_error trip once the model leaves it, ramp-down, disable"},
+       "error_detector trip once the model leaves it, ramp-down, disable",
+       "error_detector"},
       {"limit reached (travel 0.5 mm)", "", false, true,
-       "travel_limit trip, ramp-down, disable"},
+       "travel_limit trip, ramp-down, disable", "travel_limit"},
       {"foreign master", "foreign:at=2000", false, false,
        "foreign_master trip, commands withheld; the rig's watchdog faults "
-       "and ramps down"},
+       "and ramps down",
+       "foreign_master"},
       {"rig-side fault (its e-stop)", "estop:at=2000", false, false,
-       "the rig ramps down; rig_fault trip, ramp-down, disable"},
+       "the rig ramps down; rig_fault trip, ramp-down, disable", "rig_fault"},
       {"operator stop (SIGINT)", "", true, false,
-       "signal trip, ramp-down, disable"},
+       "signal trip, ramp-down, disable", "signal"},
   };
   const double ramp_down = rig_config_.safety.ramp_down_time / 1e-3;
   const double rig_timeout = plant_.command_timeout / 1e-3;
@@ -446,6 +452,8 @@ TEST_F(FaultReactionTest, EveryFaultsReactionIsMeasuredAndWithinItsBounds) {
                 r.withheld ? (Cell(r.trip) + ", withheld").c_str()
                            : Cell(r.trip).c_str(),
                 Cell(r.rig).c_str(), Cell(r.low).c_str(), Cell(r.off).c_str());
+    EXPECT_EQ(r.cause, c.cause) << c.fault;
+    EXPECT_EQ(r.withheld, r.cause == "foreign_master") << c.fault;
     if (r.cause == "none") continue;  // indicated: the run went on
     // The loop trips within its watchdog's count (a stuck sensor: within
     // a second, once the model leaves it).

@@ -7,7 +7,8 @@ Usage: hostile_master.py PORT MODE SECONDS
          register, then forge commands with what was read (the owner
          register, the session register, the echoed sequence and the next
          one), with claims and releases, by every write function (6, 16,
-         22, 23), commanding Fx = Fy = Fz = 4 kN, for SECONDS.
+         22, 23), commanding Fx = Fy = Fz = 4 kN, for SECONDS, whenever
+         the rig is claimed.
   claim  no controller: claim the rig as its master and command what no
          controller would (1e9 N, -1e9 N, NaN, inf, 1e30 N, 5.5 kN on every
          axis, each held 40 ms) for SECONDS, reading the rig back between
@@ -85,6 +86,11 @@ def spoof(client, tally, end):
         if r is None or held.isError():
             continue
         owner, echo = r[24], r[4]
+        if owner == 0:
+            # Unclaimed (the run has not claimed yet, or has ended): an
+            # impostor needs a master to impersonate.
+            time.sleep(0.005)
+            continue
         for token in {owner, held.registers[10], 1, 0}:
             for seq in (echo, echo + 1):
                 for control in (ENABLE, ENABLE | CLAIM, RELEASE,
