@@ -77,7 +77,12 @@ Status LoadPlantConfig(const std::string& directory,
                         "expected a mapping NAME: VALUE");
   }
   for (const auto& entry : truth) {
-    const std::string name = entry.first.as<std::string>();
+    // A complex key (YAML's "? key") has no name to look up.
+    if (!entry.first.IsScalar()) {
+      return reader.Error(entry.first, "true_parameters",
+                          "expected a mapping NAME: VALUE");
+    }
+    const std::string name = entry.first.Scalar();
     double* parameter = FindParameter(&plant->model, name);
     if (parameter == nullptr) {
       return reader.Error(entry.first, "true_parameters." + name,

@@ -133,7 +133,7 @@ Status LoadBlindTestPlan(const std::string& file, BlindTestPlan* plan) {
   YAML::Node root;
   KCRIG_RETURN_IF_ERROR(reader.Load(&root));
   for (const auto& entry : root) {
-    const std::string key = entry.first.as<std::string>();
+    const std::string key = entry.first.IsScalar() ? entry.first.Scalar() : "?";
     if (key != "training" && key != "holdout") {
       return reader.Error(entry.first, key, "unknown key (training, holdout)");
     }
