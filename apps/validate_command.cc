@@ -1,6 +1,7 @@
 #include "apps/validate_command.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -11,6 +12,8 @@
 #include "apps/cli_util.h"
 #include "apps/progress.h"
 #include "cluster/ranks.h"
+#include "records/batch_checkpoint.h"
+#include "records/run_log.h"
 #include "validation/validation.h"
 
 namespace kcrig {
@@ -24,8 +27,14 @@ struct ValidateArgs {
   std::uint64_t seed = 1;
   std::optional<int> threads;
   bool quiet = false;
+  bool resume = false;
   std::string out;
 };
+
+// Where validate keeps its completed cases while it runs: beside --out.
+std::string CheckpointFolder(const std::string& out) {
+  return out + ".checkpoint";
+}
 
 // Every rank checks what it was given alike; the root alone its output.
 Status Prepare(const ValidateArgs& args, const Ranks& ranks,
@@ -33,6 +42,9 @@ Status Prepare(const ValidateArgs& args, const Ranks& ranks,
   Status status = LoadConfig(args.config_dir, config);
   if (!status.ok()) return status;
   if (args.cases < 1) return Status::Error("--cases: must be >= 1");
+  if (args.resume && args.out.empty()) {
+    return Status::Error("--resume: needs --out (the checkpoint is beside it)");
+  }
   options->cases = args.cases;
   options->seed = args.seed;
   if (!args.effects.empty()) options->classes = SplitList(args.effects);
@@ -56,6 +68,47 @@ Status Prepare(const ValidateArgs& args, const Ranks& ranks,
                          : Status::Ok();
 }
 
+// What a checkpoint must agree with to be resumed: everything that shapes
+// the cases' outcomes (the config's and the plan's bytes, the options).
+BatchCheckpoint::Identity CheckpointIdentity(const ValidateArgs& args,
+                                             const KcrigConfig& config) {
+  return {{"command", "validate"},
+          {"config", InputDigest(config.directory)},
+          {"plan", args.plan.empty() ? "" : InputDigest(args.plan)},
+          {"effects", args.effects},
+          {"seed", std::to_string(args.seed)},
+          {"cases", std::to_string(args.cases)}};
+}
+
+// The checkpoint's cases into `outcomes`; the others `pending`, each of the
+// kind of its truth (cases of one truth cost alike).
+void PlanCases(const KcrigConfig& config, const ValidationOptions& options,
+               const BatchCheckpoint& checkpoint,
+               std::vector<std::string>* outcomes, std::vector<int>* pending,
+               std::vector<int>* kinds) {
+  std::map<std::string, int> kind_of;
+  for (int i = 0; i < options.cases; ++i) {
+    const auto kept = checkpoint.items().find(i);
+    if (kept != checkpoint.items().end()) {
+      (*outcomes)[i] = kept->second.result;
+    } else {
+      pending->push_back(i);
+    }
+    BlindCase blind_case;
+    (void)DrawBlindCase(i, options.seed, config.model, options.classes,
+                        options.plan, &blind_case);
+    kinds->push_back(
+        kind_of.emplace(blind_case.truth, kind_of.size()).first->second);
+  }
+}
+
+// What a stopped validate leaves: the checkpoint to resume from.
+std::string KeptCases(const BatchCheckpoint& checkpoint, int done) {
+  if (checkpoint.folder().empty()) return "nothing written";
+  return std::to_string(done) + " cases kept in " + checkpoint.folder() +
+         " (--resume goes on from them)";
+}
+
 int RunValidate(const ValidateArgs& args) {
   const Ranks& ranks = WorldRanks();
   const StopSignal stop;
@@ -76,36 +129,53 @@ int RunValidate(const ValidateArgs& args) {
   status = ranks.Agree(status);
   if (!status.ok()) return fail(status);
 
-  std::map<int, std::string> mine;
+  // The root keeps each case as it is done (beside --out) and resumes.
+  BatchCheckpoint checkpoint;
+  if (ranks.is_root() && !args.out.empty()) {
+    status = checkpoint.Open(CheckpointFolder(args.out),
+                             CheckpointIdentity(args, config), options.cases,
+                             args.resume);
+  }
+  status = ranks.Agree(status);
+  if (!status.ok()) return fail(status);
+
+  std::vector<std::string> outcomes(options.cases);
+  std::vector<int> pending, kinds;
+  PlanCases(config, options, checkpoint, &outcomes, &pending, &kinds);
+  std::atomic<int> done{options.cases - static_cast<int>(pending.size())};
   {
     ProgressLine line(args.quiet || !ranks.is_root());
-    // Rank 0's share of the cases, about: the progress line's scale.
-    const double share = static_cast<double>(options.cases) / ranks.size();
-    int done = 0;
     options.diagnosis.callback = stop.Callback([&](const IterationSummary& s) {
-      line.Show(
-          "kcrig validate: " + std::to_string(done) + " cases done, " + s.stage,
-          std::min(1.0, (done + s.fraction) / share));
+      line.Show("kcrig validate: " + std::to_string(done.load()) +
+                    " cases done, " + s.stage,
+                std::min(1.0, (done + s.fraction) / options.cases));
     });
-    ranks.ForEachItem(options.cases, [&](int i) {
-      status = RunValidationCase(config, options, i, &mine[i]);
-      if (!status.ok()) {
-        status = Status::Error("case " + std::to_string(i) + ": " +
-                               status.message());
-      }
-      ++done;
-      return status.ok();
-    });
+    status = ranks.Distribute(
+        pending, kinds, 1,
+        [&](int i, std::string* outcome) {
+          const Status run = RunValidationCase(config, options, i, outcome);
+          if (run.ok()) return run;
+          return Status::Error("case " + std::to_string(i) + ": " +
+                               run.message());
+        },
+        [&](int i, const std::string& outcome, double seconds) {
+          ++done;
+          return args.out.empty() ? Status::Ok()
+                                  : checkpoint.Record(i, outcome, seconds);
+        },
+        &outcomes);
     line.Clear();
   }
-  std::vector<std::string> outcomes;
-  status = ranks.Gather(options.cases, status, mine, &outcomes);
-  if (stop.received()) return ranks.is_root() ? stop.Exit("validate") : 1;
+  if (stop.received()) {
+    return ranks.is_root() ? stop.Exit("validate", KeptCases(checkpoint, done))
+                           : 1;
+  }
   if (!status.ok()) return fail(status);
   if (!ranks.is_root()) return 0;
   const std::string json = ValidationToJson(config, options, outcomes);
   if (!args.out.empty()) {
     status = WriteFilesAtomically({{args.out, json}});
+    if (status.ok()) status = checkpoint.Remove();
     if (!status.ok()) return fail(status);
   }
   std::fputs(ValidationSummary(json).c_str(), stdout);
@@ -139,7 +209,12 @@ void AddValidateCommand(CLI::App* app, std::function<int()>* run) {
       "--threads", [args](const int& n) { args->threads = n; },
       "Candidates fitted side by side per rank (default 2, 1 under MPI)");
   cmd->add_flag("--quiet", args->quiet, "No progress line on a terminal");
-  cmd->add_option("--out", args->out, "validate.json to write");
+  cmd->add_option("--out", args->out,
+                  "validate.json to write; the cases done are kept in "
+                  "OUT.checkpoint/ until it is written");
+  cmd->add_flag("--resume", args->resume,
+                "Go on from OUT.checkpoint/ of an interrupted run (same "
+                "config, plan and options), or start it when there is none");
   cmd->callback([args, run] { *run = [args] { return RunValidate(*args); }; });
 }
 

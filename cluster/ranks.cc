@@ -2,17 +2,21 @@
 
 #include <unistd.h>
 
-#include <atomic>
+#include <algorithm>
 #include <chrono>
 #include <climits>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <map>
+#include <mutex>
+#include <numeric>
 #include <string>
 #include <thread>
 
-#include "nlohmann/json.hpp"
+#include "base/parallel_for.h"
 
 #ifdef KCRIG_WITH_MPI
 #include <mpi.h>
@@ -43,71 +47,112 @@ int AnnouncedSize() {
 }
 #endif
 
-// One rank's part of a Gather: its status and its items.
-std::string Payload(const Status& local,
-                    const std::map<int, std::string>& mine) {
-  nlohmann::json doc;
-  if (!local.ok()) {
-    doc["error"] = local.message();
-  } else {
-    doc["items"] = nlohmann::json::array();
-    for (const auto& [item, text] : mine) {
-      doc["items"].push_back({item, text});
+// The root's view of a batch: the items left, what each kind of item has
+// cost so far, the results and the first error. Shared by the root's
+// workers and its dispatcher.
+class ItemQueue {
+ public:
+  ItemQueue(const std::vector<int>& pending, const std::vector<int>& kinds,
+            const Ranks::ItemDone& done, std::vector<std::string>* results)
+      : left_(pending),
+        kinds_(kinds),
+        done_(done),
+        results_(results),
+        state_(results->size(), kWaiting) {}
+
+  // The next item to run, or -1 when none is left or the batch failed.
+  int Next() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!status_.ok() || left_.empty()) return -1;
+    size_t best = 0;
+    for (size_t k = 1; k < left_.size(); ++k) {
+      if (Expected(left_[k]) > Expected(left_[best])) best = k;
+    }
+    const int item = left_[best];
+    left_.erase(left_.begin() + static_cast<std::ptrdiff_t>(best));
+    if (item >= 0 && item < static_cast<int>(state_.size())) {
+      state_[item] = kRunning;
+    }
+    return item;
+  }
+
+  // The outcome of `item` as `who` ("" or "rank N: ") reports it.
+  void Finish(int item, const Status& status, std::string result,
+              double seconds, const std::string& who) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!status.ok()) return Fail(Status::Error(who + status.message()));
+    if (item < 0 || item >= static_cast<int>(state_.size()) ||
+        state_[item] != kRunning) {
+      return Fail(Status::Error(who + "returned item " + std::to_string(item) +
+                                " that it was not given"));
+    }
+    state_[item] = kDone;
+    (*results_)[item] = std::move(result);
+    Cost& cost = costs_[Kind(item)];
+    cost.seconds += seconds;
+    ++cost.items;
+    if (done_) {
+      const Status recorded = done_(item, (*results_)[item], seconds);
+      if (!recorded.ok()) Fail(recorded);
     }
   }
-  return doc.dump();
+
+  Status status() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return status_;
+  }
+
+ private:
+  enum State : char { kWaiting, kRunning, kDone };
+  struct Cost {
+    double seconds = 0;
+    int items = 0;
+  };
+
+  int Kind(int item) const {
+    return item >= 0 && item < static_cast<int>(kinds_.size()) ? kinds_[item]
+                                                               : 0;
+  }
+  // The mean cost of the item's kind so far; a kind not yet measured
+  // first (its items may be the slow ones).
+  double Expected(int item) const {
+    const auto cost = costs_.find(Kind(item));
+    if (cost == costs_.end()) return HUGE_VAL;
+    return cost->second.seconds / cost->second.items;
+  }
+  void Fail(const Status& status) {
+    if (status_.ok()) status_ = status;
+  }
+
+  mutable std::mutex mutex_;
+  std::vector<int> left_;
+  const std::vector<int>& kinds_;
+  const Ranks::ItemDone& done_;
+  std::vector<std::string>* results_;
+  std::vector<State> state_;
+  std::map<int, Cost> costs_;
+  Status status_;
+};
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
-// Merges the ranks' payloads (index = rank) into `all`; an error names its
-// rank when there are several.
-Status Merge(int num_items, const std::vector<std::string>& payloads,
-             std::vector<std::string>* all) {
-  all->assign(num_items, std::string());
-  std::vector<bool> seen(num_items, false);
-  for (size_t rank = 0; rank < payloads.size(); ++rank) {
-    const std::string who =
-        payloads.size() > 1 ? "rank " + std::to_string(rank) + ": " : "";
-    const nlohmann::json doc =
-        nlohmann::json::parse(payloads[rank], nullptr, false);
-    if (doc.is_discarded()) return Status::Error(who + "unreadable result");
-    if (doc.contains("error")) {
-      return Status::Error(who + doc["error"].get<std::string>());
+// The root's `threads` workers: each takes the queue's next item until
+// none is left.
+void WorkOnRoot(ItemQueue* queue, int threads, const Ranks::ItemWork& work,
+                const std::string& who) {
+  ParallelFor(threads, threads, [&](int) {
+    for (int item = queue->Next(); item >= 0; item = queue->Next()) {
+      const auto start = std::chrono::steady_clock::now();
+      std::string result;
+      const Status status = work(item, &result);
+      queue->Finish(item, status, std::move(result), SecondsSince(start), who);
+      if (!status.ok()) return;
     }
-    for (const nlohmann::json& entry : doc["items"]) {
-      const int item = entry[0].get<int>();
-      if (item < 0 || item >= num_items || seen[item]) {
-        return Status::Error(who + "item " + std::to_string(item) +
-                             " out of range or twice");
-      }
-      seen[item] = true;
-      (*all)[item] = entry[1].get<std::string>();
-    }
-  }
-  for (int item = 0; item < num_items; ++item) {
-    if (!seen[item]) {
-      return Status::Error("no rank returned item " + std::to_string(item));
-    }
-  }
-  return Status::Ok();
+  });
 }
-
-#ifdef KCRIG_WITH_MPI
-// Offsets of the parts of `lengths` laid end to end; the job ends when
-// they exceed what MPI's int counts can address.
-std::vector<int> Offsets(const std::vector<int>& lengths) {
-  std::vector<int> offsets(lengths.size());
-  long total = 0;
-  for (size_t r = 0; r < lengths.size(); ++r) {
-    offsets[r] = static_cast<int>(total);
-    total += lengths[r];
-  }
-  if (total > INT_MAX) {
-    std::fprintf(stderr, "kcrig: a batch's results exceed 2 GiB\n");
-    MPI_Abort(MPI_COMM_WORLD, 1);
-  }
-  return offsets;
-}
-#endif
 
 }  // namespace
 
@@ -115,14 +160,18 @@ Ranks::Ranks(int* argc, char*** argv) {
   world = this;
   if (!LaunchedByMpi()) return;
 #ifdef KCRIG_WITH_MPI
-  // The batches' threads never call MPI: only the thread that joined does.
-  // Rank 0's dispatcher thread (ForEachItem) calls MPI while the main
-  // thread works; the batches' threads never call it.
+  // One thread calls MPI at a time: rank 0's dispatcher (Distribute) while
+  // its workers compute without MPI, the other ranks' workers under a lock.
   int provided = 0;
   MPI_Init_thread(argc, argv, MPI_THREAD_SERIALIZED, &provided);
   MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
   MPI_Comm_size(MPI_COMM_WORLD, &size_);
   joined_mpi_ = true;
+  if (provided < MPI_THREAD_SERIALIZED && size_ > 1) {
+    launch_error_ =
+        "this MPI library gives no thread support (kcrig needs "
+        "MPI_THREAD_SERIALIZED)";
+  }
 #else
   (void)argc;
   (void)argv;
@@ -210,157 +259,175 @@ Status Ranks::Share(const Status& root_status, std::string* bytes) const {
 #ifdef KCRIG_WITH_MPI
 namespace {
 
-constexpr int kRequestTag = 7101;  // a worker asks for an item (-1: leaves)
-constexpr int kItemTag = 7102;     // the item given (-1: none left)
+constexpr int kResultTag = 7101;  // a worker's last outcome, asking for more
+constexpr int kItemTag = 7102;    // the item given (-1: none left)
 
-// Rank 0's dispatcher: answers the other ranks' requests with the next
-// item until every one of them has left. Polls (a blocking receive would
-// spin a core that rank 0's own work needs).
-void Dispatch(int workers, int count, std::atomic<int>* next) {
-  while (workers > 0) {
-    int request = 0;
-    MPI_Request pending;
-    MPI_Irecv(&request, 1, MPI_INT, MPI_ANY_SOURCE, kRequestTag, MPI_COMM_WORLD,
-              &pending);
-    MPI_Status status;
-    for (int done = 0; !done;) {
-      MPI_Test(&pending, &done, &status);
-      if (!done) std::this_thread::sleep_for(std::chrono::milliseconds(2));
-    }
-    int item = request < 0 ? -1 : (*next)++;
-    if (item >= count) item = -1;
-    workers -= item < 0;
-    MPI_Send(&item, 1, MPI_INT, status.MPI_SOURCE, kItemTag, MPI_COMM_WORLD);
+// What a worker thread sends the root: the item it ran (-1: none yet),
+// whether it succeeded, its seconds, then its result or error.
+struct OutcomeHeader {
+  std::int32_t item = -1;
+  std::int32_t ok = 1;
+  double seconds = 0;
+};
+
+std::string EncodeOutcome(int item, const Status& status,
+                          const std::string& result, double seconds) {
+  const OutcomeHeader header{item, status.ok() ? 1 : 0, seconds};
+  std::string message(reinterpret_cast<const char*>(&header), sizeof(header));
+  message += status.ok() ? result : status.message();
+  if (message.size() > INT_MAX) {
+    std::fprintf(stderr, "kcrig: an item's result exceeds 2 GiB\n");
+    MPI_Abort(MPI_COMM_WORLD, 1);
   }
+  return message;
+}
+
+// Receives the next outcome any worker sends (polling: a blocking receive
+// would spin a core that the root's own work needs); returns its source.
+int ReceiveOutcome(std::string* message) {
+  MPI_Status probe;
+  for (int arrived = 0;;) {
+    MPI_Iprobe(MPI_ANY_SOURCE, kResultTag, MPI_COMM_WORLD, &arrived, &probe);
+    if (arrived) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  int length = 0;
+  MPI_Get_count(&probe, MPI_CHAR, &length);
+  message->assign(static_cast<size_t>(length), '\0');
+  MPI_Recv(message->data(), length, MPI_CHAR, probe.MPI_SOURCE, kResultTag,
+           MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  return probe.MPI_SOURCE;
+}
+
+// The root's dispatcher: takes each worker thread's outcome into the queue
+// and answers with its next item, until every worker thread has left.
+void Dispatch(int worker_threads, ItemQueue* queue) {
+  std::string message;
+  while (worker_threads > 0) {
+    const int source = ReceiveOutcome(&message);
+    const std::string who = "rank " + std::to_string(source) + ": ";
+    OutcomeHeader header;
+    if (message.size() < sizeof(header)) {
+      queue->Finish(-1, Status::Error("unreadable result"), "", 0, who);
+    } else {
+      std::memcpy(&header, message.data(), sizeof(header));
+      std::string body = message.substr(sizeof(header));
+      if (header.item >= 0) {
+        queue->Finish(header.item,
+                      header.ok ? Status::Ok() : Status::Error(body),
+                      std::move(body), header.seconds, who);
+      }
+    }
+    int next = queue->Next();
+    worker_threads -= next < 0;
+    MPI_Send(&next, 1, MPI_INT, source, kItemTag, MPI_COMM_WORLD);
+  }
+}
+
+// A worker rank's `threads` threads: each sends its last outcome, receives
+// its next item, runs it, until the root says none is left. One thread
+// calls MPI at a time (MPI_THREAD_SERIALIZED). Returns the rank's first
+// error.
+Status ServeRoot(int threads, const Ranks::ItemWork& work) {
+  std::mutex mpi;
+  Status first_error;
+  ParallelFor(threads, threads, [&](int) {
+    std::string outcome = EncodeOutcome(-1, Status::Ok(), "", 0);
+    for (;;) {
+      int item = -1;
+      {
+        std::lock_guard<std::mutex> lock(mpi);
+        MPI_Send(outcome.data(), static_cast<int>(outcome.size()), MPI_CHAR, 0,
+                 kResultTag, MPI_COMM_WORLD);
+        MPI_Recv(&item, 1, MPI_INT, 0, kItemTag, MPI_COMM_WORLD,
+                 MPI_STATUS_IGNORE);
+        if (item < 0) return;
+      }
+      const auto start = std::chrono::steady_clock::now();
+      std::string result;
+      const Status status = work(item, &result);
+      outcome = EncodeOutcome(item, status, result, SecondsSince(start));
+      if (!status.ok()) {
+        std::lock_guard<std::mutex> lock(mpi);
+        if (first_error.ok()) first_error = status;
+      }
+    }
+  });
+  return first_error;
 }
 
 }  // namespace
 #endif
 
-void Ranks::ForEachItem(int count, const std::function<bool(int)>& work) const {
-  if (size_ == 1) {
-    for (int item = 0; item < count && work(item); ++item) {
-    }
-    return;
-  }
+Status Ranks::Distribute(const std::vector<int>& pending,
+                         const std::vector<int>& kinds, int threads,
+                         const ItemWork& work, const ItemDone& done,
+                         std::vector<std::string>* results) const {
+  threads = std::max(1, threads);
 #ifdef KCRIG_WITH_MPI
-  if (is_root()) {
-    std::atomic<int> next{0};
-    std::thread dispatcher(Dispatch, size_ - 1, count, &next);
-    for (int item = next++; item < count && work(item); item = next++) {
-    }
+  if (joined_mpi_ && size_ > 1) {
+    if (!is_root()) return ServeRoot(threads, work);
+    ItemQueue queue(pending, kinds, done, results);
+    std::thread dispatcher(Dispatch, (size_ - 1) * threads, &queue);
+    WorkOnRoot(&queue, threads, work, "rank 0: ");
     dispatcher.join();
-    return;
-  }
-  for (int request = 0;;) {
-    int item = -1;
-    MPI_Send(&request, 1, MPI_INT, 0, kRequestTag, MPI_COMM_WORLD);
-    MPI_Recv(&item, 1, MPI_INT, 0, kItemTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-    if (item < 0) return;
-    if (!work(item)) request = -1;  // leave: the next answer is -1
+    return queue.status();
   }
 #endif
-}
-
-Status Ranks::Gather(int num_items, const Status& local,
-                     const std::map<int, std::string>& mine,
-                     std::vector<std::string>* all) const {
-  const std::string payload = Payload(local, mine);
-  std::vector<std::string> payloads = {payload};
-#ifdef KCRIG_WITH_MPI
-  if (joined_mpi_) {
-    int length = static_cast<int>(payload.size());
-    std::vector<int> lengths(size_);
-    MPI_Gather(&length, 1, MPI_INT, lengths.data(), 1, MPI_INT, 0,
-               MPI_COMM_WORLD);
-    std::vector<int> offsets(size_);
-    std::string received;
-    if (is_root()) {
-      offsets = Offsets(lengths);
-      received.resize(static_cast<size_t>(offsets.back()) + lengths.back());
-    }
-    MPI_Gatherv(payload.data(), length, MPI_CHAR, received.data(),
-                lengths.data(), offsets.data(), MPI_CHAR, 0, MPI_COMM_WORLD);
-    if (!is_root()) return local;
-    payloads.clear();
-    for (int r = 0; r < size_; ++r) {
-      payloads.push_back(received.substr(offsets[r], lengths[r]));
-    }
-  }
-#endif
-  return Merge(num_items, payloads, all);
+  ItemQueue queue(pending, kinds, done, results);
+  WorkOnRoot(&queue, threads, work, "");
+  return queue.status();
 }
 
 namespace {
 
-// Jobs of the batch on rank r: r, r + N, ...; their results gathered by
-// every rank (MPI_Allgatherv of each rank's results, each prefixed with its
-// length).
+// A batch's jobs handed out by Distribute; the root then shares every
+// result with every rank (each prefixed with its length).
 class RankBatchRunner final : public BatchRunner {
  public:
   void Run(int count, int threads,
            const std::function<void(int, std::string*)>& work,
            std::vector<std::string>* results) const override {
     const Ranks& ranks = WorldRanks();
-    std::vector<int> own;
-    for (int j = ranks.rank(); j < count; j += ranks.size()) own.push_back(j);
-    std::vector<std::string> mine(own.size());
-    ParallelFor(static_cast<int>(own.size()), threads,
-                [&](int k) { work(own[k], &mine[k]); });
+    std::vector<int> jobs(static_cast<size_t>(std::max(count, 0)));
+    std::iota(jobs.begin(), jobs.end(), 0);
+    results->assign(jobs.size(), std::string());
+    Status status = ranks.Distribute(
+        jobs, {}, threads,
+        [&](int j, std::string* result) {
+          work(j, result);
+          return Status::Ok();
+        },
+        nullptr, results);
+    std::string packed = ranks.is_root() ? Pack(*results) : std::string();
+    status = ranks.Share(status, &packed);
+    if (!ranks.is_root()) Unpack(status.ok() ? packed : "", results);
+  }
+
+ private:
+  static std::string Pack(const std::vector<std::string>& results) {
     std::string packed;
-    for (const std::string& result : mine) {
+    for (const std::string& result : results) {
       const std::uint64_t length = result.size();
       packed.append(reinterpret_cast<const char*>(&length), sizeof(length));
       packed += result;
     }
-    Unpack(count, AllGather(packed, ranks.size()), results);
+    return packed;
   }
 
- private:
-  // Every rank's `mine`, in rank order, on every rank.
-  static std::vector<std::string> AllGather(const std::string& mine, int size) {
-    std::vector<std::string> parts = {mine};
-#ifdef KCRIG_WITH_MPI
-    if (size > 1) {
-      int length = static_cast<int>(mine.size());
-      std::vector<int> lengths(size);
-      MPI_Allgather(&length, 1, MPI_INT, lengths.data(), 1, MPI_INT,
-                    MPI_COMM_WORLD);
-      const std::vector<int> offsets = Offsets(lengths);
-      std::string all(static_cast<size_t>(offsets.back()) + lengths.back(),
-                      '\0');
-      MPI_Allgatherv(mine.data(), length, MPI_CHAR, all.data(), lengths.data(),
-                     offsets.data(), MPI_CHAR, MPI_COMM_WORLD);
-      parts.clear();
-      for (int r = 0; r < size; ++r) {
-        parts.push_back(all.substr(offsets[r], lengths[r]));
-      }
-    }
-#else
-    (void)size;
-#endif
-    return parts;
-  }
-
-  // Rank r's part holds jobs r, r + N, ... in order; a part that does not
-  // hold them whole leaves the rest empty (the callers' decoders refuse an
-  // empty result).
-  static void Unpack(int count, const std::vector<std::string>& parts,
+  // The jobs' results in order; what `packed` does not hold whole stays
+  // empty (the callers' decoders refuse an empty result).
+  static void Unpack(const std::string& packed,
                      std::vector<std::string>* results) {
-    const int size = static_cast<int>(parts.size());
-    results->assign(count, std::string());
-    for (int rank = 0; rank < size; ++rank) {
-      const std::string& part = parts[rank];
-      size_t at = 0;
-      for (int j = rank; j < count; j += size) {
-        std::uint64_t length = 0;
-        if (part.size() - at < sizeof(length)) break;
-        std::memcpy(&length, part.data() + at, sizeof(length));
-        at += sizeof(length);
-        if (length > part.size() - at) break;
-        (*results)[j] = part.substr(at, length);
-        at += length;
-      }
+    size_t at = 0;
+    for (std::string& result : *results) {
+      std::uint64_t length = 0;
+      if (packed.size() - at < sizeof(length)) break;
+      std::memcpy(&length, packed.data() + at, sizeof(length));
+      at += sizeof(length);
+      if (length > packed.size() - at) break;
+      result = packed.substr(at, length);
+      at += length;
     }
   }
 };

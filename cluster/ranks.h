@@ -1,14 +1,13 @@
 // The processes a batch of independent items (the cases of `kcrig
-// validate`) is spread over: MPI's world when kcrig was built with MPI and
-// launched by mpirun (or srun), else this process alone. Items go to
-// whichever rank is free (ForEachItem), and the root (rank 0) gathers every
-// item's result in item order: what it writes is the same for any number of
-// ranks.
+// validate`, a diagnosis' candidate fits) is spread over: MPI's world when
+// kcrig was built with MPI and launched by mpirun (or srun), else this
+// process alone. Items go to whichever rank is free (Distribute), and the
+// root (rank 0) receives every item's result as it is done, kept by item:
+// what it writes is the same for any number of ranks and any schedule.
 #ifndef KCRIG_CLUSTER_RANKS_H_
 #define KCRIG_CLUSTER_RANKS_H_
 
 #include <functional>
-#include <map>
 #include <string>
 #include <vector>
 
@@ -37,13 +36,30 @@ class Ranks {
   int size() const { return size_; }
   bool is_root() const { return rank_ == 0; }
 
-  // work(item) for items 0 .. count-1 spread over the ranks, each rank
-  // taking the next item when it finishes one (rank 0 hands them out, from
-  // a thread of its own, while it works too), so that items of uneven cost
-  // balance. Which rank ran an item is not part of any result: Gather puts
-  // them in item order. `work` returns false to take no more items on this
-  // rank. Collective.
-  void ForEachItem(int count, const std::function<bool(int)>& work) const;
+  // A rank's part of a batch: runs one item, writing its result; an error
+  // stops the rank taking more items.
+  using ItemWork = std::function<Status(int item, std::string* result)>;
+  // Called on the root for each result as it arrives, one at a time (from
+  // whichever of the root's threads received it), with the seconds the
+  // item took; an error stops the batch.
+  using ItemDone = std::function<Status(int item, const std::string& result,
+                                        double seconds)>;
+
+  // work(item) for every item of `pending` on `threads` threads per rank,
+  // handed out by the root (from a thread of its own, while it works too)
+  // to whichever thread of whichever rank is free, so that items of uneven
+  // cost balance. `kinds` (one per item of the batch, or empty: all alike)
+  // groups items of like cost: the kinds not yet measured go first, then
+  // the kind whose items have taken longest (Dakota's idea of adapting to
+  // completion speed; the slow items do not come last). Which rank ran an
+  // item is in no result: on the root `results` receives them by item
+  // (results->size() must cover the items) and the first error of any
+  // rank is returned naming it ("rank 2: ..."), the other ranks return
+  // their own status. Collective: every rank calls it alike.
+  Status Distribute(const std::vector<int>& pending,
+                    const std::vector<int>& kinds, int threads,
+                    const ItemWork& work, const ItemDone& done,
+                    std::vector<std::string>* results) const;
 
   // Every rank's `local` status agreed on: an error of any rank (the
   // lowest failing one, named) is every rank's, so that all stop together
@@ -67,15 +83,6 @@ class Ranks {
   // every rank to go on from. Collective.
   Status Share(const Status& root_status, std::string* bytes) const;
 
-  // Every rank passes the results of its own items (item -> text) or the
-  // error that stopped it; the root receives the texts of items
-  // 0 .. num_items-1 in order. On the root, an error of any rank is
-  // returned naming that rank ("rank 2: ..."); the other ranks return their
-  // own status and receive nothing. Collective: every rank calls it once.
-  Status Gather(int num_items, const Status& local,
-                const std::map<int, std::string>& mine,
-                std::vector<std::string>* all) const;
-
  private:
   int rank_ = 0;
   int size_ = 1;
@@ -87,9 +94,9 @@ class Ranks {
 // The process's ranks: main's Ranks, or rank 0 of 1 when there is none.
 const Ranks& WorldRanks();
 
-// Batches spread over WorldRanks(): job j runs on rank j mod N (on up to
-// `threads` threads there) and every rank receives every result. One rank:
-// the local threads alone.
+// Batches spread over WorldRanks() by Distribute (on up to `threads`
+// threads per rank), every rank receiving every result. One rank: the
+// local threads alone.
 const BatchRunner& WorldBatches();
 
 }  // namespace kcrig

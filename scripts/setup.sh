@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config git clang-format ccache
   libeigen3-dev libceres-dev libnlopt-dev libnlopt-cxx-dev libmodbus-dev
-  libopenmpi-dev openmpi-bin
+  libopenmpi-dev openmpi-bin slurmctld slurmd slurm-client munge
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libsundials-dev can-utils minpack-dev libmatio-dev zlib1g-dev

@@ -68,6 +68,31 @@ class ClusterCliTest : public TempDirTest {
   void ExpectNoPrivateFolderLeft() const {
     EXPECT_TRUE(std::filesystem::is_empty(Path("tmp")));
   }
+  // `command` started in a session of its own, every process of the
+  // session sent `signal` once the checkpoint `folder` keeps `items` cases
+  // (or when the command ended first): as a scheduler ends a job, every
+  // rank at once (mpirun puts its ranks in process groups of their own).
+  static CliResult SignalWhenKept(const std::string& command,
+                                  const std::string& folder, int items,
+                                  const std::string& signal) {
+    return RunCommand("setsid " + command +
+                      " 2>&1 & pid=$!; while kill -0 $pid 2>/dev/null &&"
+                      " [ $(ls " +
+                      folder + " 2>/dev/null | grep -c '^item-') -lt " +
+                      std::to_string(items) +
+                      " ]; do sleep 0.02; done; pkill -" + signal +
+                      " -s $pid; wait $pid; while pgrep -s $pid "
+                      ">/dev/null; do sleep 0.05; done");
+  }
+  static int KeptItems(const std::string& folder) {
+    int items = 0;
+    std::error_code missing;
+    for (const auto& entry :
+         std::filesystem::directory_iterator(folder, missing)) {
+      items += entry.path().filename().string().rfind("item-", 0) == 0;
+    }
+    return items;
+  }
   // kcrig `arguments` under mpirun on `ranks` ranks, writing `out`.
   CliResult OnRanks(int ranks, const std::string& arguments,
                     std::string* out) const {
@@ -285,6 +310,98 @@ TEST_F(ClusterCliTest, AKilledRankEndsTheJobAndNothingIsWritten) {
 
 void WriteFile(const std::string& path, const std::string& text) {
   std::ofstream(path) << text;
+}
+
+// Issue #52: a job killed at 30 % and at 90 % of its cases (SIGKILL, as a
+// scheduler's wall-time limit ends it) goes on from its checkpoint with
+// --resume, on as many ranks or others, to the same validate.json as an
+// uninterrupted run, byte for byte; the checkpoint is gone once it is.
+TEST_F(ClusterCliTest, AKilledJobResumesToTheSameResults) {
+  const std::string cases =
+      " validate --quiet --cases 10 --effects none,rig_compliance --seed 3";
+  const CliResult whole = RunCommand(Mpirun() + "-np 2 " + KCRIG_BINARY +
+                                     cases + " --out " + Path("whole.json"));
+  ASSERT_EQ(whole.exit_code, 0) << whole.output;
+  const std::string expected = ReadFile(Path("whole.json"));
+  EXPECT_FALSE(std::filesystem::exists(Path("whole.json.checkpoint")));
+  for (const auto& [kept, resume_ranks] : {std::pair{3, 2}, {9, 3}}) {
+    const std::string out = Path("killed" + std::to_string(kept) + ".json");
+    const std::string run =
+        Mpirun() + "-np 2 " + KCRIG_BINARY + cases + " --out " + out;
+    SignalWhenKept("env " + run + " --resume", out + ".checkpoint", kept,
+                   "KILL");
+    ASSERT_FALSE(std::filesystem::exists(out)) << "the job was not killed";
+    const int items = KeptItems(out + ".checkpoint");
+    EXPECT_GE(items, kept);
+    EXPECT_LT(items, 10);
+    // Without --resume the checkpoint is never overwritten.
+    const CliResult again = RunCommand(run);
+    EXPECT_EQ(again.exit_code, 1) << again.output;
+    EXPECT_NE(again.output.find("--resume goes on from it"), std::string::npos)
+        << again.output;
+    const CliResult resumed =
+        RunCommand(Mpirun() + "-np " + std::to_string(resume_ranks) + " " +
+                   KCRIG_BINARY + cases + " --out " + out + " --resume");
+    ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+    EXPECT_EQ(ReadFile(out), expected) << "killed after " << items;
+    EXPECT_FALSE(std::filesystem::exists(out + ".checkpoint"));
+  }
+}
+
+// A run stopped by Ctrl-C says where its cases are kept; a checkpoint of
+// another seed, effects, config or plan is refused in one line naming what
+// differs, a corrupt case file names itself; --resume without --out is
+// refused; the same options then finish it.
+TEST_F(ClusterCliTest, AResumeOfAnotherRunIsRefusedInOneLine) {
+  std::filesystem::copy(KCRIG_TEST_CONFIG_DIR, Path("cfg"),
+                        std::filesystem::copy_options::recursive);
+  const std::string out = Path("v.json");
+  const std::string folder = out + ".checkpoint";
+  auto validate = [&](const std::string& options) {
+    return std::string(KCRIG_BINARY) + " validate --quiet --config " +
+           Path("cfg") + " " + options;
+  };
+  const std::string same = "--cases 4 --effects none --seed 2";
+  const std::string cases = validate(same + " --out " + out);
+  const CliResult stopped = SignalWhenKept(cases, folder, 1, "INT");
+  EXPECT_NE(stopped.output.find("interrupted (SIGINT); "), std::string::npos)
+      << stopped.output;
+  EXPECT_NE(stopped.output.find("cases kept in " + folder), std::string::npos)
+      << stopped.output;
+  ASSERT_GE(KeptItems(folder), 1);
+  ASSERT_FALSE(std::filesystem::exists(out));
+  const std::pair<std::string, std::string> others[] = {
+      {"--cases 4 --effects none --seed 3", "(seed was 2, is 3)"},
+      {"--cases 4 --effects rig_compliance --seed 2",
+       "(effects was none, is rig_compliance)"},
+      {"--cases 5 --effects none --seed 2", "(cases was 4, is 5)"}};
+  for (const auto& [options, expected] : others) {
+    const CliResult run =
+        RunCommand(validate(options + " --resume --out " + out));
+    EXPECT_EQ(run.exit_code, 1) << run.output;
+    EXPECT_EQ(CountLines(run.output), 1) << run.output;
+    EXPECT_NE(run.output.find(expected), std::string::npos) << run.output;
+  }
+  const std::string model = ReadFile(Path("cfg/model.yaml"));
+  WriteFile(Path("cfg/model.yaml"), model + "# edited\n");
+  CliResult run = RunCommand(cases + " --resume");
+  EXPECT_NE(run.output.find("(config was "), std::string::npos) << run.output;
+  WriteFile(Path("cfg/model.yaml"), model);
+  WriteFile(folder + "/item-000003.json", "{\"item\": 3, \"seconds\": 1");
+  run = RunCommand(cases + " --resume");
+  EXPECT_EQ(CountLines(run.output), 1) << run.output;
+  EXPECT_NE(run.output.find("item-000003.json: not a checkpoint item"),
+            std::string::npos)
+      << run.output;
+  std::filesystem::remove(folder + "/item-000003.json");
+  run = RunKcrig("validate --quiet --cases 4 --resume");
+  EXPECT_NE(run.output.find("--resume: needs --out"), std::string::npos)
+      << run.output;
+  run = RunCommand(cases + " --resume");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const CliResult whole = RunCommand(cases + "x");
+  ASSERT_EQ(whole.exit_code, 0) << whole.output;
+  EXPECT_EQ(ReadFile(out), ReadFile(out + "x"));
 }
 
 // A test plan: every case runs its ramps, and validate.json says so.
