@@ -29,6 +29,7 @@ struct ValidateArgs {
   bool quiet = false;
   bool resume = false;
   std::string out;
+  std::string timings;
 };
 
 // Where validate keeps its completed cases while it runs: beside --out.
@@ -64,8 +65,13 @@ Status Prepare(const ValidateArgs& args, const Ranks& ranks,
   }
   std::vector<std::string> inputs;
   if (!args.plan.empty()) inputs.push_back(args.plan);
-  return ranks.is_root() ? CheckOutput("--out", args.out, inputs)
-                         : Status::Ok();
+  if (!ranks.is_root()) return Status::Ok();
+  status = CheckOutput("--out", args.out, inputs);
+  if (status.ok()) status = CheckOutput("--timings", args.timings, inputs);
+  if (status.ok() && !args.out.empty() && args.timings == args.out) {
+    return Status::Error("--timings: the same file as --out");
+  }
+  return status;
 }
 
 // What a checkpoint must agree with to be resumed: everything that shapes
@@ -80,26 +86,50 @@ BatchCheckpoint::Identity CheckpointIdentity(const ValidateArgs& args,
           {"cases", std::to_string(args.cases)}};
 }
 
-// The checkpoint's cases into `outcomes`; the others `pending`, each of the
-// kind of its truth (cases of one truth cost alike).
-void PlanCases(const KcrigConfig& config, const ValidationOptions& options,
-               const BatchCheckpoint& checkpoint,
-               std::vector<std::string>* outcomes, std::vector<int>* pending,
-               std::vector<int>* kinds) {
+// The cases of a run: the checkpoint's done, the others pending, each of
+// the kind of its truth (cases of one truth cost alike).
+struct CasePlan {
+  std::vector<std::string> outcomes;
+  std::vector<int> pending, kinds;
+  std::vector<std::string> truths;
+  std::vector<double> seconds;  // each case's wall time, once done
+};
+
+CasePlan PlanCases(const KcrigConfig& config, const ValidationOptions& options,
+                   const BatchCheckpoint& checkpoint) {
+  CasePlan plan;
+  plan.outcomes.resize(options.cases);
+  plan.seconds.assign(options.cases, 0.0);
   std::map<std::string, int> kind_of;
   for (int i = 0; i < options.cases; ++i) {
     const auto kept = checkpoint.items().find(i);
     if (kept != checkpoint.items().end()) {
-      (*outcomes)[i] = kept->second.result;
+      plan.outcomes[i] = kept->second.result;
+      plan.seconds[i] = kept->second.seconds;
     } else {
-      pending->push_back(i);
+      plan.pending.push_back(i);
     }
     BlindCase blind_case;
     (void)DrawBlindCase(i, options.seed, config.model, options.classes,
                         options.plan, &blind_case);
-    kinds->push_back(
+    plan.truths.push_back(blind_case.truth);
+    plan.kinds.push_back(
         kind_of.emplace(blind_case.truth, kind_of.size()).first->second);
   }
+  return plan;
+}
+
+// --timings: what each case cost (a scheduling study's input; kept out of
+// validate.json, which is the same whatever the machine).
+std::string TimingsCsv(const CasePlan& plan) {
+  std::string csv = "case,truth,seconds\n";
+  char line[128];
+  for (size_t i = 0; i < plan.truths.size(); ++i) {
+    std::snprintf(line, sizeof(line), "%zu,%s,%.3f\n", i,
+                  plan.truths[i].c_str(), plan.seconds[i]);
+    csv += line;
+  }
+  return csv;
 }
 
 // What a stopped validate leaves: the checkpoint to resume from.
@@ -139,10 +169,8 @@ int RunValidate(const ValidateArgs& args) {
   status = ranks.Agree(status);
   if (!status.ok()) return fail(status);
 
-  std::vector<std::string> outcomes(options.cases);
-  std::vector<int> pending, kinds;
-  PlanCases(config, options, checkpoint, &outcomes, &pending, &kinds);
-  std::atomic<int> done{options.cases - static_cast<int>(pending.size())};
+  CasePlan plan = PlanCases(config, options, checkpoint);
+  std::atomic<int> done{options.cases - static_cast<int>(plan.pending.size())};
   {
     ProgressLine line(args.quiet || !ranks.is_root());
     options.diagnosis.callback = stop.Callback([&](const IterationSummary& s) {
@@ -151,7 +179,7 @@ int RunValidate(const ValidateArgs& args) {
                 std::min(1.0, (done + s.fraction) / options.cases));
     });
     status = ranks.Distribute(
-        pending, kinds, 1,
+        plan.pending, plan.kinds, 1,
         [&](int i, std::string* outcome) {
           const Status run = RunValidationCase(config, options, i, outcome);
           if (run.ok()) return run;
@@ -160,10 +188,11 @@ int RunValidate(const ValidateArgs& args) {
         },
         [&](int i, const std::string& outcome, double seconds) {
           ++done;
+          plan.seconds[i] = seconds;
           return args.out.empty() ? Status::Ok()
                                   : checkpoint.Record(i, outcome, seconds);
         },
-        &outcomes);
+        &plan.outcomes);
     line.Clear();
   }
   if (stop.received()) {
@@ -172,16 +201,19 @@ int RunValidate(const ValidateArgs& args) {
   }
   if (!status.ok()) return fail(status);
   if (!ranks.is_root()) return 0;
-  const std::string json = ValidationToJson(config, options, outcomes);
-  if (!args.out.empty()) {
-    status = WriteFilesAtomically({{args.out, json}});
+  const std::string json = ValidationToJson(config, options, plan.outcomes);
+  std::vector<std::pair<std::string, std::string>> files;
+  if (!args.out.empty()) files.emplace_back(args.out, json);
+  if (!args.timings.empty()) files.emplace_back(args.timings, TimingsCsv(plan));
+  if (!files.empty()) {
+    status = WriteFilesAtomically(files);
     if (status.ok()) status = checkpoint.Remove();
     if (!status.ok()) return fail(status);
   }
   std::fputs(ValidationSummary(json).c_str(), stdout);
   std::printf("  %d cases on %d rank%s", options.cases, ranks.size(),
               ranks.size() > 1 ? "s" : "");
-  if (!args.out.empty()) std::printf(", wrote %s", args.out.c_str());
+  for (const auto& file : files) std::printf(", wrote %s", file.first.c_str());
   std::printf("\n");
   return 0;
 }
@@ -212,6 +244,9 @@ void AddValidateCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--out", args->out,
                   "validate.json to write; the cases done are kept in "
                   "OUT.checkpoint/ until it is written");
+  cmd->add_option("--timings", args->timings,
+                  "CSV of each case's truth and wall time (seconds) to write "
+                  "(what a scheduling study needs)");
   cmd->add_flag("--resume", args->resume,
                 "Go on from OUT.checkpoint/ of an interrupted run (same "
                 "config, plan and options), or start it when there is none");

@@ -177,6 +177,7 @@ Status BatchCheckpoint::Record(int item, const std::string& result,
 }
 
 Status BatchCheckpoint::Remove() {
+  if (folder_.empty()) return Status::Ok();  // never opened
   std::error_code error;
   fs::remove_all(folder_, error);
   if (error) {

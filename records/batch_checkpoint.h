@@ -45,7 +45,8 @@ class BatchCheckpoint {
   // Keeps item `item`'s result (atomically).
   Status Record(int item, const std::string& result, double seconds);
 
-  // Removes the folder once the batch's output is written.
+  // Removes the folder once the batch's output is written (nothing when
+  // the checkpoint was never opened).
   Status Remove();
 
  private:

@@ -339,11 +339,23 @@ TEST_F(ClusterCliTest, AKilledJobResumesToTheSameResults) {
     EXPECT_EQ(again.exit_code, 1) << again.output;
     EXPECT_NE(again.output.find("--resume goes on from it"), std::string::npos)
         << again.output;
-    const CliResult resumed =
-        RunCommand(Mpirun() + "-np " + std::to_string(resume_ranks) + " " +
-                   KCRIG_BINARY + cases + " --out " + out + " --resume");
+    const CliResult resumed = RunCommand(
+        Mpirun() + "-np " + std::to_string(resume_ranks) + " " + KCRIG_BINARY +
+        cases + " --out " + out + " --resume --timings " + out + ".csv");
     ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
     EXPECT_EQ(ReadFile(out), expected) << "killed after " << items;
+    // Every case's cost, the kept ones' from the checkpoint.
+    std::istringstream timings(ReadFile(out + ".csv"));
+    std::string line;
+    std::getline(timings, line);
+    EXPECT_EQ(line, "case,truth,seconds");
+    for (int i = 0; i < 10; ++i) {
+      ASSERT_TRUE(std::getline(timings, line)) << i;
+      const std::string truth = i % 2 == 0 ? "none" : "rig_compliance";
+      EXPECT_EQ(line.rfind(std::to_string(i) + "," + truth + ",", 0), 0u)
+          << line;
+      EXPECT_GT(std::stod(line.substr(line.rfind(',') + 1)), 0.0) << line;
+    }
     EXPECT_FALSE(std::filesystem::exists(out + ".checkpoint"));
   }
 }
