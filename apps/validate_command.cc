@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <optional>
@@ -32,9 +33,30 @@ struct ValidateArgs {
   std::string timings;
 };
 
+constexpr int kMaxCases = 1000000;
+
 // Where validate keeps its completed cases while it runs: beside --out.
 std::string CheckpointFolder(const std::string& out) {
   return out + ".checkpoint";
+}
+
+// --out, its checkpoint folder and --timings: writable, none of the inputs,
+// no two the same file.
+Status CheckOutputs(const ValidateArgs& args,
+                    const std::vector<std::string>& inputs) {
+  KCRIG_RETURN_IF_ERROR(CheckOutput("--out", args.out, inputs));
+  KCRIG_RETURN_IF_ERROR(CheckOutput("--timings", args.timings, inputs));
+  if (args.timings.empty() || args.out.empty()) return Status::Ok();
+  const auto same = [](const std::string& a, const std::string& b) {
+    std::error_code error;
+    return std::filesystem::weakly_canonical(a, error) ==
+           std::filesystem::weakly_canonical(b, error);
+  };
+  if (same(args.timings, args.out) ||
+      same(args.timings, CheckpointFolder(args.out))) {
+    return Status::Error("--timings: names --out or its checkpoint folder");
+  }
+  return Status::Ok();
 }
 
 // Every rank checks what it was given alike; the root alone its output.
@@ -42,7 +64,10 @@ Status Prepare(const ValidateArgs& args, const Ranks& ranks,
                KcrigConfig* config, ValidationOptions* options) {
   Status status = LoadConfig(args.config_dir, config);
   if (!status.ok()) return status;
-  if (args.cases < 1) return Status::Error("--cases: must be >= 1");
+  if (args.cases < 1 || args.cases > kMaxCases) {
+    return Status::Error("--cases: must be within [1, " +
+                         std::to_string(kMaxCases) + "]");
+  }
   if (args.resume && args.out.empty()) {
     return Status::Error("--resume: needs --out (the checkpoint is beside it)");
   }
@@ -65,23 +90,22 @@ Status Prepare(const ValidateArgs& args, const Ranks& ranks,
   }
   std::vector<std::string> inputs;
   if (!args.plan.empty()) inputs.push_back(args.plan);
-  if (!ranks.is_root()) return Status::Ok();
-  status = CheckOutput("--out", args.out, inputs);
-  if (status.ok()) status = CheckOutput("--timings", args.timings, inputs);
-  if (status.ok() && !args.out.empty() && args.timings == args.out) {
-    return Status::Error("--timings: the same file as --out");
-  }
-  return status;
+  return ranks.is_root() ? CheckOutputs(args, inputs) : Status::Ok();
 }
 
 // What a checkpoint must agree with to be resumed: everything that shapes
 // the cases' outcomes (the config's and the plan's bytes, the options).
 BatchCheckpoint::Identity CheckpointIdentity(const ValidateArgs& args,
-                                             const KcrigConfig& config) {
+                                             const KcrigConfig& config,
+                                             const ValidationOptions& options) {
+  std::string effects;
+  for (const std::string& truth : options.classes) {
+    effects += (effects.empty() ? "" : ",") + truth;
+  }
   return {{"command", "validate"},
           {"config", InputDigest(config.directory)},
           {"plan", args.plan.empty() ? "" : InputDigest(args.plan)},
-          {"effects", args.effects},
+          {"effects", effects.empty() ? "(all)" : effects},
           {"seed", std::to_string(args.seed)},
           {"cases", std::to_string(args.cases)}};
 }
@@ -95,9 +119,9 @@ struct CasePlan {
   std::vector<double> seconds;  // each case's wall time, once done
 };
 
-CasePlan PlanCases(const KcrigConfig& config, const ValidationOptions& options,
-                   const BatchCheckpoint& checkpoint) {
-  CasePlan plan;
+Status PlanCases(const KcrigConfig& config, const ValidationOptions& options,
+                 const BatchCheckpoint& checkpoint, CasePlan* plan_out) {
+  CasePlan& plan = *plan_out;
   plan.outcomes.resize(options.cases);
   plan.seconds.assign(options.cases, 0.0);
   std::map<std::string, int> kind_of;
@@ -110,13 +134,14 @@ CasePlan PlanCases(const KcrigConfig& config, const ValidationOptions& options,
       plan.pending.push_back(i);
     }
     BlindCase blind_case;
-    (void)DrawBlindCase(i, options.seed, config.model, options.classes,
-                        options.plan, &blind_case);
+    KCRIG_RETURN_IF_ERROR(DrawBlindCase(i, options.seed, config.model,
+                                        options.classes, options.plan,
+                                        &blind_case));
     plan.truths.push_back(blind_case.truth);
     plan.kinds.push_back(
         kind_of.emplace(blind_case.truth, kind_of.size()).first->second);
   }
-  return plan;
+  return Status::Ok();
 }
 
 // --timings: what each case cost (a scheduling study's input; kept out of
@@ -139,12 +164,71 @@ std::string KeptCases(const BatchCheckpoint& checkpoint, int done) {
          " (--resume goes on from them)";
 }
 
+// The pending cases spread over the ranks, each kept in the checkpoint as
+// it is done; a progress line on the root.
+Status RunCases(const ValidateArgs& args, const KcrigConfig& config,
+                const StopSignal& stop, ValidationOptions* options,
+                BatchCheckpoint* checkpoint, CasePlan* plan,
+                std::atomic<int>* done) {
+  const Ranks& ranks = WorldRanks();
+  ProgressLine line(args.quiet || !ranks.is_root());
+  options->diagnosis.callback = stop.Callback([&](const IterationSummary& s) {
+    line.Show("kcrig validate: " + std::to_string(done->load()) +
+                  " cases done, " + s.stage,
+              std::min(1.0, (*done + s.fraction) / options->cases));
+  });
+  const Status status = ranks.Distribute(
+      plan->pending, plan->kinds, 1,
+      [&](int i, std::string* outcome) {
+        const Status run = RunValidationCase(config, *options, i, outcome);
+        if (run.ok()) return run;
+        return Status::Error("case " + std::to_string(i) + ": " +
+                             run.message());
+      },
+      [&](int i, const std::string& outcome, double seconds) {
+        ++*done;
+        plan->seconds[i] = seconds;
+        return args.out.empty() ? Status::Ok()
+                                : checkpoint->Record(i, outcome, seconds);
+      },
+      &plan->outcomes);
+  line.Clear();
+  return status;
+}
+
+// The root's files and summary once every case is done.
+int Finish(const ValidateArgs& args, const KcrigConfig& config,
+           const ValidationOptions& options, const CasePlan& plan,
+           BatchCheckpoint* checkpoint) {
+  const std::string json = ValidationToJson(config, options, plan.outcomes);
+  std::vector<std::pair<std::string, std::string>> files;
+  if (!args.out.empty()) files.emplace_back(args.out, json);
+  if (!args.timings.empty()) files.emplace_back(args.timings, TimingsCsv(plan));
+  Status status = WriteFilesAtomically(files);
+  if (status.ok()) status = checkpoint->Remove();
+  if (!status.ok()) {
+    std::fprintf(stderr, "kcrig validate: %s\n", status.message().c_str());
+    return 1;
+  }
+  std::fputs(ValidationSummary(json).c_str(), stdout);
+  std::printf("  %d cases on %d rank%s", options.cases, WorldRanks().size(),
+              WorldRanks().size() > 1 ? "s" : "");
+  for (const auto& file : files) std::printf(", wrote %s", file.first.c_str());
+  std::printf("\n");
+  return 0;
+}
+
 int RunValidate(const ValidateArgs& args) {
   const Ranks& ranks = WorldRanks();
   const StopSignal stop;
-  auto fail = [&ranks](const Status& status) {
+  BatchCheckpoint checkpoint;
+  std::atomic<int> done{0};
+  auto fail = [&](const Status& status) {
     if (ranks.is_root()) {
-      std::fprintf(stderr, "kcrig validate: %s\n", status.message().c_str());
+      const std::string kept =
+          done > 0 ? "; " + KeptCases(checkpoint, done) : "";
+      std::fprintf(stderr, "kcrig validate: %s%s\n", status.message().c_str(),
+                   kept.c_str());
     }
     return 1;
   };
@@ -157,65 +241,25 @@ int RunValidate(const ValidateArgs& args) {
   ValidationOptions options;
   if (status.ok()) status = Prepare(read, ranks, &config, &options);
   status = ranks.Agree(status);
-  if (!status.ok()) return fail(status);
-
   // The root keeps each case as it is done (beside --out) and resumes.
-  BatchCheckpoint checkpoint;
-  if (ranks.is_root() && !args.out.empty()) {
+  if (status.ok() && ranks.is_root() && !args.out.empty()) {
     status = checkpoint.Open(CheckpointFolder(args.out),
-                             CheckpointIdentity(args, config), options.cases,
-                             args.resume);
+                             CheckpointIdentity(args, config, options),
+                             options.cases, args.resume);
   }
+  CasePlan plan;
+  if (status.ok()) status = PlanCases(config, options, checkpoint, &plan);
   status = ranks.Agree(status);
   if (!status.ok()) return fail(status);
-
-  CasePlan plan = PlanCases(config, options, checkpoint);
-  std::atomic<int> done{options.cases - static_cast<int>(plan.pending.size())};
-  {
-    ProgressLine line(args.quiet || !ranks.is_root());
-    options.diagnosis.callback = stop.Callback([&](const IterationSummary& s) {
-      line.Show("kcrig validate: " + std::to_string(done.load()) +
-                    " cases done, " + s.stage,
-                std::min(1.0, (done + s.fraction) / options.cases));
-    });
-    status = ranks.Distribute(
-        plan.pending, plan.kinds, 1,
-        [&](int i, std::string* outcome) {
-          const Status run = RunValidationCase(config, options, i, outcome);
-          if (run.ok()) return run;
-          return Status::Error("case " + std::to_string(i) + ": " +
-                               run.message());
-        },
-        [&](int i, const std::string& outcome, double seconds) {
-          ++done;
-          plan.seconds[i] = seconds;
-          return args.out.empty() ? Status::Ok()
-                                  : checkpoint.Record(i, outcome, seconds);
-        },
-        &plan.outcomes);
-    line.Clear();
-  }
+  done = options.cases - static_cast<int>(plan.pending.size());
+  status = RunCases(args, config, stop, &options, &checkpoint, &plan, &done);
   if (stop.received()) {
     return ranks.is_root() ? stop.Exit("validate", KeptCases(checkpoint, done))
                            : 1;
   }
   if (!status.ok()) return fail(status);
   if (!ranks.is_root()) return 0;
-  const std::string json = ValidationToJson(config, options, plan.outcomes);
-  std::vector<std::pair<std::string, std::string>> files;
-  if (!args.out.empty()) files.emplace_back(args.out, json);
-  if (!args.timings.empty()) files.emplace_back(args.timings, TimingsCsv(plan));
-  if (!files.empty()) {
-    status = WriteFilesAtomically(files);
-    if (status.ok()) status = checkpoint.Remove();
-    if (!status.ok()) return fail(status);
-  }
-  std::fputs(ValidationSummary(json).c_str(), stdout);
-  std::printf("  %d cases on %d rank%s", options.cases, ranks.size(),
-              ranks.size() > 1 ? "s" : "");
-  for (const auto& file : files) std::printf(", wrote %s", file.first.c_str());
-  std::printf("\n");
-  return 0;
+  return Finish(args, config, options, plan, &checkpoint);
 }
 
 }  // namespace

@@ -306,21 +306,25 @@ void Dispatch(int worker_threads, ItemQueue* queue) {
   while (worker_threads > 0) {
     const int source = ReceiveOutcome(&message);
     const std::string who = "rank " + std::to_string(source) + ": ";
-    OutcomeHeader header;
+    OutcomeHeader header;  // item -1: nothing to take in
     if (message.size() < sizeof(header)) {
       queue->Finish(-1, Status::Error("unreadable result"), "", 0, who);
     } else {
       std::memcpy(&header, message.data(), sizeof(header));
-      std::string body = message.substr(sizeof(header));
-      if (header.item >= 0) {
-        queue->Finish(header.item,
-                      header.ok ? Status::Ok() : Status::Error(body),
-                      std::move(body), header.seconds, who);
-      }
     }
-    int next = queue->Next();
-    worker_threads -= next < 0;
+    std::string body = message.substr(std::min(message.size(), sizeof(header)));
+    // A failure stops the batch before its rank is answered; a result is
+    // recorded (a checkpoint write) only after its rank has its next item.
+    if (header.item >= 0 && !header.ok) {
+      queue->Finish(header.item, Status::Error(body), "", 0, who);
+    }
+    const int next = queue->Next();
     MPI_Send(&next, 1, MPI_INT, source, kItemTag, MPI_COMM_WORLD);
+    if (header.item >= 0 && header.ok) {
+      queue->Finish(header.item, Status::Ok(), std::move(body), header.seconds,
+                    who);
+    }
+    worker_threads -= next < 0;
   }
 }
 
@@ -364,6 +368,12 @@ Status Ranks::Distribute(const std::vector<int>& pending,
                          const ItemWork& work, const ItemDone& done,
                          std::vector<std::string>* results) const {
   threads = std::max(1, threads);
+  for (int item : pending) {
+    if (item < 0 || item >= static_cast<int>(results->size())) {
+      return Status::Error("item " + std::to_string(item) +
+                           " is not in the batch");
+    }
+  }
 #ifdef KCRIG_WITH_MPI
   if (joined_mpi_ && size_ > 1) {
     if (!is_root()) return ServeRoot(threads, work);

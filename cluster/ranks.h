@@ -37,7 +37,7 @@ class Ranks {
   bool is_root() const { return rank_ == 0; }
 
   // A rank's part of a batch: runs one item, writing its result; an error
-  // stops the rank taking more items.
+  // stops the batch (no rank is given another item).
   using ItemWork = std::function<Status(int item, std::string* result)>;
   // Called on the root for each result as it arrives, one at a time (from
   // whichever of the root's threads received it), with the seconds the

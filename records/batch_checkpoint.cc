@@ -1,16 +1,17 @@
 #include "records/batch_checkpoint.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
-#include <cerrno>
-#include <cinttypes>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <regex>
 #include <system_error>
 
+#include "base/fnv1a.h"
+#include "base/input_file.h"
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"
 
@@ -20,27 +21,14 @@ namespace {
 namespace fs = std::filesystem;
 
 const char kIdentityFile[] = "identity.json";
-const std::regex kItemFile(R"(item-(\d{6})\.json)");
+const std::regex kItemFile(R"(item-(\d{6,9})\.json)");
+// A case's result is a few KB; the identity a few hundred bytes.
+constexpr std::uintmax_t kMaxFileBytes = 64 << 20;
 
-std::string ItemPath(const std::string& folder, int item) {
+std::string ItemName(int item) {
   char name[32];
   std::snprintf(name, sizeof(name), "item-%06d.json", item);
-  return (fs::path(folder) / name).string();
-}
-
-bool ReadWhole(const std::string& path, std::string* text) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return false;
-  text->assign(std::istreambuf_iterator<char>(in),
-               std::istreambuf_iterator<char>());
-  return !in.bad();
-}
-
-void Mix(std::uint64_t* hash, const std::string& bytes) {
-  for (unsigned char c : bytes) {
-    *hash ^= c;
-    *hash *= 1099511628211ULL;
-  }
+  return name;
 }
 
 nlohmann::json IdentityJson(const BatchCheckpoint::Identity& identity) {
@@ -52,43 +40,48 @@ nlohmann::json IdentityJson(const BatchCheckpoint::Identity& identity) {
 }  // namespace
 
 std::string InputDigest(const std::string& path) {
-  std::uint64_t hash = 1469598103934665603ULL;
+  Fnv1a hash;
   std::error_code error;
+  std::vector<fs::path> files = {path};
   if (fs::is_directory(path, error)) {
-    std::vector<fs::path> files;
+    files.clear();
     for (const auto& entry : fs::directory_iterator(path, error)) {
-      if (entry.is_regular_file()) files.push_back(entry.path());
+      if (entry.is_regular_file(error)) files.push_back(entry.path());
     }
-    if (error) return "";
     std::sort(files.begin(), files.end());
-    for (const fs::path& file : files) {
-      std::string bytes;
-      if (!ReadWhole(file.string(), &bytes)) return "";
-      Mix(&hash, file.filename().string() + '\0' +
-                     std::to_string(bytes.size()) + '\0');
-      Mix(&hash, bytes);
-    }
-  } else {
-    std::string bytes;
-    if (!ReadWhole(path, &bytes)) return "";
-    Mix(&hash, bytes);
   }
-  char hex[17];
-  std::snprintf(hex, sizeof(hex), "%016" PRIx64, hash);
-  return hex;
+  if (error) return "";
+  for (const fs::path& file : files) {
+    std::string bytes;
+    if (!ReadInputFile(file.string(), kMaxFileBytes, &bytes).ok()) return "";
+    hash.Mix(file.filename().string() + '\0' + std::to_string(bytes.size()) +
+             '\0');
+    hash.Mix(bytes);
+  }
+  return hash.Hex();
+}
+
+BatchCheckpoint::~BatchCheckpoint() {
+  if (lock_fd_ >= 0) close(lock_fd_);
 }
 
 Status BatchCheckpoint::Open(const std::string& folder, Identity identity,
                              int count, bool resume) {
+  if (lock_fd_ >= 0) close(lock_fd_);
+  lock_fd_ = -1;
   folder_ = folder;
   identity_ = std::move(identity);
   identity_.emplace_back("kcrig", KCRIG_VERSION);
   count_ = count;
   items_.clear();
   std::error_code error;
-  const bool exists =
-      fs::symlink_status(folder_, error).type() != fs::file_type::not_found;
-  if (!exists) return Create();
+  const fs::file_type type = fs::symlink_status(folder_, error).type();
+  if (type == fs::file_type::not_found) return Create();
+  if (type != fs::file_type::directory) {
+    return Status::Error(folder_ +
+                         ": exists and is not a checkpoint folder (remove it "
+                         "to start the run)");
+  }
   if (!resume) {
     return Status::Error(folder_ +
                          ": the checkpoint of an interrupted run is there "
@@ -104,24 +97,35 @@ Status BatchCheckpoint::Create() {
     return Status::Error(folder_ + ": cannot create the checkpoint folder: " +
                          (error ? error.message() : "it exists"));
   }
-  return WriteFilesAtomically({{(fs::path(folder_) / kIdentityFile).string(),
-                                IdentityJson(identity_).dump(1) + "\n"}});
+  KCRIG_RETURN_IF_ERROR(
+      WriteFilesAtomically({{(fs::path(folder_) / kIdentityFile).string(),
+                             IdentityJson(identity_).dump(1) + "\n"}}));
+  return Lock();
+}
+
+// Held while this process runs the batch: a second job resuming the same
+// checkpoint at once would write the same items twice.
+Status BatchCheckpoint::Lock() {
+  lock_fd_ = open(folder_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (lock_fd_ < 0 || flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+    return Status::Error(folder_ +
+                         ": in use by another run (one job at a time may "
+                         "resume a checkpoint)");
+  }
+  return Status::Ok();
 }
 
 Status BatchCheckpoint::Resume() {
-  if (fs::symlink_status(folder_).type() != fs::file_type::directory) {
-    return Status::Error(folder_ + ": not a checkpoint folder");
-  }
   const std::string identity_path =
       (fs::path(folder_) / kIdentityFile).string();
   std::string text;
-  if (!ReadWhole(identity_path, &text)) {
-    return Status::Error(identity_path +
-                         ": cannot read: " + std::strerror(errno));
-  }
-  const nlohmann::json kept = nlohmann::json::parse(text, nullptr, false);
+  const Status read = ReadInputFile(identity_path, kMaxFileBytes, &text);
+  const nlohmann::json kept =
+      read.ok() ? nlohmann::json::parse(text, nullptr, false) : nullptr;
   if (!kept.is_object()) {
-    return Status::Error(identity_path + ": not a checkpoint's identity");
+    return Status::Error(identity_path +
+                         ": missing or unreadable, not a checkpoint (remove " +
+                         folder_ + " to start over)");
   }
   for (const auto& [key, value] : identity_) {
     const auto found = kept.find(key);
@@ -134,6 +138,7 @@ Status BatchCheckpoint::Resume() {
                            "): remove it to start over");
     }
   }
+  KCRIG_RETURN_IF_ERROR(Lock());
   std::error_code error;
   for (const auto& entry : fs::directory_iterator(folder_, error)) {
     const std::string name = entry.path().filename().string();
@@ -147,23 +152,25 @@ Status BatchCheckpoint::Resume() {
 }
 
 Status BatchCheckpoint::ReadItem(const std::string& path, int item) {
-  std::string text;
-  if (!ReadWhole(path, &text)) {
-    return Status::Error(path + ": cannot read: " + std::strerror(errno));
-  }
-  const nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
   const auto bad = [&path](const std::string& why) {
     return Status::Error(path + ": " + why +
                          " (remove the file to run its item again)");
   };
+  std::string text;
+  const Status read = ReadInputFile(path, kMaxFileBytes, &text);
+  if (!read.ok()) return bad("unreadable");
+  const nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
   if (!doc.is_object() || !doc.contains("item") || !doc.contains("result") ||
       !doc.contains("seconds") || !doc["item"].is_number_integer() ||
       !doc["result"].is_string() || !doc["seconds"].is_number()) {
     return bad("not a checkpoint item");
   }
-  if (doc["item"] != item) return bad("holds another item");
-  if (item >= count_)
+  if (doc["item"] != item || fs::path(path).filename() != ItemName(item)) {
+    return bad("holds another item");
+  }
+  if (item >= count_) {
     return bad("an item beyond the batch's " + std::to_string(count_));
+  }
   items_[item] = {doc["result"].get<std::string>(),
                   doc["seconds"].get<double>()};
   return Status::Ok();
@@ -173,7 +180,8 @@ Status BatchCheckpoint::Record(int item, const std::string& result,
                                double seconds) {
   const nlohmann::json doc = {
       {"item", item}, {"seconds", seconds}, {"result", result}};
-  return WriteFilesAtomically({{ItemPath(folder_, item), doc.dump() + "\n"}});
+  return WriteFilesAtomically(
+      {{(fs::path(folder_) / ItemName(item)).string(), doc.dump() + "\n"}});
 }
 
 Status BatchCheckpoint::Remove() {

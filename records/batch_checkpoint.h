@@ -28,13 +28,19 @@ class BatchCheckpoint {
     double seconds = 0;  // wall time of the item when it ran
   };
 
+  BatchCheckpoint() = default;
+  ~BatchCheckpoint();  // lets another job open the folder
+  BatchCheckpoint(const BatchCheckpoint&) = delete;
+  BatchCheckpoint& operator=(const BatchCheckpoint&) = delete;
+
   // Opens the checkpoint folder `folder` of the batch `identity` (kcrig's
   // version is added to it) of `count` items. Without `resume` an existing
   // folder is refused (an earlier job's work is never overwritten); with
   // it, an existing folder must hold the same identity (else one line
   // naming the first key that differs) and its items are read, and a
   // missing one is started (so that a requeued job runs the same command
-  // line as the first).
+  // line as the first). The folder stays locked (flock) while this object
+  // lives: a second job resuming it at once is refused.
   Status Open(const std::string& folder, Identity identity, int count,
               bool resume);
 
@@ -51,6 +57,7 @@ class BatchCheckpoint {
 
  private:
   Status Create();
+  Status Lock();
   Status Resume();
   Status ReadItem(const std::string& path, int item);
 
@@ -58,9 +65,10 @@ class BatchCheckpoint {
   Identity identity_;
   int count_ = 0;
   std::map<int, Item> items_;
+  int lock_fd_ = -1;
 };
 
-// FNV-1a (64 bits, 16 hex digits) of a regular file's bytes, or of a
+// FNV-1a (base/fnv1a.h) of a regular file's bytes, or of a
 // folder's regular files (their names and bytes, in name order): what a
 // checkpoint compares to know its inputs unchanged. "" when unreadable.
 std::string InputDigest(const std::string& path);

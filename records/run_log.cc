@@ -505,6 +505,24 @@ std::string SidecarPath(const std::string& csv_path) {
   return std::filesystem::path(csv_path).replace_extension(".json").string();
 }
 
+namespace {
+
+// The renames on the disk too (best effort: not every file system syncs a
+// folder).
+void SyncParentFolders(
+    const std::vector<std::pair<std::string, std::string>>& files) {
+  for (const auto& file : files) {
+    std::string parent = std::filesystem::path(file.first).parent_path();
+    if (parent.empty()) parent = ".";
+    const int folder = open(parent.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (folder < 0) continue;
+    (void)fsync(folder);
+    close(folder);
+  }
+}
+
+}  // namespace
+
 Status WriteFilesAtomically(
     const std::vector<std::pair<std::string, std::string>>& files) {
   for (const auto& file : files) {
@@ -530,8 +548,12 @@ Status WriteFilesAtomically(
       return Status::Error(path + ": cannot write: " + reason);
     }
     temporaries.push_back(temporary);
-    const bool written =
-        std::fwrite(content.data(), 1, content.size(), file) == content.size();
+    // On the disk before the rename: a node that loses power right after
+    // leaves the old file or the whole new one, never an empty one.
+    const bool written = std::fwrite(content.data(), 1, content.size(), file) ==
+                             content.size() &&
+                         std::fflush(file) == 0 &&
+                         (fsync(fd) == 0 || errno == EINVAL);
     const bool closed = std::fclose(file) == 0;
     if (!written || !closed) {
       const std::string reason = std::strerror(errno);
@@ -547,6 +569,7 @@ Status WriteFilesAtomically(
       return Status::Error(files[i].first + ": cannot write: " + reason);
     }
   }
+  SyncParentFolders(files);
   return Status::Ok();
 }
 

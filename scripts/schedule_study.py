@@ -7,8 +7,10 @@ resampled from the measured cases of its truth, the truths cycling as
 validate cycles them), and simulates each study on each rank count with
 three schedules:
 
-  static    rank r runs cases r, r+N, ... (round-robin; the old schedule)
+  static    rank r runs cases r, r+N, ... (round-robin: the design and
+            diagnosis batches' schedule before)
   dynamic   the next case in index order to whichever rank is free
+            (validate's schedule before)
   kcrig     kcrig's Distribute: the next case to whichever rank is free,
             truths not yet measured first, then the truth whose cases have
             taken longest on average so far

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <vector>
 
+#include "base/fnv1a.h"
 #include "base/yaml_reader.h"
 #include "rt_core/model/channels.h"
 
@@ -207,24 +208,15 @@ std::string DefaultConfigDirectory() {
 
 std::string GeometryFingerprint(const SuspensionParameters<double>& model) {
   SuspensionParameters<double> copy = model;
-  // FNV-1a over the names and the values printed to 9 significant digits
-  // (stable across platforms, blind to YAML formatting).
-  std::uint64_t hash = 1469598103934665603ULL;
-  auto mix = [&hash](const std::string& text) {
-    for (unsigned char c : text) {
-      hash ^= c;
-      hash *= 1099511628211ULL;
-    }
-  };
+  // The names and the values printed to 9 significant digits (stable
+  // across platforms, blind to YAML formatting).
+  Fnv1a hash;
   for (const NamedParameter<double>& p : ListParameters(&copy)) {
     if (p.name.rfind("c_", 0) == 0) continue;
     char value[40];
     std::snprintf(value, sizeof(value), "=%.9g;", *p.value);
-    mix(p.name + value);
+    hash.Mix(p.name + value);
   }
-  char hex[17];
-  std::snprintf(hex, sizeof(hex), "%016llx",
-                static_cast<unsigned long long>(hash));
-  return hex;
+  return hash.Hex();
 }
 }  // namespace kcrig

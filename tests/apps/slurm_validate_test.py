@@ -13,14 +13,18 @@ without Slurm.
 usage: slurm_validate_test.py KCRIG SOURCE_DIR WORK_DIR
 """
 import os
+import re
 import pathlib
 import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 
-CASES = ["--cases", "10", "--effects", "none,rig_compliance", "--seed", "3"]
+CASES = ["--cases", "20", "--effects", "none,rig_compliance", "--seed", "3"]
+ENDED = ("COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL",
+         "PREEMPTED", "OUT_OF_MEMORY", "BOOT_FAIL", "DEADLINE")
 
 
 def free_port():
@@ -42,8 +46,9 @@ class Cluster:
     """munged, slurmctld and slurmd in `work`, stopped on exit."""
 
     def __init__(self, work):
-        self.work = work
+        self.work = work  # short: Unix socket paths end at 108 bytes
         self.daemons = []
+        self.jobs = []
         self.conf = work / "slurm.conf"
         self.env = dict(os.environ, SLURM_CONF=str(self.conf))
 
@@ -93,8 +98,8 @@ PartitionName=test Nodes=localhost Default=YES MaxTime=INFINITE State=UP OverSub
 """)
         self.spawn(["slurmctld", "-D", "-i", "-f", str(self.conf)])
         self.spawn(["slurmd", "-D", "-N", "localhost", "-f", str(self.conf)])
-        wait_for("an idle node",
-                 lambda: "idle" in self.run(["sinfo", "-h", "-o", "%t"]), 60)
+        wait_for("an idle node", lambda: self.run(
+            ["sinfo", "-h", "-o", "%t"]).split() == ["idle"], 60)
 
     def spawn(self, command):
         self.daemons.append(subprocess.Popen(
@@ -116,6 +121,14 @@ PartitionName=test Nodes=localhost Default=YES MaxTime=INFINITE State=UP OverSub
         return fields
 
     def stop(self):
+        # The jobs first: their steps and ranks would outlive slurmd.
+        for job_id in self.jobs:
+            self.run(["scancel", job_id])
+        for job_id in self.jobs:
+            try:
+                wait_for("the job to end", lambda: ended(self, job_id), 60)
+            except SystemExit:
+                pass
         for daemon in reversed(self.daemons):
             daemon.terminate()
         for daemon in self.daemons:
@@ -135,19 +148,43 @@ PartitionName=test Nodes=localhost Default=YES MaxTime=INFINITE State=UP OverSub
 
 
 def ended(cluster, job_id):
-    return cluster.job(job_id).get("JobState") in (
-        "COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL")
+    return cluster.job(job_id).get("JobState") in ENDED
 
 
 def kept(folder):
     if not folder.is_dir():
         return 0
-    return sum(1 for p in folder.iterdir() if p.name.startswith("item-"))
+    return sum(1 for p in folder.iterdir()
+               if re.fullmatch(r"item-\d+\.json", p.name))
+
+
+def end_job_when_kept(cluster, job_id, checkpoint, cases, how):
+    """Ends the job `how` once the checkpoint keeps `cases` cases."""
+    wait_for(f"{cases} cases kept",
+             lambda: kept(checkpoint) >= cases or ended(cluster, job_id), 300)
+    if ended(cluster, job_id):
+        raise SystemExit(f"FAIL: the job ended before {how}: "
+                         f"{cluster.job(job_id)}\n" + cluster.logs())
+    print(f"{how} with {kept(checkpoint)} of 20 cases kept")
+    restarts = int(cluster.job(job_id).get("Restarts", "0"))
+    if how == "time limit":  # what --signal=B:USR1@120 sends
+        command = ["scancel", "--batch", "--signal=USR1", job_id]
+    else:
+        command = ["scontrol", "requeue", job_id]
+    print(cluster.run(command), end="")
+    # The job runs again when its script says so (its state passes through
+    # COMPLETED while Slurm requeues it).
+    log = checkpoint.parent / f"job-{job_id}.out"
+    wait_for("the restart", lambda: f"(restart {restarts + 1})" in
+             log.read_text(errors="replace"), 300)
 
 
 def main():
     kcrig = str(pathlib.Path(sys.argv[1]).resolve())
     source, work = pathlib.Path(sys.argv[2]), pathlib.Path(sys.argv[3])
+    if os.geteuid() != 0:
+        raise SystemExit("FAIL: the test runs Slurm's daemons as root; "
+                         "run it as root (as CI does)")
     for tool in ("slurmctld", "slurmd", "sbatch", "munged", "mungekey"):
         if shutil.which(tool) is None:
             raise SystemExit(f"FAIL: {tool} not installed (scripts/setup.sh)")
@@ -158,7 +195,7 @@ def main():
                    stdout=subprocess.DEVNULL)
     expected = (work / "alone.json").read_bytes()
 
-    cluster = Cluster(work)
+    cluster = Cluster(pathlib.Path(tempfile.mkdtemp(prefix="kcrig-slurm-")))
     try:
         cluster.start()
         out = work / "slurm.json"
@@ -170,14 +207,9 @@ def main():
         job_id = submitted.strip().split(";")[0]
         if not job_id.isdigit():
             raise SystemExit(f"FAIL: sbatch: {submitted}")
-        wait_for("a third of the cases kept",
-                 lambda: kept(checkpoint) >= 3 or ended(cluster, job_id), 300)
-        if ended(cluster, job_id):
-            raise SystemExit("FAIL: the job ended before it was requeued\n" +
-                             (work / f"job-{job_id}.out").read_text())
-        before = kept(checkpoint)
-        print(f"requeueing job {job_id} with {before} of 10 cases kept")
-        print(cluster.run(["scontrol", "requeue", job_id]), end="")
+        cluster.jobs.append(job_id)
+        end_job_when_kept(cluster, job_id, checkpoint, 4, "time limit")
+        end_job_when_kept(cluster, job_id, checkpoint, 10, "preemption")
         wait_for("the job to complete", lambda: ended(cluster, job_id), 600)
         job = cluster.job(job_id)
         log = (work / f"job-{job_id}.out").read_text(errors="replace")
@@ -187,17 +219,19 @@ def main():
         if job.get("JobState") != "COMPLETED":
             raise SystemExit("FAIL: the job did not complete\n" +
                              cluster.logs())
-        if job.get("Restarts") != "1" or "(restart 1)" not in log:
-            raise SystemExit("FAIL: the job was not requeued once")
+        if (job.get("Restarts") != "2" or "(restart 2)" not in log or
+                "near the time limit: requeued" not in log):
+            raise SystemExit("FAIL: the job was not requeued twice")
         if out.read_bytes() != expected:
             raise SystemExit("FAIL: the requeued job's validate.json differs "
                              "from an uninterrupted run's")
         if checkpoint.exists():
             raise SystemExit("FAIL: the checkpoint outlived the output")
-        print(f"PASS: requeued with {before} of 10 cases kept; the restarted "
-              "job finished them, validate.json identical to a run alone")
+        print("PASS: ended by its time limit and by a requeue, the job "
+              "finished its cases; validate.json identical to a run alone")
     finally:
         cluster.stop()
+        shutil.rmtree(cluster.work, ignore_errors=True)
 
 
 if __name__ == "__main__":

@@ -18,19 +18,25 @@ class BatchCheckpointTest : public TempDirTest {};
 TEST_F(BatchCheckpointTest, ItemsSurviveTheJobAndAnotherRunIsRefused) {
   const std::string folder = Path("out.json.checkpoint");
   const BatchCheckpoint::Identity identity = {{"seed", "2"}, {"cases", "3"}};
-  BatchCheckpoint first;
-  ASSERT_TRUE(first.Open(folder, identity, 3, false).ok());
-  ASSERT_TRUE(first.Record(2, "{\"x\": \"two\"}", 1.5).ok());
-  ASSERT_TRUE(first.Record(0, "zero", 0.25).ok());
+  {
+    BatchCheckpoint first;
+    ASSERT_TRUE(first.Open(folder, identity, 3, false).ok());
+    ASSERT_TRUE(first.Record(2, "{\"x\": \"two\"}", 1.5).ok());
+    ASSERT_TRUE(first.Record(0, "zero", 0.25).ok());
 
-  BatchCheckpoint again;
-  Status status = again.Open(folder, identity, 3, false);
-  EXPECT_NE(status.message().find("--resume goes on from it"),
-            std::string::npos)
-      << status.message();
-  status = again.Open(folder, {{"seed", "3"}, {"cases", "3"}}, 3, true);
-  EXPECT_NE(status.message().find("(seed was 2, is 3)"), std::string::npos)
-      << status.message();
+    BatchCheckpoint again;
+    Status status = again.Open(folder, identity, 3, false);
+    EXPECT_NE(status.message().find("--resume goes on from it"),
+              std::string::npos)
+        << status.message();
+    status = again.Open(folder, {{"seed", "3"}, {"cases", "3"}}, 3, true);
+    EXPECT_NE(status.message().find("(seed was 2, is 3)"), std::string::npos)
+        << status.message();
+    // Two jobs resuming one checkpoint at once: the second is refused.
+    status = again.Open(folder, identity, 3, true);
+    EXPECT_NE(status.message().find("in use by another run"), std::string::npos)
+        << status.message();
+  }  // the job ends: the folder is free
 
   BatchCheckpoint resumed;
   ASSERT_TRUE(resumed.Open(folder, identity, 3, true).ok());
@@ -40,7 +46,7 @@ TEST_F(BatchCheckpointTest, ItemsSurviveTheJobAndAnotherRunIsRefused) {
   EXPECT_EQ(resumed.items().at(0).result, "zero");
 
   std::ofstream(folder + "/item-000001.json") << "{\"item\": 2, \"result\"";
-  status = resumed.Open(folder, identity, 3, true);
+  Status status = resumed.Open(folder, identity, 3, true);
   EXPECT_NE(status.message().find("item-000001.json: not a checkpoint item"),
             std::string::npos)
       << status.message();
@@ -57,6 +63,13 @@ TEST_F(BatchCheckpointTest, ItemsSurviveTheJobAndAnotherRunIsRefused) {
   ASSERT_TRUE(resumed.Open(folder, identity, 3, true).ok());
   EXPECT_TRUE(resumed.items().empty());
   EXPECT_TRUE(std::filesystem::is_directory(folder));
+  // A file where the folder should be is named, never taken for one.
+  ASSERT_TRUE(resumed.Remove().ok());
+  std::ofstream(folder) << "x";
+  status = resumed.Open(folder, identity, 3, true);
+  EXPECT_NE(status.message().find("exists and is not a checkpoint folder"),
+            std::string::npos)
+      << status.message();
 }
 
 TEST_F(BatchCheckpointTest, DigestsSeeEveryByteAndName) {
