@@ -48,9 +48,10 @@ Status CheckOutputs(const ValidateArgs& args,
   KCRIG_RETURN_IF_ERROR(CheckOutput("--timings", args.timings, inputs));
   if (args.timings.empty() || args.out.empty()) return Status::Ok();
   const auto same = [](const std::string& a, const std::string& b) {
-    std::error_code error;
-    return std::filesystem::weakly_canonical(a, error) ==
-           std::filesystem::weakly_canonical(b, error);
+    std::error_code error_a, error_b;
+    const auto path_a = std::filesystem::weakly_canonical(a, error_a);
+    const auto path_b = std::filesystem::weakly_canonical(b, error_b);
+    return error_a || error_b ? a == b : path_a == path_b;
   };
   if (same(args.timings, args.out) ||
       same(args.timings, CheckpointFolder(args.out))) {
@@ -186,12 +187,15 @@ Status RunCases(const ValidateArgs& args, const KcrigConfig& config,
                              run.message());
       },
       [&](int i, const std::string& outcome, double seconds) {
-        ++*done;
         plan->seconds[i] = seconds;
-        return args.out.empty() ? Status::Ok()
+        const Status kept = args.out.empty()
+                                ? Status::Ok()
                                 : checkpoint->Record(i, outcome, seconds);
+        if (kept.ok()) ++*done;
+        return kept;
       },
       &plan->outcomes);
+  options->diagnosis.callback = nullptr;  // it shows on `line`, now gone
   line.Clear();
   return status;
 }
@@ -205,7 +209,12 @@ int Finish(const ValidateArgs& args, const KcrigConfig& config,
   if (!args.out.empty()) files.emplace_back(args.out, json);
   if (!args.timings.empty()) files.emplace_back(args.timings, TimingsCsv(plan));
   Status status = WriteFilesAtomically(files);
-  if (status.ok()) status = checkpoint->Remove();
+  if (!status.ok()) {
+    std::fprintf(stderr, "kcrig validate: %s; %s\n", status.message().c_str(),
+                 KeptCases(*checkpoint, options.cases).c_str());
+    return 1;
+  }
+  status = checkpoint->Remove();
   if (!status.ok()) {
     std::fprintf(stderr, "kcrig validate: %s\n", status.message().c_str());
     return 1;

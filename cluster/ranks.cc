@@ -58,7 +58,15 @@ class ItemQueue {
         kinds_(kinds),
         done_(done),
         results_(results),
-        state_(results->size(), kWaiting) {}
+        state_(results->size(), kWaiting) {
+    // An item outside the batch fails it; every worker is still answered.
+    for (int item : left_) {
+      if (item < 0 || item >= static_cast<int>(state_.size())) {
+        Fail(Status::Error("item " + std::to_string(item) +
+                           " is not in the batch"));
+      }
+    }
+  }
 
   // The next item to run, or -1 when none is left or the batch failed.
   int Next() {
@@ -368,12 +376,6 @@ Status Ranks::Distribute(const std::vector<int>& pending,
                          const ItemWork& work, const ItemDone& done,
                          std::vector<std::string>* results) const {
   threads = std::max(1, threads);
-  for (int item : pending) {
-    if (item < 0 || item >= static_cast<int>(results->size())) {
-      return Status::Error("item " + std::to_string(item) +
-                           " is not in the batch");
-    }
-  }
 #ifdef KCRIG_WITH_MPI
   if (joined_mpi_ && size_ > 1) {
     if (!is_root()) return ServeRoot(threads, work);

@@ -5,7 +5,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <regex>
 #include <system_error>
@@ -104,10 +106,15 @@ Status BatchCheckpoint::Create() {
 }
 
 // Held while this process runs the batch: a second job resuming the same
-// checkpoint at once would write the same items twice.
+// checkpoint at once would write the same items twice. A file system
+// without locks (some NFS or Lustre mounts) goes on unlocked.
 Status BatchCheckpoint::Lock() {
-  lock_fd_ = open(folder_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (lock_fd_ < 0 || flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+  const std::string path = (fs::path(folder_) / "lock").string();
+  lock_fd_ = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (lock_fd_ < 0) {
+    return Status::Error(path + ": cannot open: " + std::strerror(errno));
+  }
+  if (flock(lock_fd_, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK) {
     return Status::Error(folder_ +
                          ": in use by another run (one job at a time may "
                          "resume a checkpoint)");
@@ -123,9 +130,9 @@ Status BatchCheckpoint::Resume() {
   const nlohmann::json kept =
       read.ok() ? nlohmann::json::parse(text, nullptr, false) : nullptr;
   if (!kept.is_object()) {
-    return Status::Error(identity_path +
-                         ": missing or unreadable, not a checkpoint (remove " +
-                         folder_ + " to start over)");
+    const std::string why =
+        read.ok() ? identity_path + ": not a checkpoint's" : read.message();
+    return Status::Error(why + " (remove " + folder_ + " to start over)");
   }
   for (const auto& [key, value] : identity_) {
     const auto found = kept.find(key);
@@ -158,7 +165,10 @@ Status BatchCheckpoint::ReadItem(const std::string& path, int item) {
   };
   std::string text;
   const Status read = ReadInputFile(path, kMaxFileBytes, &text);
-  if (!read.ok()) return bad("unreadable");
+  if (!read.ok()) {
+    return Status::Error(read.message() +
+                         " (remove the file to run its item again)");
+  }
   const nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
   if (!doc.is_object() || !doc.contains("item") || !doc.contains("result") ||
       !doc.contains("seconds") || !doc["item"].is_number_integer() ||

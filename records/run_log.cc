@@ -507,6 +507,13 @@ std::string SidecarPath(const std::string& csv_path) {
 
 namespace {
 
+// The file's bytes on the disk; a file system that cannot sync (some FUSE
+// or 9p mounts) is taken as it is.
+bool Synced(int fd) {
+  return fsync(fd) == 0 || errno == EINVAL || errno == ENOSYS ||
+         errno == EOPNOTSUPP;
+}
+
 // The renames on the disk too (best effort: not every file system syncs a
 // folder).
 void SyncParentFolders(
@@ -552,11 +559,12 @@ Status WriteFilesAtomically(
     // leaves the old file or the whole new one, never an empty one.
     const bool written = std::fwrite(content.data(), 1, content.size(), file) ==
                              content.size() &&
-                         std::fflush(file) == 0 &&
-                         (fsync(fd) == 0 || errno == EINVAL);
+                         std::fflush(file) == 0 && Synced(fd);
+    int error = written ? 0 : errno;
     const bool closed = std::fclose(file) == 0;
+    if (!closed && written) error = errno;
     if (!written || !closed) {
-      const std::string reason = std::strerror(errno);
+      const std::string reason = std::strerror(error);
       remove_temporaries();
       return Status::Error(path + ": write failed: " + reason);
     }

@@ -107,8 +107,11 @@ PartitionName=test Nodes=localhost Default=YES MaxTime=INFINITE State=UP OverSub
             stderr=subprocess.DEVNULL, start_new_session=True))
 
     def run(self, command):
-        done = subprocess.run(command, env=self.env, capture_output=True,
-                              text=True)
+        try:
+            done = subprocess.run(command, env=self.env, capture_output=True,
+                                  text=True, timeout=60)
+        except subprocess.TimeoutExpired:
+            return f"{command[0]}: no answer within 60 s"
         return done.stdout + done.stderr
 
     def job(self, job_id):

@@ -2,8 +2,8 @@
 // is cluster_cli_test's): every pending item runs once and its result is
 // kept by item, on one thread or several; the kinds not yet measured go
 // first, then the kind that has taken longest; an error stops the batch
-// and is returned, as is the done callback's; items already done are not
-// run again.
+// and is returned, as is the done callback's and an item outside the
+// batch; items already done are not run again.
 #include "cluster/ranks.h"
 
 #include <chrono>
@@ -86,6 +86,17 @@ TEST(RanksTest, AnErrorStopsTheBatchAndIsReturned) {
       &results);
   EXPECT_EQ(status.message(), "disk full");
   EXPECT_EQ(ran, (std::vector<int>{0}));
+  // An item outside the batch fails it before anything runs.
+  ran.clear();
+  status = WorldRanks().Distribute(
+      {0, 7}, {}, 1,
+      [&](int item, std::string*) {
+        ran.push_back(item);
+        return Status::Ok();
+      },
+      nullptr, &results);
+  EXPECT_EQ(status.message(), "item 7 is not in the batch");
+  EXPECT_TRUE(ran.empty());
 }
 
 }  // namespace
