@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <map>
 #include <mutex>
 #include <numeric>
@@ -54,30 +55,42 @@ class ItemQueue {
  public:
   ItemQueue(const std::vector<int>& pending, const std::vector<int>& kinds,
             const Ranks::ItemDone& done, std::vector<std::string>* results)
-      : left_(pending),
-        kinds_(kinds),
+      : kinds_(kinds),
         done_(done),
         results_(results),
         state_(results->size(), kWaiting) {
-    // An item outside the batch fails it; every worker is still answered.
-    for (int item : left_) {
+    for (int position = 0; position < static_cast<int>(pending.size());
+         ++position) {
+      const int item = pending[position];
+      // An item outside the batch fails it; every worker is still answered.
       if (item < 0 || item >= static_cast<int>(state_.size())) {
         Fail(Status::Error("item " + std::to_string(item) +
                            " is not in the batch"));
       }
+      left_[Kind(item)].emplace_back(position, item);
     }
   }
 
   // The next item to run, or -1 when none is left or the batch failed.
   int Next() {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!status_.ok() || left_.empty()) return -1;
-    size_t best = 0;
-    for (size_t k = 1; k < left_.size(); ++k) {
-      if (Expected(left_[k]) > Expected(left_[best])) best = k;
+    if (!status_.ok()) return -1;
+    // Each kind's items in their batch order: the next one of the kind
+    // expected to take longest (ties: the kind first in the batch).
+    std::deque<Pending>* best = nullptr;
+    double best_cost = -HUGE_VAL;
+    for (auto& [kind, items] : left_) {
+      const double cost = Expected(kind);
+      if (!items.empty() &&
+          (best == nullptr || cost > best_cost ||
+           (cost == best_cost && items.front() < best->front()))) {
+        best = &items;
+        best_cost = cost;
+      }
     }
-    const int item = left_[best];
-    left_.erase(left_.begin() + static_cast<std::ptrdiff_t>(best));
+    if (best == nullptr) return -1;
+    const int item = best->front().second;
+    best->pop_front();
     if (item >= 0 && item < static_cast<int>(state_.size())) {
       state_[item] = kRunning;
     }
@@ -121,10 +134,10 @@ class ItemQueue {
     return item >= 0 && item < static_cast<int>(kinds_.size()) ? kinds_[item]
                                                                : 0;
   }
-  // The mean cost of the item's kind so far; a kind not yet measured
-  // first (its items may be the slow ones).
-  double Expected(int item) const {
-    const auto cost = costs_.find(Kind(item));
+  // The mean cost of a kind's items so far; a kind not yet measured first
+  // (its items may be the slow ones).
+  double Expected(int kind) const {
+    const auto cost = costs_.find(kind);
     if (cost == costs_.end()) return HUGE_VAL;
     return cost->second.seconds / cost->second.items;
   }
@@ -133,7 +146,9 @@ class ItemQueue {
   }
 
   mutable std::mutex mutex_;
-  std::vector<int> left_;
+  // (position in the batch, item): each kind's items left, in batch order.
+  using Pending = std::pair<int, int>;
+  std::map<int, std::deque<Pending>> left_;
   const std::vector<int>& kinds_;
   const Ranks::ItemDone& done_;
   std::vector<std::string>* results_;
