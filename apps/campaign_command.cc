@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "apps/cli_util.h"
+#include "apps/console_options.h"
 #include "apps/progress.h"
 #include "apps/sil_rig_options.h"
 #include "base/byte_codec.h"
@@ -21,6 +22,7 @@
 #include "emulator/sil_rig.h"
 #include "estimator/estimate_io.h"
 #include "hil/campaign_rig.h"
+#include "nlohmann/json.hpp"
 #include "records/run_log.h"
 #include "report/report.h"
 #include "rt_core/model/channels.h"
@@ -38,6 +40,7 @@ struct CampaignArgs {
   int budget = 100;
   double target_percent = 0;
   SilRigArgs sil;
+  ConsoleArgs console;
   bool quiet = false;
   bool no_report = false;
   bool no_diagnose = false;
@@ -111,9 +114,10 @@ std::string FinalTable(const std::vector<CampaignIteration>& iterations) {
   return out;
 }
 
-// The embedded SIL rig with the user's plant changes.
+// The embedded SIL rig with the user's plant changes; `monitor` (optional)
+// watches its runs.
 Status EmbeddedRig(const CampaignArgs& args, const KcrigConfig& config,
-                   RigRunner* rig, std::string* rig_text) {
+                   RunMonitor* monitor, RigRunner* rig, std::string* rig_text) {
   PlantConfig plant;
   std::vector<InjectedFault> no_faults;
   KCRIG_RETURN_IF_ERROR(LoadSilPlant(args.sil, config, &plant, &no_faults));
@@ -121,6 +125,7 @@ Status EmbeddedRig(const CampaignArgs& args, const KcrigConfig& config,
   // to run, as a rig's does.
   auto sil = std::make_shared<SilRig>(config, plant);
   KCRIG_RETURN_IF_ERROR(sil->Start());
+  sil->clock()->set_pace(SilRigPace(args.sil, monitor != nullptr));
   RigConnector connect = [sil](const std::string&,
                                std::unique_ptr<RigInterface>* link) {
     *link = sil->Connect({});
@@ -131,19 +136,22 @@ Status EmbeddedRig(const CampaignArgs& args, const KcrigConfig& config,
                                           sil->clock(), sil->Truth(), config,
                                           &campaign_rig));
   const std::atomic<int>* stop = &InstallStopSignalHandlers();
-  *rig = [campaign_rig, stop](const RampExcitation<double>& excitation, int run,
-                              const std::string& csv_path) {
-    return campaign_rig.Run(excitation, run, csv_path, stop);
+  *rig = [campaign_rig, stop, monitor](const RampExcitation<double>& excitation,
+                                       int run, const std::string& csv_path) {
+    return campaign_rig.Run(excitation, run, csv_path, stop, monitor);
   };
-  *rig_text = DescribeSilRig(args.sil, plant);
+  *rig_text =
+      DescribeSilRig(args.sil, plant) + DescribePace(sil->clock()->pace());
   return Status::Ok();
 }
 
 // The rig of --rig: the embedded one, or a rig over Modbus or CAN (never
 // under MPI: the rig loop runs in one process).
 Status MakeRig(const CampaignArgs& args, const KcrigConfig& config,
-               RigRunner* rig, std::string* rig_text) {
-  if (args.rig == "sim") return EmbeddedRig(args, config, rig, rig_text);
+               RunMonitor* monitor, RigRunner* rig, std::string* rig_text) {
+  if (args.rig == "sim") {
+    return EmbeddedRig(args, config, monitor, rig, rig_text);
+  }
   if (args.rig.rfind("modbus-", 0) != 0 && args.rig.rfind("can:", 0) != 0) {
     return Status::Error("--rig " + args.rig +
                          ": expected sim, modbus-tcp://HOST:PORT, "
@@ -159,9 +167,9 @@ Status MakeRig(const CampaignArgs& args, const KcrigConfig& config,
   CampaignRig hil;
   KCRIG_RETURN_IF_ERROR(CampaignRig::Open(args.rig, config, &hil));
   const std::atomic<int>* stop = &InstallStopSignalHandlers();
-  *rig = [hil, stop](const RampExcitation<double>& excitation, int run,
-                     const std::string& csv_path) {
-    return hil.Run(excitation, run, csv_path, stop);
+  *rig = [hil, stop, monitor](const RampExcitation<double>& excitation, int run,
+                              const std::string& csv_path) {
+    return hil.Run(excitation, run, csv_path, stop, monitor);
   };
   *rig_text = "rig at " + args.rig;
   return Status::Ok();
@@ -262,16 +270,26 @@ int Fail(const Status& status) {
   return 1;
 }
 
-// The campaign as the user sees it: progress, campaign.json, the report.
+// campaign.json's entry of one iteration, for the console.
+std::string IterationEntry(const CampaignIteration& it, Criterion criterion) {
+  return nlohmann::json::parse(CampaignToJson(criterion, {it}))["iterations"][0]
+      .dump();
+}
+
+// The campaign as the user sees it: progress, campaign.json, the report;
+// and on the console (`feed`, optional) the stages, iterations and report.
 int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
                  const RigRunner& rig, const std::string& rig_text,
-                 CampaignOptions options) {
+                 CampaignOptions options, LiveFeed* feed) {
   const StopSignal stop_signal;
   const auto fail = Fail;
   Status status;
   ProgressLine progress(args.quiet);
-  options.callback = stop_signal.Callback(
-      [&progress](const IterationSummary& s) { progress.Show(s.stage); });
+  options.callback =
+      stop_signal.Callback([&progress, feed](const IterationSummary& s) {
+        progress.Show(s.stage);
+        if (feed != nullptr) feed->Stage(s.stage);
+      });
   // campaign.json lists the complete iterations as each completes, so an
   // end by a signal (mpirun's too) keeps them.
   const std::string summary =
@@ -284,6 +302,9 @@ int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
                 CampaignIterationSummary(it, options.criterion).c_str());
     std::fflush(stdout);
     FollowsRankZero(it, options.criterion, args.out);
+    if (feed != nullptr) {
+      feed->Iteration(IterationEntry(it, options.criterion));
+    }
     complete.push_back(it);
     if (written.ok()) {
       written = WriteFilesAtomically(
@@ -339,6 +360,7 @@ int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
     // The campaign's own outputs are complete: a report that cannot be
     // written is a warning (kcrig report can retry), not a failed campaign.
     if (status.ok()) {
+      if (feed != nullptr) feed->ReportWritten(html);
       std::printf("  report with %d figures: %s (open it in a browser)\n",
                   report.figures, html.c_str());
       std::printf("  %s\n", KcSheetLine(report).c_str());
@@ -348,6 +370,16 @@ int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
     }
   }
   return stopped ? kExitUnexplained : 0;
+}
+
+// The console's last line: how the campaign ended.
+std::string CampaignOutcome(int code) {
+  if (code == 0) return "the campaign completed";
+  if (code == kExitUnexplained) {
+    return "the campaign stopped: the model does not explain the logs";
+  }
+  if (code > 128) return "the campaign was stopped (operator stop or signal)";
+  return "the campaign failed (the terminal says why)";
 }
 
 int RunCampaignCommand(const CampaignArgs& args) {
@@ -360,17 +392,27 @@ int RunCampaignCommand(const CampaignArgs& args) {
   RigRunner rig;
   std::string rig_text;
   CampaignOptions options;
+  std::unique_ptr<LiveConsole> console;  // rank 0's: it runs the rig
   if (status.ok()) status = LoadConfig(config_dir, &config);
-  if (status.ok()) status = MakeRig(args, config, &rig, &rig_text);
+  if (status.ok() && ranks.is_root()) {
+    status = StartConsole(args.console, "kcrig campaign", &console);
+  }
+  LiveFeed* feed = console != nullptr ? &console->feed() : nullptr;
+  if (status.ok()) status = MakeRig(args, config, feed, &rig, &rig_text);
   if (status.ok()) status = MakeOptions(args, config, &options);
   if (status.ok() && ranks.is_root()) status = MakeOutputFolder(args.out);
   status = ranks.Agree(status);
   if (!status.ok()) return Fail(status);
-  if (ranks.size() == 1)
-    return RunAndReport(args, config, rig, rig_text, options);
+  if (feed != nullptr) feed->Title("kcrig campaign", rig_text);
+  if (ranks.size() == 1) {
+    const int code = RunAndReport(args, config, rig, rig_text, options, feed);
+    if (console != nullptr) console->Shutdown(CampaignOutcome(code));
+    return code;
+  }
   if (ranks.is_root()) {
     const int code =
-        RunAndReport(args, config, RigOfRankZero(rig), rig_text, options);
+        RunAndReport(args, config, RigOfRankZero(rig), rig_text, options, feed);
+    if (console != nullptr) console->Shutdown(CampaignOutcome(code));
     // An error rank 0 met alone (its output folder) leaves the others in a
     // collective: the job ends with it.
     if (code != 0 && code != kExitUnexplained) {
@@ -432,6 +474,7 @@ void AddCampaignCommand(CLI::App* app, std::function<int()>* run) {
                   "of its estimate (0: run all iterations)")
       ->capture_default_str();
   AddSilRigOptions(cmd, &args->sil, /*with_faults=*/false);
+  AddConsoleOptions(cmd, &args->console);
   cmd->add_flag("--quiet", args->quiet, "No progress line");
   cmd->add_flag("--no-diagnose", args->no_diagnose,
                 "Check the model every iteration but do not diagnose or act "

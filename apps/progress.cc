@@ -59,6 +59,11 @@ std::atomic<int>& EmergencyStopButton() {
   return g_emergency_stop;
 }
 
+void RequestOperatorStop() {
+  int none = 0;
+  if (g_stop_signal.compare_exchange_strong(none, SIGINT)) ++g_stop_count;
+}
+
 const std::atomic<int>& InstallStopSignalHandlers() {
   struct sigaction action {};
   action.sa_handler = OnStopSignal;

@@ -46,6 +46,11 @@ class ProgressLine {
 // only says that a third kills at once.
 const std::atomic<int>& InstallStopSignalHandlers();
 
+// The operator's stop from the console's page: the first signal's path
+// (SIGINT's, when no signal came yet), so a run ramps down and a campaign
+// stops exactly as on Ctrl-C.
+void RequestOperatorStop();
+
 // The emulated rig's emergency-stop button (RigEmulator::Button): SIGUSR1
 // presses it (1), SIGUSR2 releases it (2); the handlers are installed on
 // the first call.

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "apps/cli_util.h"
+#include "apps/console_options.h"
 #include "apps/progress.h"
 #include "apps/sil_rig_options.h"
 #include "emulator/sil_rig.h"
@@ -29,6 +30,7 @@ struct RunArgs {
   std::string config_dir;
   std::string rig;
   SilRigArgs sil;
+  ConsoleArgs console;
   ExcitationArgs excitation;
   std::string log_dir;
   bool quiet = false;
@@ -107,10 +109,17 @@ int RunRun(const RunArgs& args) {
                : MakeRig(args.rig, rig_config, args.log_dir, &rig);
   if (!status.ok()) return fail(status);
   if (described.empty()) described = rig->Describe();
+  std::unique_ptr<LiveConsole> console;
+  status = StartConsole(args.console, "kcrig run", &console);
+  if (!status.ok()) return fail(status);
+  if (console != nullptr) options.monitor = &console->feed();
   if (sil != nullptr) {
+    sil->clock()->set_pace(SilRigPace(args.sil, console != nullptr));
+    described += DescribePace(sil->clock()->pace());
     options.clock = sil->clock();
     options.truth = &truth;
   }
+  if (console != nullptr) console->feed().Title("kcrig run", described);
   status = rig->Configure();
   if (!status.ok()) return fail(status);
   options.stop_signal = &InstallStopSignalHandlers();
@@ -139,6 +148,11 @@ int RunRun(const RunArgs& args) {
   for (const std::string& warning : result.realtime.warnings) {
     std::fprintf(stderr, "kcrig run: warning: %s\n", warning.c_str());
   }
+  if (console != nullptr) {
+    console->Shutdown(!status.ok()       ? status.message()
+                      : result.completed ? std::string("the run completed")
+                                         : result.trip_message);
+  }
   if (!status.ok()) return fail(status);
   PrintOutcome("kcrig run", result, args.log_dir);
   return result.completed ? 0 : kTripped;
@@ -166,6 +180,7 @@ void AddRunCommand(CLI::App* app, std::function<int()>* run) {
                   "virtual clock of --rig sim) (and the "
                   "CAN bus log can.log)")
       ->required();
+  AddConsoleOptions(cmd, &args->console);
   cmd->add_flag("--quiet", args->quiet, "No progress line");
   cmd->callback([args, run] { *run = [args] { return RunRun(*args); }; });
 }

@@ -1,5 +1,7 @@
 #include "apps/sil_rig_options.h"
 
+#include <cstdio>
+
 #include "apps/cli_util.h"
 
 namespace kcrig {
@@ -18,6 +20,12 @@ void AddSilRigOptions(CLI::App* cmd, SilRigArgs* args, bool with_faults) {
       "A parameter of the embedded rig's plant that differs from the "
       "configured model, NAME=VALUE in SI (repeatable; the syntax of "
       "simulate --set; --rig sim only): rehearse a wrong \"known\" parameter");
+  cmd->add_option_function<double>(
+         "--pace", [args](const double& pace) { args->pace = pace; },
+         "Run the embedded rig's virtual clock at most this many times real "
+         "time (0: as fast as the CPU allows, the default; 1 with --console, "
+         "so that the run can be watched). The logs are the same either way")
+      ->check(CLI::Range(0.0, 1e6));
   if (!with_faults) return;
   cmd->add_option(
       "--inject", args->faults,
@@ -34,7 +42,8 @@ Status CheckSilRigOptions(const SilRigArgs& args, const std::string& rig) {
        {std::pair<const char*, bool>{"--seed", args.seed.has_value()},
         {"--plant-effect", !args.plant_effects.empty()},
         {"--plant-set", !args.plant_sets.empty()},
-        {"--inject", !args.faults.empty()}}) {
+        {"--inject", !args.faults.empty()},
+        {"--pace", args.pace.has_value()}}) {
     if (used) given += (given.empty() ? "" : ", ") + std::string(option);
   }
   if (given.empty()) return Status::Ok();
@@ -65,6 +74,18 @@ Status LoadSilPlant(const SilRigArgs& args, const KcrigConfig& config,
     if (!status.ok()) return Status::Error("--inject " + status.message());
   }
   return Status::Ok();
+}
+
+double SilRigPace(const SilRigArgs& args, bool console) {
+  if (args.pace) return *args.pace;
+  return console ? 1.0 : 0.0;
+}
+
+std::string DescribePace(double pace) {
+  if (pace <= 0) return "";
+  char text[64];
+  std::snprintf(text, sizeof(text), ", paced at %g x real time", pace);
+  return text;
 }
 
 std::string DescribeSilRig(const SilRigArgs& args, const PlantConfig& plant) {

@@ -22,6 +22,8 @@ struct SilRigArgs {
   std::vector<std::string> plant_effects;
   std::vector<std::string> plant_sets;
   std::vector<std::string> faults;  // --inject
+  // --pace: the virtual clock at most this many times real time.
+  std::optional<double> pace;
 };
 
 // --seed, --plant-effect, --plant-set; --inject with `with_faults`.
@@ -34,6 +36,13 @@ Status CheckSilRigOptions(const SilRigArgs& args, const std::string& rig);
 // plant.yaml with the options' changes, and the faults parsed.
 Status LoadSilPlant(const SilRigArgs& args, const KcrigConfig& config,
                     PlantConfig* plant, std::vector<InjectedFault>* faults);
+
+// The virtual clock's pace (VirtualClock::set_pace): --pace, else real
+// time when a console watches (a run of seconds would be over before a
+// page opened), else as fast as the CPU allows.
+double SilRigPace(const SilRigArgs& args, bool console);
+// ", paced at 1 x real time" ("" for 0).
+std::string DescribePace(double pace);
 
 // "embedded SIL rig (plant.yaml, virtual clock), plant effects: ...".
 std::string DescribeSilRig(const SilRigArgs& args, const PlantConfig& plant);

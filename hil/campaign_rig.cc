@@ -47,7 +47,8 @@ Status CampaignRig::Check() const {
 
 Status CampaignRig::Run(const RampExcitation<double>& excitation, int run,
                         const std::string& csv_path,
-                        const std::atomic<int>* stop) const {
+                        const std::atomic<int>* stop,
+                        RunMonitor* monitor) const {
   namespace fs = std::filesystem;
   if (fs::path(csv_path).filename() != "run.csv") {
     return Status::Error(csv_path + ": a rig run writes run.csv");
@@ -66,6 +67,7 @@ Status CampaignRig::Run(const RampExcitation<double>& excitation, int run,
   options.stop_signal = stop;
   options.clock = clock_;
   options.truth = truth_.get();
+  options.monitor = monitor;
   RigSessionResult result;
   KCRIG_RETURN_IF_ERROR(
       RunRigSession(config_, rig_config_, link.get(), options, &result));

@@ -11,6 +11,7 @@
 
 #include "base/status.h"
 #include "hil/rig_config.h"
+#include "hil/rig_session.h"
 #include "records/run_log.h"
 #include "rt_core/model/model_config.h"
 #include "rt_core/runtime/clock.h"
@@ -42,9 +43,11 @@ class CampaignRig {
   // Runs `excitation` as run number `run`; the log is `csv_path`, which
   // must be a run.csv (its folder also takes can.log and timing.json). A
   // trip is an error. `stop` (the SIGINT/SIGTERM flag) ends the run with a
-  // ramp-down and refuses it once set.
+  // ramp-down and refuses it once set. `monitor` (optional) watches the
+  // run live.
   Status Run(const RampExcitation<double>& excitation, int run,
-             const std::string& csv_path, const std::atomic<int>* stop) const;
+             const std::string& csv_path, const std::atomic<int>* stop,
+             RunMonitor* monitor = nullptr) const;
 
  private:
   Status Check() const;

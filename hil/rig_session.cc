@@ -38,8 +38,8 @@ std::string Channel(int k) {
 
 // `detail`: what the transport reported (kTransportFault, kForeignMaster)
 // or the logger (kLogWrite).
-std::string TripMessage(const LoopResult& loop, double period,
-                        const std::string& detail) {
+std::string TripCauseText(const LoopResult& loop, double period,
+                          const std::string& detail) {
   if (loop.cause == TripCause::kNone) return "";
   std::string what = TripCauseName(loop.cause);
   switch (loop.cause) {
@@ -89,6 +89,12 @@ std::string TripMessage(const LoopResult& loop, double period,
   char at[64];
   std::snprintf(at, sizeof(at), " at t = %.3f s",
                 static_cast<double>(loop.trip_cycle) * period);
+  return what + at;
+}
+
+std::string TripMessage(const LoopResult& loop, double period,
+                        const std::string& detail) {
+  if (loop.cause == TripCause::kNone) return "";
   // Say what reached the rig, not what was meant to.
   std::string outcome = "; force ramped to zero and disabled";
   if (loop.withheld_after_trip > 0) {
@@ -106,7 +112,7 @@ std::string TripMessage(const LoopResult& loop, double period,
                std::to_string(loop.commands_after_trip) +
                " ramp-down commands did not reach the rig)";
   }
-  return "tripped: " + what + at + outcome;
+  return "tripped: " + TripCauseText(loop, period, detail) + outcome;
 }
 
 // Whether the run is paced in real time (not on a virtual clock).
@@ -147,6 +153,11 @@ RunLogger::Options LoggerOptionsFor(const RigConfig& rig_config,
         (std::filesystem::path(options.log_dir) / "run.csv").string();
   }
   logger.on_warning = options.on_warning;
+  if (options.monitor != nullptr) {
+    logger.on_record = [monitor = options.monitor](const CycleRecord& r) {
+      monitor->CycleLogged(r);
+    };
+  }
   if (options.on_progress) {
     logger.on_progress = [&options, profile](double t) {
       options.on_progress(t, profile.Phase(t));
@@ -357,10 +368,11 @@ Status ValidateRunRequest(const RigConfig& rig_config,
   return Status::Ok();
 }
 
-Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
-                     RigInterface* rig, const RigSessionOptions& options,
-                     RigSessionResult* result) {
-  *result = RigSessionResult();
+namespace {
+
+Status RunAndRecord(const KcrigConfig& config, const RigConfig& rig_config,
+                    RigInterface* rig, const RigSessionOptions& options,
+                    RigSessionResult* result) {
   KCRIG_RETURN_IF_ERROR(ValidateRunRequest(rig_config, options));
   KCRIG_RETURN_IF_ERROR(CreateLogDir(options.log_dir));
   const RunProfile profile(rig_config.profile, options.excitation);
@@ -431,6 +443,52 @@ Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
   }
   return WriteFilesAtomically(
       {{timing_path, TimingFileToJson(result->timing)}});
+}
+
+RunMonitor::Run MonitoredRun(const RigConfig& rig_config,
+                             const RigSessionOptions& options,
+                             const RigInterface* rig) {
+  RunMonitor::Run run;
+  run.rig = rig != nullptr ? rig->Describe() : "none";
+  run.excitation = options.excitation;
+  run.limits = rig_config.safety;
+  run.period = rig_config.period;
+  run.duration = RunProfile(rig_config.profile, options.excitation).duration();
+  run.real_time = RealTime(options);
+  run.log_dir = options.log_dir;
+  return run;
+}
+
+}  // namespace
+
+Status RunRigSession(const KcrigConfig& config, const RigConfig& rig_config,
+                     RigInterface* rig, const RigSessionOptions& options,
+                     RigSessionResult* result) {
+  *result = RigSessionResult();
+  RunMonitor* monitor = options.monitor;
+  if (monitor != nullptr) {
+    monitor->RunStarted(MonitoredRun(rig_config, options, rig));
+  }
+  const Status status = RunAndRecord(config, rig_config, rig, options, result);
+  if (monitor != nullptr) {
+    const bool completed = status.ok() && result->completed;
+    monitor->RunEnded(completed,
+                      !status.ok() ? status.message()
+                      : completed  ? std::string("completed")
+                                   : result->trip_message,
+                      result->loop);
+  }
+  return status;
+}
+
+std::string LiveTripCause(const CycleRecord& record, double period) {
+  LoopResult loop;
+  loop.cause = record.cause;
+  loop.trip_cycle = record.cycle;
+  loop.trip_channel = record.trip_channel;
+  loop.rig_fault_code = record.rig_fault;
+  loop.signal = record.stop_signal;
+  return TripCauseText(loop, period, "the run's end says what failed");
 }
 
 }  // namespace kcrig

@@ -24,6 +24,8 @@
 
 namespace kcrig {
 
+class RunMonitor;
+
 struct RigSessionOptions {
   // The experiment; the run profile's phases come from rig.yaml.
   RampExcitation<double> excitation;
@@ -47,6 +49,9 @@ struct RigSessionOptions {
   // Called from the logger thread, at most once a second, when cycles were
   // skipped by overruns since the last call: one line. Optional.
   std::function<void(const std::string&)> on_warning;
+  // A live display of the run (the operator console), fed from the logger
+  // thread. Optional; must outlive the call.
+  RunMonitor* monitor = nullptr;
 };
 
 struct RigSessionResult {
@@ -59,6 +64,35 @@ struct RigSessionResult {
   std::string release_error;     // the rig's release after the loop failed
   TimingFile timing;             // what timing.json holds
 };
+
+// What a live display sees of a rig session: told what runs before the
+// loop starts, given every cycle record from the logger thread (the log
+// ring's consumer, never the cycle itself), told the outcome once the
+// run's files are written (or why it could not start). Calls must return
+// quickly and never throw: a slow monitor delays the log, not the loop.
+class RunMonitor {
+ public:
+  struct Run {
+    std::string rig;  // as the log's sidecar names it
+    RampExcitation<double> excitation;
+    SafetyLimits limits;
+    double period = 1e-3;   // [s]
+    double duration = 0;    // the whole run profile [s]
+    bool real_time = true;  // false: on the SIL rig's virtual clock
+    std::string log_dir;
+  };
+  virtual ~RunMonitor() = default;
+  virtual void RunStarted(const Run& run) = 0;
+  virtual void CycleLogged(const CycleRecord& record) = 0;
+  // `outcome`: "completed", the trip message or the error.
+  virtual void RunEnded(bool completed, const std::string& outcome,
+                        const LoopResult& loop) = 0;
+};
+
+// A trip's cause as a record shows it the moment it latches ("watchdog (no
+// fresh measurement ...) at t = 1.234 s"); what reached the rig after it
+// is known only at the run's end (RigSessionResult::trip_message).
+std::string LiveTripCause(const CycleRecord& record, double period);
 
 // The excitation against the safety limits of rig.yaml: finite direction,
 // height within +-2 m, 0 <= Fmax <= force_max, 0 < tf <= 3600 s, and every

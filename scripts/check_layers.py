@@ -35,9 +35,12 @@ MAY_INCLUDE = {
                    "diagnosis", "emulator"],
     "report": ["base", "rt_core/model", "records", "estimator", "diagnosis",
                "kc_sheet", "designer"],
+    "console": ["base", "rt_core/model", "rt_core/runtime", "io_drivers",
+                "records", "hil"],
     "apps": ["base", "rt_core/model", "rt_core/runtime", "io_drivers",
              "records", "hil", "emulator", "estimator", "diagnosis",
-             "kc_sheet", "designer", "validation", "cluster", "report"],
+             "kc_sheet", "designer", "validation", "cluster", "report",
+             "console"],
 }
 # records decodes logs with the DBC codec, never with a transport.
 ONLY = {("records", "io_drivers"): {"can_frame.h", "dbc.h",

@@ -112,6 +112,7 @@ void RunLogger::Report() {
 void RunLogger::Drain(SpscRing<CycleRecord>* ring) {
   CycleRecord record;
   while (ring->Pop(&record)) {
+    if (options_.on_record) options_.on_record(record);
     if (options_.csv_path.empty()) {
       next_cycle_ = record.cycle + 1;
       continue;

@@ -40,6 +40,8 @@ class RunLogger {
     // At most once a second when cycles were skipped since the last call:
     // one line. Optional.
     std::function<void(const std::string&)> on_warning;
+    // Every record as it is taken from the ring (a live display). Optional.
+    std::function<void(const CycleRecord&)> on_record;
   };
 
   explicit RunLogger(Options options);

@@ -45,9 +45,22 @@ class VirtualClock final : public Clock {
   bool real_time() const override { return false; }
   // Moves the clock `nanoseconds` (>= 0) forward.
   void Advance(std::int64_t nanoseconds) { now_.fetch_add(nanoseconds); }
+  // Paces the sleeps: virtual time moves at most `factor` times as fast
+  // as the wall's, so that an operator can watch a run (0, the default:
+  // as fast as the CPU allows). What the clock reads is unchanged: a run
+  // is the same paced or not. After the loop sat idle (between runs) or a
+  // jump (Advance), the pace starts afresh rather than race or wait to
+  // catch up. For one sleeping thread (the loop); set before it runs.
+  void set_pace(double factor) { pace_ = factor > 0 ? factor : 0; }
+  double pace() const { return pace_; }
 
  private:
+  void Pace(std::int64_t deadline);
+
   std::atomic<std::int64_t> now_{0};
+  double pace_ = 0;
+  std::int64_t wall_anchor_ = -1;  // [ns, CLOCK_MONOTONIC]
+  std::int64_t virtual_anchor_ = 0;
 };
 
 }  // namespace kcrig

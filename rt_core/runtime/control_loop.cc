@@ -35,6 +35,8 @@ LoopResult ControlLoop::Run() {
     const CycleTimer::Wake wake = timer.WaitForNextCycle();
     const std::int64_t cycle_start = MonotonicNanoseconds();
     timing_.wakeup.Record(wake.wakeup_latency);
+    wakeup_latency_ = wake.wakeup_latency;
+    overruns_so_far_ = timer.overruns();
     const bool go_on = Cycle(wake.cycle, wake.skipped);
     timing_.cycle.Record(MonotonicNanoseconds() - cycle_start);
     if (!go_on) break;
@@ -235,6 +237,13 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
   record->fresh = fresh;
   record->phase = phase;
   record->safety = safety_.state();
+  record->cause = safety_.cause();
+  record->trip_channel = static_cast<std::int8_t>(
+      record->cause == TripCause::kNone ? -1 : result_.trip_channel);
+  record->stop_signal = static_cast<std::uint8_t>(result_.signal);
+  record->wakeup_latency_ns = static_cast<std::int32_t>(
+      std::clamp<std::int64_t>(wakeup_latency_, 0, INT32_MAX));
+  record->overruns = overruns_so_far_;
   for (int k = 0; k < 3; ++k) {
     record->force[k] = measurement_.force(k);
     record->commanded[k] = command(k);

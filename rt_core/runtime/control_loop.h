@@ -31,6 +31,15 @@ struct CycleRecord {
   bool fresh = false;  // a new sample arrived this cycle
   RunPhase phase = RunPhase::kTare;
   SafetyState safety = SafetyState::kNormal;
+  // The latched trip (kNone while normal) and its channel, so that a live
+  // display names the cause the moment it happens.
+  TripCause cause = TripCause::kNone;
+  std::int8_t trip_channel = -1;
+  std::uint8_t stop_signal = 0;  // for kSignal: SIGINT, SIGTERM
+  // How late the machine woke this cycle [ns, saturated], and the loop's
+  // overruns so far: timing as the run goes, for a live display.
+  std::int32_t wakeup_latency_ns = 0;
+  std::int64_t overruns = 0;
   double force[3] = {};      // load cell [N]
   double y[6] = {};          // measured [m, rad]
   double commanded[3] = {};  // set-points sent [N]
@@ -154,6 +163,10 @@ class ControlLoop {
   std::int64_t end_cycle_ = 0;
   LoopResult result_;
   LoopTiming timing_;
+  // The current wake-up's latency and the overruns before it (set by Run),
+  // for the cycle's record.
+  std::int64_t wakeup_latency_ = 0;
+  std::int64_t overruns_so_far_ = 0;
 };
 
 }  // namespace kcrig

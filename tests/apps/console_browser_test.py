@@ -1,0 +1,266 @@
+#!/usr/bin/python3
+"""The live operator console (--console) in headless Chromium, driven by
+Selenium through chromedriver: a campaign watched on the embedded rig, a
+trip's banner, the stop button (with and without the token), and clients
+that misbehave while a run goes on.
+
+Usage: console_browser_test.py KCRIG ARTIFACT_DIR
+"""
+import json
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import unittest
+import urllib.error
+import urllib.request
+
+from selenium import webdriver
+from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.by import By
+
+KCRIG = sys.argv[1] if len(sys.argv) > 1 else "build/bin/kcrig"
+ARTIFACTS = sys.argv[2] if len(sys.argv) > 2 else tempfile.mkdtemp()
+
+
+class Kcrig:
+    """A kcrig command with --console: its URL, its output as it comes."""
+
+    def __init__(self, args):
+        self.proc = subprocess.Popen(
+            [KCRIG] + args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+            text=True, start_new_session=True)
+        self.lines = []
+        self.url = None
+        self.found = threading.Event()
+        threading.Thread(target=self._read, daemon=True).start()
+        if not self.found.wait(30):
+            self.proc.kill()
+            raise AssertionError("no console URL: " + "".join(self.lines))
+
+    def _read(self):
+        for line in self.proc.stdout:
+            self.lines.append(line)
+            match = re.search(r"console at (http://\S+)", line)
+            if match and self.url is None:
+                self.url = match.group(1)
+                self.found.set()
+        self.found.set()
+
+    @property
+    def base(self):
+        return self.url.split("?")[0].rstrip("/")
+
+    @property
+    def token(self):
+        return self.url.split("token=")[1]
+
+    def wait(self, timeout=120):
+        code = self.proc.wait(timeout)
+        time.sleep(0.2)  # the reader's last lines
+        return code
+
+    def output(self):
+        return "".join(self.lines)
+
+
+def browser():
+    options = webdriver.ChromeOptions()
+    options.binary_location = "/usr/bin/chromium"
+    for argument in ["--headless=new", "--no-sandbox", "--disable-gpu",
+                     "--disable-dev-shm-usage", "--window-size=1500,1500",
+                     "--hide-scrollbars"]:
+        options.add_argument(argument)
+    return webdriver.Chrome(service=Service("/usr/bin/chromedriver"),
+                            options=options)
+
+
+def data(driver, name):
+    return driver.execute_script(
+        "return document.body.dataset[arguments[0]] ?? null;", name)
+
+
+def until(predicate, timeout, what, step=0.05):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(step)
+    raise AssertionError("timed out waiting for " + what)
+
+
+def request(url, method="GET", headers=None):
+    req = urllib.request.Request(url, method=method, headers=headers or {})
+    try:
+        with urllib.request.urlopen(req, timeout=10) as reply:
+            return reply.status, reply.read()
+    except urllib.error.HTTPError as error:
+        return error.code, error.read()
+
+
+class ConsoleTest(unittest.TestCase):
+    def setUp(self):
+        self.dir = tempfile.mkdtemp(prefix="kcrig_console_")
+        self.driver = None
+        self.kcrig = None
+
+    def tearDown(self):
+        if self.driver is not None:
+            self.driver.quit()
+        if self.kcrig is not None and self.kcrig.proc.poll() is None:
+            os.killpg(self.kcrig.proc.pid, 9)
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+    def open(self, kcrig):
+        self.driver = browser()
+        self.driver.get(kcrig.url)
+        until(lambda: data(self.driver, "connected"), 20, "the stream")
+
+    def test_campaign_is_watched_as_it_runs(self):
+        out = os.path.join(self.dir, "campaign")
+        self.kcrig = Kcrig(["campaign", "--rig", "sim", "--iterations", "1",
+                            "--budget", "12", "--console", "127.0.0.1:0",
+                            "--out", out, "--quiet"])
+        self.open(self.kcrig)
+        d = self.driver
+        until(lambda: data(d, "drawn") and int(data(d, "drawn")) > 0, 20,
+              "the first drawing")
+        first = d.get_screenshot_as_png()
+        values = data(d, "lastValues")
+        phases = {data(d, "phase")}
+        time.sleep(1.5)
+        second = d.get_screenshot_as_png()
+        self.assertNotEqual(values, data(d, "lastValues"))
+        self.assertNotEqual(first, second)
+        with open(os.path.join(ARTIFACTS, "console_screenshot.png"),
+                  "wb") as f:
+            f.write(second)
+        # Phases advance; iteration 0's estimates land while iteration 1's
+        # run still goes.
+        seen_iteration_at_run = None
+        end = time.monotonic() + 90
+        while time.monotonic() < end:
+            phases.add(data(d, "phase"))
+            if data(d, "iterations") == "1" and seen_iteration_at_run is None:
+                seen_iteration_at_run = (data(d, "run"), data(d, "runEnd"),
+                                         self.kcrig.proc.poll())
+                with open(os.path.join(ARTIFACTS,
+                                       "console_campaign_screenshot.png"),
+                          "wb") as f:
+                    f.write(d.get_screenshot_as_png())
+            if data(d, "ended"):
+                break
+            time.sleep(0.05)
+        self.assertEqual(self.kcrig.wait(), 0, self.kcrig.output())
+        self.assertIsNotNone(seen_iteration_at_run, "iteration 0 never shown")
+        self.assertIsNone(seen_iteration_at_run[2],
+                          "iteration 0 shown only after the campaign ended")
+        self.assertTrue({"lead_in", "ramp", "ramp_down"} <= phases, phases)
+        self.assertEqual(data(d, "iterations"), "2")
+        table = d.find_element(By.ID, "iterations").text
+        self.assertIn("c_O1", table)
+        self.assertIn("N/mm", table)
+        self.assertTrue(data(d, "report").endswith("report.html"))
+        self.assertIn("completed", data(d, "ended"))
+        self.assertEqual(data(d, "error"), None)
+
+    def test_trip_banner_within_half_a_second(self):
+        log = os.path.join(self.dir, "trip")
+        self.kcrig = Kcrig(["run", "--rig", "sim", "--inject",
+                            "silent:at=5000", "--console", "0",
+                            "--log-dir", log, "--quiet"])
+        self.open(self.kcrig)
+        d = self.driver
+        self.assertIsNone(data(d, "trip"), "tripped before the page opened")
+        until(lambda: data(d, "trip"), 30, "the trip banner", step=0.01)
+        latency = float(data(d, "tripShownAt")) - float(data(d, "tripSeenAt"))
+        banner = d.find_element(By.ID, "trip").text
+        print("trip banner %.0f ms after the logger saw it: %s" %
+              (latency, banner))
+        self.assertEqual(data(d, "trip"), "watchdog")
+        self.assertIn("watchdog", banner)
+        self.assertLessEqual(latency, 500)
+        self.assertEqual(self.kcrig.wait(), 3, self.kcrig.output())
+        with open(os.path.join(ARTIFACTS, "console_trip_screenshot.png"),
+                  "wb") as f:
+            f.write(d.get_screenshot_as_png())
+
+    def test_stop_needs_the_token_and_ramps_down(self):
+        log = os.path.join(self.dir, "stop")
+        self.kcrig = Kcrig(["run", "--rig", "sim", "--console", "0",
+                            "--log-dir", log, "--quiet"])
+        k = self.kcrig
+        for url, headers in [(k.base + "/stop", {}),
+                             (k.base + "/stop?token=" + "0" * 64, {}),
+                             (k.base + "/stop", {"X-Kcrig-Token": "wrong"})]:
+            status, _ = request(url, "POST", headers)
+            self.assertEqual(status, 403, url)
+        self.open(k)
+        d = self.driver
+        until(lambda: data(d, "phase") == "ramp", 20, "the ramp")
+        self.assertIsNone(k.proc.poll(), "a refused stop stopped the run")
+        d.find_element(By.ID, "stop").click()
+        self.assertEqual(k.wait(60), 3, k.output())
+        self.assertIn("signal (SIGINT)", k.output())
+        until(lambda: data(d, "trip") == "signal", 5, "the stop's banner")
+        self.assertTrue(os.path.exists(os.path.join(log, "run.csv")))
+        with open(os.path.join(log, "run.json")) as f:
+            hil = json.load(f)["hil"]
+        self.assertEqual(hil["safety"]["cause"], "signal", hil)
+        self.assertLess(hil["cycles"], 6700, hil)
+
+    def test_misbehaving_clients_do_not_disturb_the_run(self):
+        log = os.path.join(self.dir, "hostile")
+        self.kcrig = Kcrig(["run", "--rig", "sim", "--console", "0",
+                            "--log-dir", log, "--quiet"])
+        k = self.kcrig
+        host, port = k.base[len("http://"):].split(":")
+        port = int(port)
+        try:
+            idle = [socket.create_connection((host, port))
+                    for _ in range(50)]
+        except OSError as error:
+            raise AssertionError("%s: %s (kcrig %s)" % (
+                error, k.output(), k.proc.poll()))
+        # A viewer that never reads: a small window, a stream it leaves.
+        stalled = socket.socket()
+        stalled.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        stalled.connect((host, port))
+        stalled.sendall(("GET /events?token=%s HTTP/1.1\r\nHost: x\r\n\r\n"
+                         % k.token).encode())
+        for garbage in [b"\x16\x03\x01\x02\x00\x01\x00\x01\xfc\x03\x03",
+                        b"GET / HTTP/1.1\r\n" + b"X: " + b"a" * 100000,
+                        b"BREW /coffee HTCPCP/1.0\r\n\r\n"]:
+            s = socket.create_connection((host, port))
+            s.sendall(garbage)
+            s.close()
+        for path in ["/", "/events", "/../../etc/passwd",
+                     "/run.csv?token=" + k.token]:
+            status, _ = request(k.base + path)
+            self.assertIn(status, (403, 404), path)
+        status, _ = request(k.base + "/etc/passwd?token=" + k.token)
+        self.assertEqual(status, 404)
+        # A well-behaved viewer still gets the run.
+        self.open(k)
+        d = self.driver
+        until(lambda: data(d, "updates") and int(data(d, "updates")) > 3, 30,
+              "updates beside the misbehaving clients")
+        self.assertEqual(k.wait(60), 0, k.output())
+        for s in idle + [stalled]:
+            s.close()
+        with open(os.path.join(log, "run.json")) as f:
+            hil = json.load(f)["hil"]
+        self.assertEqual(hil["cycles"], 6700, hil)
+        self.assertEqual(hil["overruns"], 0, hil)
+        self.assertEqual(hil["dropped_log_records"], 0, hil)
+
+
+if __name__ == "__main__":
+    os.makedirs(ARTIFACTS, exist_ok=True)
+    unittest.main(argv=sys.argv[:1], verbosity=2)
