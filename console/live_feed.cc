@@ -139,8 +139,11 @@ void LiveFeed::Ingest(const CycleRecord& r) {
     v[k] = r.commanded[k];
     v[3 + k] = r.force[k];
   }
+  if (live_.cycles == 1) std::copy(r.y, r.y + 6, first_y_.begin());
   for (int k = 0; k < 6; ++k) {
-    const double rest = tare_count_ > 0 ? tare_sum_[k] / tare_count_ : r.y[k];
+    // The rest pose: the tare's mean, or until it has one the first pose.
+    const double rest =
+        tare_count_ > 0 ? tare_sum_[k] / tare_count_ : first_y_[k];
     v[6 + k] = r.y[k] - rest;
     v[12 + k] = r.predicted[k];
   }
@@ -216,7 +219,19 @@ void LiveFeed::Margins(const CycleRecord& r, const double* v) {
                                      static_cast<double>(l.watchdog_cycles)));
 }
 
-void LiveFeed::CloseBin() { unsent_.push_back(bin_); }
+// Bins waiting for the next update stay few: faster than real time,
+// neighbours merge as they come (min of mins, max of maxes).
+void LiveFeed::CloseBin() {
+  unsent_.push_back(bin_);
+  if (unsent_.size() < 2u * std::max(1, options_.max_bins_per_update)) return;
+  std::vector<Bin> halved;
+  for (std::size_t i = 0; i + 1 < unsent_.size(); i += 2) {
+    halved.push_back(unsent_[i]);
+    halved.back().Merge(unsent_[i + 1]);
+  }
+  if (unsent_.size() % 2 == 1) halved.push_back(unsent_.back());
+  unsent_.swap(halved);
+}
 
 void LiveFeed::PublishTrip(const CycleRecord& record) {
   const Json doc = {

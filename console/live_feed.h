@@ -112,6 +112,7 @@ class LiveFeed final : public RunMonitor {
   std::vector<Bin> unsent_;
   std::array<double, 6> tare_sum_{};
   std::int64_t tare_count_ = 0;
+  std::array<double, 6> first_y_{};
   std::array<double, 3> last_command_{};
   bool have_command_ = false;
   std::int64_t not_fresh_ = 0;
