@@ -14,26 +14,42 @@
 //  - CanRoundTrip: KC_Command to `kcrig emulate --can vcan0` and its
 //    sample back, in the guest of scripts/vcan_vm.sh (TCG: not
 //    representative of a real machine);
+//  - ConsoleImpact: the paper's run on `kcrig emulate` over Modbus at 1 kHz
+//    with the real-time set-up (the loop pinned to CPU 1), five times
+//    without the console and five times with it and three viewers
+//    attached (on CPU 0: the operator's machine), in turn; /1: headless
+//    Chromium pages, /0: readers of the stream that draw nothing;
+//    counters `ratio_compute_p99` and `ratio_wakeup_p99` (median on /
+//    median off; target: <= 1.1), the overruns of each, and
+//    `console_cpu_percent` (the console's threads' CPU over the runs, of one
+//    core; target with the feed's share from LiveFeedIngest: <= 5);
+//  - LiveFeedIngest: the console feed's cost per cycle record on the
+//    logger's thread; counter `cpu_percent_at_1khz`;
 //  - SilRigRun: the paper's first run (6.7 s with its phases) on the
 //    embedded SIL rig through the rig session, plant at 0.1 ms, on the
 //    virtual clock; counter `cpu_ms_per_rig_s` (target: <= 30).
 // Run: build/bin/rt_bench --benchmark_format=json
+#include <dirent.h>
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
+#include <map>
 #include <regex>
 #include <sstream>
 #include <string>
 #include <thread>
 
 #include "benchmark/benchmark.h"
+#include "console/live_console.h"
 #include "emulator/sil_rig.h"
 #include "hil/rig_config.h"
 #include "hil/rig_session.h"
@@ -313,6 +329,199 @@ void BM_WakeupVsCyclictest(benchmark::State& state) {
       kcrig_wakeup.Percentile(0.99) * 1e-3 / cyclictest_p99;
 }
 BENCHMARK(BM_WakeupVsCyclictest)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+// One run of the paper's experiment on `kcrig emulate` at `port` with the
+// real-time set-up of `rig_config`; `monitor` may be null.
+bool RunOnEmulator(const RigConfig& rig_config, int port, RunMonitor* monitor,
+                   RigSessionResult* result) {
+  ModbusMap map;
+  ModbusEndpoint endpoint;
+  if (!LoadModbusMap(Rig().modbus.map_file, &map).ok() ||
+      !ParseModbusUri("modbus-tcp://127.0.0.1:" + std::to_string(port),
+                      &endpoint)
+           .ok()) {
+    return false;
+  }
+  ModbusRig rig(endpoint, map, Rig().modbus);
+  if (!rig.Configure().ok()) return false;
+  RigSessionOptions options;
+  options.excitation = PaperRun().excitation;
+  options.monitor = monitor;
+  return RunRigSession(Config(), rig_config, &rig, options, result).ok() &&
+         result->completed;
+}
+
+// CPU time [s] of this process's threads called `name` (/proc's comm),
+// from schedstat (ns; stat's ticks are 10 ms).
+double ThreadCpuSeconds(const std::string& name) {
+  double seconds = 0;
+  DIR* tasks = opendir("/proc/self/task");
+  if (tasks == nullptr) return 0;
+  while (const dirent* task = readdir(tasks)) {
+    if (task->d_name[0] == '.') continue;
+    const std::string dir = std::string("/proc/self/task/") + task->d_name;
+    std::ifstream comm(dir + "/comm");
+    std::string thread;
+    std::getline(comm, thread);
+    if (thread != name) continue;
+    std::ifstream schedstat(dir + "/schedstat");
+    double on_cpu_ns = 0;
+    if (schedstat >> on_cpu_ns) seconds += on_cpu_ns * 1e-9;
+  }
+  closedir(tasks);
+  return seconds;
+}
+
+// Viewers of the console at `url` on CPU `cpu` (taskset), standing for
+// the operator's machine, which is not the rig controller: headless
+// Chromium pages (each in a profile of its own), or plain readers of the
+// page's stream (curl), which draw nothing.
+class Viewers {
+ public:
+  Viewers(const std::string& url, int count, int cpu, bool browsers) {
+    const std::string cpus = std::to_string(cpu);
+    const std::string stream =
+        url.substr(0, url.find('?')) + "events" + url.substr(url.find('?'));
+    for (int i = 0; i < count; ++i) {
+      const std::string profile = "--user-data-dir=" + Profile(i);
+      std::vector<const char*> argv = {"taskset", "-c", cpus.c_str()};
+      if (browsers) {
+        argv.insert(argv.end(), {"chromium", "--headless=new", "--no-sandbox",
+                                 "--disable-gpu", "--disable-dev-shm-usage",
+                                 profile.c_str(), url.c_str()});
+      } else {
+        argv.insert(argv.end(),
+                    {"curl", "-sN", "-o", "/dev/null", stream.c_str()});
+      }
+      argv.push_back(nullptr);
+      posix_spawn_file_actions_t actions;
+      posix_spawn_file_actions_init(&actions);
+      posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+      pid_t pid = -1;
+      if (posix_spawnp(&pid, "taskset", &actions, nullptr,
+                       const_cast<char**>(argv.data()), environ) == 0) {
+        pids_.push_back(pid);
+      }
+      posix_spawn_file_actions_destroy(&actions);
+    }
+  }
+  ~Viewers() {
+    for (pid_t pid : pids_) kill(pid, SIGTERM);
+    for (pid_t pid : pids_) waitpid(pid, nullptr, 0);
+    for (std::size_t i = 0; i < pids_.size(); ++i) {
+      std::error_code ignored;
+      std::filesystem::remove_all(Profile(static_cast<int>(i)), ignored);
+    }
+  }
+
+ private:
+  static std::string Profile(int i) {
+    return "/tmp/kcrig_bench_chromium_" + std::to_string(getpid()) + "_" +
+           std::to_string(i);
+  }
+  std::vector<pid_t> pids_;
+};
+
+// One run with the console and three viewers attached; false on failure.
+bool RunWatched(const RigConfig& rig_config, int port, bool browsers,
+                RigSessionResult* result, double* console_cpu, int* viewers) {
+  std::unique_ptr<LiveConsole> console;
+  ConsoleOptions options;
+  options.address = "127.0.0.1:0";
+  options.plotly_js = KCRIG_PLOTLY_JS;
+  options.loop_cpu = rig_config.realtime.cpu;
+  if (!LiveConsole::Start(options, &console).ok()) return false;
+  const Viewers attached(console->url(), 3, 0, browsers);
+  for (int k = 0; k < 600 && console->viewers() < 3; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  *viewers = std::min(*viewers, console->viewers());
+  const double cpu_start = ThreadCpuSeconds("kcrig-console");
+  if (!RunOnEmulator(rig_config, port, &console->feed(), result)) return false;
+  *console_cpu += ThreadCpuSeconds("kcrig-console") - cpu_start;
+  return true;
+}
+
+double Median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  return values[values.size() / 2];
+}
+
+void BM_ConsoleImpact(benchmark::State& state) {
+  EmulatorProcess emulator;
+  if (emulator.port() == 0) {
+    state.SkipWithError("kcrig emulate did not start");
+    return;
+  }
+  // The loop on CPU 1, the browsers on CPU 0; runs off and on alternate.
+  RigConfig rig_config = Rig();
+  rig_config.realtime.cpu = 1;
+  constexpr int kPairs = 5;
+  std::map<std::string, std::vector<double>> p99;
+  std::int64_t overruns_off = 0, overruns_on = 0, cycles_on = 0;
+  double console_cpu = 0;
+  int viewers = 3;
+  for (auto _ : state) {
+    for (int pair = 0; pair < kPairs; ++pair) {
+      RigSessionResult off, on;
+      if (!RunOnEmulator(rig_config, emulator.port(), nullptr, &off) ||
+          !RunWatched(rig_config, emulator.port(), state.range(0) == 1, &on,
+                      &console_cpu, &viewers)) {
+        state.SkipWithError("a run failed");
+        return;
+      }
+      for (const char* phase : {"compute", "wakeup"}) {
+        p99[std::string(phase) + "_off"].push_back(
+            off.timing.phases.at(phase).p99_us);
+        p99[std::string(phase) + "_on"].push_back(
+            on.timing.phases.at(phase).p99_us);
+      }
+      overruns_off += off.loop.overruns;
+      overruns_on += on.loop.overruns;
+      cycles_on += on.loop.cycles;
+    }
+  }
+  for (const char* phase : {"compute", "wakeup"}) {
+    const double off = Median(p99[std::string(phase) + "_off"]);
+    const double on = Median(p99[std::string(phase) + "_on"]);
+    state.counters[std::string(phase) + "_p99_off_us"] = off;
+    state.counters[std::string(phase) + "_p99_on_us"] = on;
+    state.counters[std::string("ratio_") + phase + "_p99"] = on / off;
+  }
+  state.counters["overruns_off"] = static_cast<double>(overruns_off);
+  state.counters["overruns_on"] = static_cast<double>(overruns_on);
+  state.counters["viewers"] = viewers;
+  const double seconds = static_cast<double>(cycles_on) * Rig().period;
+  state.counters["console_cpu_percent"] = 100 * console_cpu / seconds;
+}
+// 0: three stream readers, 1: three Chromium pages.
+BENCHMARK(BM_ConsoleImpact)
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
+void BM_LiveFeedIngest(benchmark::State& state) {
+  LiveFeed feed({});
+  RunMonitor::Run run;
+  run.limits = Rig().safety;
+  feed.RunStarted(run);
+  CycleRecord record;
+  record.phase = RunPhase::kRamp;
+  record.fresh = true;
+  std::int64_t cycle = 0;
+  for (auto _ : state) {
+    record.cycle = cycle++;
+    record.force[1] = static_cast<double>(cycle % 4000);
+    feed.CycleLogged(record);
+  }
+  // Seconds per record (the inverted rate of 1 per iteration) times 1000
+  // records a second, in percent: 1e5 / (1 / t) = t * 1e5.
+  state.counters["cpu_percent_at_1khz"] =
+      benchmark::Counter(1e-5, benchmark::Counter::kIsIterationInvariantRate |
+                                   benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_LiveFeedIngest);
 
 const KcRigProtocol& Protocol() {
   static const KcRigProtocol protocol = [] {

@@ -11,8 +11,8 @@
   const DEG = 180 / Math.PI;
   const colors = ["#1f77b4", "#d62728", "#2ca02c"];
   const body = document.body;
-  const state = {run: null, bins: [], loop: [], updates: 0, dirty: false,
-                 iterations: 0};
+  const state = {run: null, bins: [], loop: [], pending: [], updates: 0,
+                 dirty: false, redraw: true, iterations: 0};
   body.dataset.updates = "0";
   body.dataset.iterations = "0";
 
@@ -38,13 +38,10 @@
   }
 
   // Each bin as a vertical stroke from its min to its max: no spike hidden.
-  function envelope(i) {
+  function envelope(i, bins) {
     const x = [], y = [];
-    const from = state.bins.length ? state.bins[state.bins.length - 1][1] -
-        WINDOW_S : 0;
     const s = scale(i);
-    for (const b of state.bins) {
-      if (b[1] < from) continue;
+    for (const b of bins) {
       const t = 0.5 * (b[0] + b[1]);
       x.push(t, t);
       y.push(b[2][i] === null ? null : b[2][i] * s,
@@ -54,18 +51,31 @@
   }
 
   // Per name: the solid signal and the dashed one (command or model).
-  function timeTraces(solid, dashed, names, dashedName) {
+  function timeTraces(solid, dashed, names, dashedName, bins) {
     const traces = [];
     names.forEach((name, k) => {
       for (const [i, dash, label] of [[solid + k, "solid", name],
                                       [dashed + k, "dash",
                                        name + " " + dashedName]]) {
-        const e = envelope(i);
+        const e = envelope(i, bins);
         traces.push({x: e.x, y: e.y, mode: "lines", name: label,
                      line: {color: colors[k], width: 1, dash}});
       }
     });
     return traces;
+  }
+
+  // The points `bins` add to timeTraces' traces, in their order.
+  function timePoints(solid, dashed, bins) {
+    const update = {x: [], y: []};
+    for (let k = 0; k < 3; ++k) {
+      for (const i of [solid + k, dashed + k]) {
+        const e = envelope(i, bins);
+        update.x.push(e.x);
+        update.y.push(e.y);
+      }
+    }
+    return update;
   }
 
   const layoutBase = {margin: {l: 50, r: 10, t: 10, b: 40}, uirevision: 1,
@@ -78,19 +88,22 @@
     return (b[4][3] * Math.cos(phi) + b[4][4] * Math.sin(phi)) * 1e-3;
   }
 
-  function loopTraces() {
-    const traces = [];
+  function loopPoints(bins) {
+    const update = {x: [], y: []};
     for (let k = 0; k < 6; ++k) {
-      const x = [], y = [];
-      for (const b of state.loop) {
-        x.push(along(b));
-        y.push(b[4][6 + k] === null ? null : b[4][6 + k] * scale(6 + k));
-      }
-      traces.push({x, y, mode: "lines", name: CHANNELS[k],
-                   xaxis: "x" + (k ? k + 1 : ""), yaxis: "y" + (k ? k + 1 : ""),
-                   line: {width: 1, color: colors[k % 3]}, showlegend: false});
+      update.x.push(bins.map(along));
+      update.y.push(bins.map((b) => b[4][6 + k] === null ? null :
+                                 b[4][6 + k] * scale(6 + k)));
     }
-    return traces;
+    return update;
+  }
+
+  function loopTraces(bins) {
+    const points = loopPoints(bins);
+    return CHANNELS.map((name, k) => ({
+      x: points.x[k], y: points.y[k], mode: "lines", name,
+      xaxis: "x" + (k ? k + 1 : ""), yaxis: "y" + (k ? k + 1 : ""),
+      line: {width: 1, color: colors[k % 3]}, showlegend: false}));
   }
 
   function loopLayout() {
@@ -106,17 +119,34 @@
     return layout;
   }
 
+  const TIME_CHARTS = [["forces", 3, 0, FORCE, "cmd"],
+                       ["translations", 6, 12, CHANNELS.slice(0, 3), "model"],
+                       ["angles", 9, 15, CHANNELS.slice(3), "model"]];
+  const TRACES = [0, 1, 2, 3, 4, 5];
+
+  // A new run or a snapshot draws anew; otherwise the new bins are
+  // appended (extendTraces: no redraw of the whole), the time histories
+  // kept to their window.
   function draw() {
     state.dirty = false;
     if (typeof Plotly === "undefined") return;
-    Plotly.react("forces", timeTraces(3, 0, FORCE, "cmd"), layoutBase,
-                 config);
-    Plotly.react("translations",
-                 timeTraces(6, 12, CHANNELS.slice(0, 3), "model"), layoutBase,
-                 config);
-    Plotly.react("angles", timeTraces(9, 15, CHANNELS.slice(3), "model"),
-                 layoutBase, config);
-    Plotly.react("loops", loopTraces(), loopLayout(), config);
+    if (state.redraw) {
+      for (const [id, solid, dashed, names, what] of TIME_CHARTS) {
+        Plotly.react(id, timeTraces(solid, dashed, names, what, state.bins),
+                     layoutBase, config);
+      }
+      Plotly.react("loops", loopTraces(state.loop), loopLayout(), config);
+      state.redraw = false;
+    } else if (state.pending.length) {
+      const window = 2 * Math.max(state.bins.length, 1);
+      for (const [id, solid, dashed] of TIME_CHARTS) {
+        Plotly.extendTraces(id, timePoints(solid, dashed, state.pending),
+                            TRACES, window);
+      }
+      Plotly.extendTraces("loops", loopPoints(state.pending), TRACES,
+                          MAX_LOOP_POINTS);
+    }
+    state.pending = [];
     body.dataset.drawn = String(state.updates);
     const last = state.bins[state.bins.length - 1];
     if (last) body.dataset.lastValues = JSON.stringify(last[4].slice(0, 12));
@@ -124,13 +154,14 @@
   function scheduleDraw() {
     if (state.dirty) return;
     state.dirty = true;
-    setTimeout(draw, 200);
+    setTimeout(draw, 250);
   }
 
   function addBins(bins) {
     for (const b of bins) {
       state.bins.push(b);
       state.loop.push(b);
+      state.pending.push(b);
     }
     const from = state.bins.length ?
         state.bins[state.bins.length - 1][1] - WINDOW_S : 0;
@@ -138,7 +169,7 @@
     while (drop < state.bins.length && state.bins[drop][1] < from) ++drop;
     if (drop) state.bins.splice(0, drop);
     if (state.loop.length > MAX_LOOP_POINTS) {
-      state.loop = state.loop.filter((_, i) => i % 2 === 0);
+      state.loop.splice(0, state.loop.length - MAX_LOOP_POINTS);
     }
     state.updates += 1;
     body.dataset.updates = String(state.updates);
@@ -149,6 +180,8 @@
     state.run = run;
     state.bins = [];
     state.loop = [];
+    state.pending = [];
+    state.redraw = true;
     $("trip").style.display = "none";
     delete body.dataset.trip;
     if (!run) return;

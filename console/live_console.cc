@@ -23,6 +23,7 @@
 #include "base/input_file.h"
 #include "console/console_page.h"
 #include "httplib.h"
+#include "rt_core/runtime/realtime.h"
 
 namespace kcrig {
 namespace {
@@ -117,13 +118,14 @@ bool SameToken(const std::string& given, const std::string& token) {
   return diff == 0;
 }
 
-// The console's threads (the pool's inherit it from the listening one)
-// run as ordinary, lower-priority work whatever the caller's policy.
-void BelowTheLoop() {
+// The console's threads run as ordinary, lower-priority work whatever the
+// caller's policy, and off the loop's CPU when it has one of its own.
+void BelowTheLoop(int loop_cpu) {
   sched_param none{};
   pthread_setschedparam(pthread_self(), SCHED_OTHER, &none);
   setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 5);
   pthread_setname_np(pthread_self(), "kcrig-console");
+  KeepOffCpu(loop_cpu);
 }
 
 // The server's workers: a fixed number of threads with small stacks (a
@@ -133,7 +135,7 @@ void BelowTheLoop() {
 // them connections wait in the queue (a socket each).
 class ConsoleWorkers final : public httplib::TaskQueue {
  public:
-  explicit ConsoleWorkers(int count) {
+  ConsoleWorkers(int count, int loop_cpu) : loop_cpu_(loop_cpu) {
     pthread_attr_t attributes;
     pthread_attr_init(&attributes);
     pthread_attr_setstacksize(&attributes, kStackBytes);
@@ -169,8 +171,9 @@ class ConsoleWorkers final : public httplib::TaskQueue {
   static constexpr std::size_t kStackBytes = 512u << 10;
 
   static void* Work(void* self) {
-    BelowTheLoop();
-    static_cast<ConsoleWorkers*>(self)->Loop();
+    auto* workers = static_cast<ConsoleWorkers*>(self);
+    BelowTheLoop(workers->loop_cpu_);
+    workers->Loop();
     return nullptr;
   }
 
@@ -188,6 +191,7 @@ class ConsoleWorkers final : public httplib::TaskQueue {
     }
   }
 
+  int loop_cpu_;
   std::vector<pthread_t> threads_;
   std::mutex mutex_;
   std::condition_variable ready_;
@@ -273,7 +277,9 @@ Status LiveConsole::Listen(const std::string& host, int port) {
   s.set_keep_alive_timeout(kIoTimeoutSeconds);
   s.set_payload_max_length(kMaxRequestBytes);
   const int threads = options_.max_viewers + kSpareWorkers;
-  s.new_task_queue = [threads] { return new ConsoleWorkers(threads); };
+  s.new_task_queue = [threads, cpu = options_.loop_cpu] {
+    return new ConsoleWorkers(threads, cpu);
+  };
   int listening = -1;
   s.set_socket_options([&listening](int sock) {
     listening = sock;
@@ -300,7 +306,7 @@ Status LiveConsole::Listen(const std::string& host, int port) {
 }
 
 void LiveConsole::Serve() {
-  BelowTheLoop();
+  BelowTheLoop(options_.loop_cpu);
   if (!server_->listen_after_bind() && !stopping_ && options_.on_failure) {
     options_.on_failure("the console stopped serving; the run goes on");
   }

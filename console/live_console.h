@@ -35,6 +35,10 @@ struct ConsoleOptions {
   bool allow_remote = false;
   // Streams served at once; a further viewer is refused (503).
   int max_viewers = 8;
+  // The loop's CPU when rig.yaml pins it (realtime.cpu; -1: not pinned):
+  // the console's threads keep off it, so that they neither take its time
+  // nor its caches.
+  int loop_cpu = -1;
   // The page's plotting library (plotly.js, as the report's).
   std::string plotly_js;
   // The stop button's action (the operator stop: the same ramp-down as
@@ -58,6 +62,8 @@ class LiveConsole {
   // "http://127.0.0.1:8080/?token=...": what the operator opens.
   const std::string& url() const { return url_; }
   bool remote() const { return remote_; }
+  // Streams open now.
+  int viewers() const { return viewers_.load(); }
 
   // Ends the feed with `outcome`, gives the viewers up to a second to
   // receive it, stops serving. Idempotent.

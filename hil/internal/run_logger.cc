@@ -9,6 +9,8 @@
 #include <cstring>
 #include <utility>
 
+#include "rt_core/runtime/realtime.h"
+
 namespace kcrig {
 namespace {
 
@@ -85,11 +87,14 @@ void RunLogger::ReleaseReserve() {
 
 void RunLogger::Start(SpscRing<CycleRecord>* ring) {
   last_progress_ = last_warning_ = std::chrono::steady_clock::now();
-  worker_.Start(std::chrono::milliseconds(5), [this, ring] {
-    Drain(ring);
-    Stream();
-    Report();
-  });
+  worker_.Start(std::chrono::milliseconds(5),
+                [this, ring, first = true]() mutable {
+                  if (first) KeepOffCpu(options_.loop_cpu);
+                  first = false;
+                  Drain(ring);
+                  Stream();
+                  Report();
+                });
 }
 
 void RunLogger::Report() {

@@ -40,6 +40,9 @@ class RunLogger {
     // At most once a second when cycles were skipped since the last call:
     // one line. Optional.
     std::function<void(const std::string&)> on_warning;
+    // The loop's CPU when it is pinned to one (-1: not): the logger keeps
+    // off it.
+    int loop_cpu = -1;
     // Every record as it is taken from the ring (a live display). Optional.
     std::function<void(const CycleRecord&)> on_record;
   };

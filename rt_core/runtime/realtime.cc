@@ -105,4 +105,17 @@ void LeaveRealtime() {
   munlockall();
 }
 
+void KeepOffCpu(int cpu) {
+  cpu_set_t set;
+  if (cpu < 0 || cpu >= CPU_SETSIZE ||
+      pthread_getaffinity_np(pthread_self(), sizeof(set), &set) != 0 ||
+      !CPU_ISSET(cpu, &set)) {
+    return;
+  }
+  CPU_CLR(cpu, &set);
+  if (CPU_COUNT(&set) > 0) {
+    pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
+  }
+}
+
 }  // namespace kcrig

@@ -39,6 +39,11 @@ RealtimeReport SetUpRealtime(const RealtimeOptions& options);
 // the loop (writing logs, estimating) must not starve others or stay pinned.
 void LeaveRealtime();
 
+// Takes `cpu` out of the calling thread's CPU affinity, unless it is the
+// only one left (-1: nothing): the threads that serve a loop pinned there
+// (its logger, the console) keep off its CPU and its caches. Best effort.
+void KeepOffCpu(int cpu);
+
 }  // namespace kcrig
 
 #endif  // KCRIG_RT_CORE_RUNTIME_REALTIME_H_
