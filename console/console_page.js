@@ -182,6 +182,7 @@
     state.loop = [];
     state.pending = [];
     state.redraw = true;
+    for (const key of Object.keys(peaks)) delete peaks[key];
     $("trip").style.display = "none";
     delete body.dataset.trip;
     if (!run) return;
@@ -204,6 +205,9 @@
     scheduleDraw();
   }
 
+  // The highest share of each limit this run, marked on its bar.
+  const peaks = {};
+
   function bar(label, fraction) {
     const row = document.createElement("div");
     row.className = "bar-row";
@@ -216,11 +220,17 @@
     inner.style.width = Math.min(100, 100 * f).toFixed(1) + "%";
     if (f >= 0.9) inner.className = "red";
     else if (f >= 0.7) inner.className = "amber";
+    peaks[label] = Math.max(peaks[label] || 0, f);
+    const peak = document.createElement("span");
+    peak.className = "peak";
+    peak.style.left = Math.min(100, 100 * peaks[label]).toFixed(1) + "%";
+    peak.title = "peak this run " + Math.round(100 * peaks[label]) + " %";
+    if (peaks[label] < 0.005) peak.style.display = "none";
     const value = document.createElement("span");
     value.className = "value";
     value.textContent = fraction === null ? "NaN" :
         Math.round(100 * fraction) + " %";
-    outer.appendChild(inner);
+    outer.append(inner, peak);
     row.append(name, outer, value);
     return row;
   }
@@ -238,6 +248,7 @@
     text("safety", s.safety);
     text("owner", s.owner);
     body.dataset.phase = s.phase;
+    body.dataset.t = String(s.t_s);
     body.dataset.safety = s.safety;
     const m = s.margins;
     const rows = [];
@@ -318,8 +329,8 @@
       line.textContent = estimateText(p);
       est.appendChild(line);
     }
-    const checks = it.check || "";
-    cell(row, checks === "" ? "adequate" : checks, checks === "" ? "ok" : "bad");
+    const checks = it.check || "ok";
+    cell(row, checks, checks === "ok" ? "ok" : "bad");
     const next = it.next_design ? "design phi " +
         fmt(it.next_design.phi_deg, 1) + " deg, z_a " +
         fmt(it.next_design.z_a * 1e3, 0) + " mm" : "";

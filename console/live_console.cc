@@ -393,7 +393,7 @@ void LiveConsole::Route() {
             if (!sink.write(out.data(), out.size())) return false;
             cursor->written = now;
           }
-          if (read == LiveFeed::Read::kEnded || stopping_) sink.done();
+          if (read == LiveFeed::Read::kEnded) sink.done();
           return true;
         },
         [this](bool) { viewers_.fetch_sub(1); });
@@ -401,12 +401,16 @@ void LiveConsole::Route() {
 }
 
 void LiveConsole::Shutdown(const std::string& outcome) {
-  if (stopping_.exchange(true)) return;
+  if (ending_.exchange(true)) return;
+  // Every stream sends the end and closes itself; one that cannot within
+  // the write timeout is cut.
   feed_.End(outcome);
-  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+  const auto until = std::chrono::steady_clock::now() +
+                     std::chrono::seconds(kIoTimeoutSeconds);
   while (viewers_.load() > 0 && std::chrono::steady_clock::now() < until) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
+  stopping_ = true;
   server_->stop();
   if (thread_.joinable()) thread_.join();
 }

@@ -65,8 +65,8 @@ class LiveConsole {
   // Streams open now.
   int viewers() const { return viewers_.load(); }
 
-  // Ends the feed with `outcome`, gives the viewers up to a second to
-  // receive it, stops serving. Idempotent.
+  // Ends the feed with `outcome`, gives the viewers up to the write
+  // timeout (2 s) to receive it, stops serving. Idempotent.
   void Shutdown(const std::string& outcome);
 
  private:
@@ -85,7 +85,8 @@ class LiveConsole {
   bool remote_ = false;
   std::atomic<int> viewers_{0};
   std::atomic<bool> stop_requested_{false};
-  std::atomic<bool> stopping_{false};
+  std::atomic<bool> ending_{false};
+  std::atomic<bool> stopping_{false};  // the server is being stopped
 };
 
 }  // namespace kcrig

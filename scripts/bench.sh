@@ -16,7 +16,7 @@ for bench in model_bench estimator_bench designer_bench diagnosis_bench; do
     --benchmark_out=build/bench/$bench.json --benchmark_out_format=json "$@"
 done
 # Latency distributions (percentiles as counters): one long repetition.
-build/bin/rt_bench --benchmark_filter='^BM_(CycleCompute|ModbusRoundTrip|WakeupVsCyclictest|CanCycleCodec)(/.*)?$' \
+build/bin/rt_bench --benchmark_filter='^BM_(CycleCompute|SilRigRun|ModbusRoundTrip|WakeupVsCyclictest|CanCycleCodec|ConsoleImpact|LiveFeedIngest)(/.*)?$' \
   --benchmark_out=build/bench/rt_bench.json --benchmark_out_format=json "$@"
 # The CAN round trip needs vcan0: inside the guest of scripts/vcan_vm.sh
 # where the host kernel has no CAN (guest time: not a real machine's figures).

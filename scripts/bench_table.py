@@ -504,6 +504,34 @@ def rows(d):
         ratio(wake.counter("kcrig_p99_us"), wake.counter("cyclictest_p99_us"))
         if wake else DASH,
         "target ratio ≤ 1.5; tails vary widely between runs on a shared VM")
+    ingest = d.get("rt_bench", "BM_LiveFeedIngest")
+    for arg, viewers in (("0", "three stream readers (curl)"),
+                         ("1", "three headless Chromium pages")):
+        name = "BM_ConsoleImpact/" + arg
+        impact = d.get("rt_bench", name)
+        note = "target ratios ≤ 1.1, no extra overrun, console CPU ≤ 5 %"
+        if impact:
+            note += ("; overruns %s off, %s on; console CPU %s %% of a core "
+                     "(its threads) + %s %% (the feed on the logger's "
+                     "thread)" % (
+                         count(impact.counter("overruns_off")),
+                         count(impact.counter("overruns_on")),
+                         num(impact.counter("console_cpu_percent"), 2),
+                         num(ingest.counter("cpu_percent_at_1khz"), 2)
+                         if ingest else "?"))
+        row("loop with `--console` and %s, the paper's run on `kcrig "
+            "emulate` over Modbus at 1 kHz, loop pinned to CPU 1, viewers on "
+            "CPU 0: compute p99, wake-up p99 (5 runs each)" % viewers,
+            "%s, %s" % (micros(impact.counter("compute_p99_on_us")),
+                        micros(impact.counter("wakeup_p99_on_us")))
+            if impact else d.why_not("rt_bench", name),
+            "the same runs without the console, in turn",
+            "%s, %s" % (micros(impact.counter("compute_p99_off_us")),
+                        micros(impact.counter("wakeup_p99_off_us")))
+            if impact else d.why_not("rt_bench", name),
+            "%s, %s" % (num(impact.counter("ratio_compute_p99")),
+                        num(impact.counter("ratio_wakeup_p99")))
+            if impact else DASH, note)
     codec = d.get("rt_bench", "BM_CanCycleCodec")
     row("one cycle's CAN frames through the DBC codec: KC_Command encoded + "
         "decoded, a sample's 4 frames encoded + assembled",
