@@ -22,6 +22,7 @@
 #include "emulator/sil_rig.h"
 #include "estimator/estimate_io.h"
 #include "hil/campaign_rig.h"
+#include "hil/rig_config.h"
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"
 #include "report/report.h"
@@ -360,7 +361,9 @@ int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
     // The campaign's own outputs are complete: a report that cannot be
     // written is a warning (kcrig report can retry), not a failed campaign.
     if (status.ok()) {
-      if (feed != nullptr) feed->ReportWritten(html);
+      if (feed != nullptr) {
+        feed->ReportWritten(std::filesystem::absolute(html).string());
+      }
       std::printf("  report with %d figures: %s (open it in a browser)\n",
                   report.figures, html.c_str());
       std::printf("  %s\n", KcSheetLine(report).c_str());
@@ -370,6 +373,17 @@ int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
     }
   }
   return stopped ? kExitUnexplained : 0;
+}
+
+// rig.yaml's realtime.cpu for a rig's loop (-1: the embedded rig's virtual
+// clock pins nothing; a rig.yaml that does not load is reported when the
+// rig opens).
+int LoopCpu(const CampaignArgs& args, const KcrigConfig& config) {
+  RigConfig rig;
+  if (args.rig == "sim" || !LoadRigConfig(config.directory, &rig).ok()) {
+    return -1;
+  }
+  return rig.realtime.cpu;
 }
 
 // The console's last line: how the campaign ended.
@@ -395,15 +409,19 @@ int RunCampaignCommand(const CampaignArgs& args) {
   std::unique_ptr<LiveConsole> console;  // rank 0's: it runs the rig
   if (status.ok()) status = LoadConfig(config_dir, &config);
   if (status.ok() && ranks.is_root()) {
-    status = StartConsole(args.console, "kcrig campaign", &console);
+    status = StartConsole(args.console, "kcrig campaign", LoopCpu(args, config),
+                          &console);
   }
   LiveFeed* feed = console != nullptr ? &console->feed() : nullptr;
   if (status.ok()) status = MakeRig(args, config, feed, &rig, &rig_text);
   if (status.ok()) status = MakeOptions(args, config, &options);
   if (status.ok() && ranks.is_root()) status = MakeOutputFolder(args.out);
   status = ranks.Agree(status);
-  if (!status.ok()) return Fail(status);
-  if (feed != nullptr) feed->Title("kcrig campaign", rig_text);
+  if (!status.ok()) {
+    if (console != nullptr) console->Shutdown(status.message());
+    return Fail(status);
+  }
+  if (feed != nullptr) feed->Title("kcrig campaign");
   if (ranks.size() == 1) {
     const int code = RunAndReport(args, config, rig, rig_text, options, feed);
     if (console != nullptr) console->Shutdown(CampaignOutcome(code));

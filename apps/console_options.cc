@@ -21,7 +21,7 @@ void AddConsoleOptions(CLI::App* cmd, ConsoleArgs* args) {
 }
 
 Status StartConsole(const ConsoleArgs& args, const std::string& command,
-                    std::unique_ptr<LiveConsole>* console) {
+                    int loop_cpu, std::unique_ptr<LiveConsole>* console) {
   console->reset();
   if (args.address.empty()) {
     if (args.remote) return Status::Error("--console-remote needs --console");
@@ -30,6 +30,7 @@ Status StartConsole(const ConsoleArgs& args, const std::string& command,
   ConsoleOptions options;
   options.address = args.address;
   options.allow_remote = args.remote;
+  options.loop_cpu = loop_cpu;
   options.plotly_js = ReportOptions().plotly_js;
   // The first signal's path: the loop ramps down, a campaign stops.
   options.on_stop = [] { RequestOperatorStop(); };

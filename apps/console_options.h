@@ -23,9 +23,10 @@ void AddConsoleOptions(CLI::App* cmd, ConsoleArgs* args);
 
 // Starts the console of `command` ("kcrig run") when --console was given
 // (else leaves *console null) and prints its URL; a warning when it is
-// reachable beyond this machine. One-line errors.
+// reachable beyond this machine. `loop_cpu`: rig.yaml's realtime.cpu
+// (-1: not pinned), which the console's threads keep off. One-line errors.
 Status StartConsole(const ConsoleArgs& args, const std::string& command,
-                    std::unique_ptr<LiveConsole>* console);
+                    int loop_cpu, std::unique_ptr<LiveConsole>* console);
 
 }  // namespace kcrig
 

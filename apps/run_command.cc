@@ -110,7 +110,10 @@ int RunRun(const RunArgs& args) {
   if (!status.ok()) return fail(status);
   if (described.empty()) described = rig->Describe();
   std::unique_ptr<LiveConsole> console;
-  status = StartConsole(args.console, "kcrig run", &console);
+  // The embedded rig's virtual clock pins nothing.
+  status =
+      StartConsole(args.console, "kcrig run",
+                   args.rig == "sim" ? -1 : rig_config.realtime.cpu, &console);
   if (!status.ok()) return fail(status);
   if (console != nullptr) options.monitor = &console->feed();
   if (sil != nullptr) {
@@ -119,9 +122,12 @@ int RunRun(const RunArgs& args) {
     options.clock = sil->clock();
     options.truth = &truth;
   }
-  if (console != nullptr) console->feed().Title("kcrig run", described);
+  if (console != nullptr) console->feed().Title("kcrig run");
   status = rig->Configure();
-  if (!status.ok()) return fail(status);
+  if (!status.ok()) {
+    if (console != nullptr) console->Shutdown(status.message());
+    return fail(status);
+  }
   options.stop_signal = &InstallStopSignalHandlers();
   ProgressLine progress(args.quiet);
   const RunProfile profile(rig_config.profile, options.excitation);

@@ -17,8 +17,10 @@
 //  - ConsoleImpact: the paper's run on `kcrig emulate` over Modbus at 1 kHz
 //    with the real-time set-up (the loop pinned to CPU 1), five times
 //    without the console and five times with it and three viewers
-//    attached (on CPU 0: the operator's machine), in turn; /1: headless
-//    Chromium pages, /0: readers of the stream that draw nothing;
+//    attached (on CPU 0: the operator's machine), in turn; /0: readers of
+//    the stream that draw nothing, /1: headless Chromium pages, /2: the
+//    readers among 50 idle connections, a stream never read and three
+//    malformed requests;
 //    counters `ratio_compute_p99` and `ratio_wakeup_p99` (median on /
 //    median off; target: <= 1.1), the overruns of each, and
 //    `console_cpu_percent` (the console's threads' CPU over the runs, of one
@@ -31,9 +33,12 @@
 // Run: build/bin/rt_bench --benchmark_format=json
 #include <dirent.h>
 #include <fcntl.h>
+#include <netinet/in.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -422,8 +427,50 @@ class Viewers {
   std::vector<pid_t> pids_;
 };
 
-// One run with the console and three viewers attached; false on failure.
-bool RunWatched(const RigConfig& rig_config, int port, bool browsers,
+// Clients that misbehave at the console on `port`: 50 connections that
+// send nothing, a stream opened and never read, and three malformed
+// requests (a TLS hello, a 100 kB header, a made-up method).
+class HostileClients {
+ public:
+  HostileClients(int port, const std::string& token) {
+    for (int i = 0; i < 50; ++i) Connect(port);
+    const int stalled = Connect(port);
+    const int small = 4096;
+    setsockopt(stalled, SOL_SOCKET, SO_RCVBUF, &small, sizeof(small));
+    Send(stalled,
+         "GET /events?token=" + token + " HTTP/1.1\r\nHost: x\r\n\r\n");
+    Send(Connect(port), std::string("\x16\x03\x01\x02\x00\x01\x00", 7));
+    Send(Connect(port), "GET / HTTP/1.1\r\nX: " + std::string(100000, 'a'));
+    Send(Connect(port), "BREW /coffee HTCPCP/1.0\r\n\r\n");
+  }
+  ~HostileClients() {
+    for (int fd : sockets_) close(fd);
+  }
+
+ private:
+  int Connect(int port) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<std::uint16_t>(port));
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof(address));
+    sockets_.push_back(fd);
+    return fd;
+  }
+  static void Send(int fd, const std::string& text) {
+    [[maybe_unused]] const ssize_t sent =
+        send(fd, text.data(), text.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+  }
+  std::vector<int> sockets_;
+};
+
+// How a run is watched: three stream readers, three headless Chromium
+// pages, or three stream readers among hostile clients.
+enum class Watchers { kReaders = 0, kBrowsers = 1, kReadersAndHostile = 2 };
+
+// One run with the console and its watchers attached; false on failure.
+bool RunWatched(const RigConfig& rig_config, int port, Watchers watchers,
                 RigSessionResult* result, double* console_cpu, int* viewers) {
   std::unique_ptr<LiveConsole> console;
   ConsoleOptions options;
@@ -431,9 +478,17 @@ bool RunWatched(const RigConfig& rig_config, int port, bool browsers,
   options.plotly_js = KCRIG_PLOTLY_JS;
   options.loop_cpu = rig_config.realtime.cpu;
   if (!LiveConsole::Start(options, &console).ok()) return false;
-  const Viewers attached(console->url(), 3, 0, browsers);
+  const Viewers attached(console->url(), 3, 0, watchers == Watchers::kBrowsers);
   for (int k = 0; k < 600 && console->viewers() < 3; ++k) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  const std::string& url = console->url();
+  const int console_port =
+      std::stoi(url.substr(url.rfind(':') + 1, url.find('/', 7)));
+  std::unique_ptr<HostileClients> hostile;
+  if (watchers == Watchers::kReadersAndHostile) {
+    hostile = std::make_unique<HostileClients>(
+        console_port, url.substr(url.find("token=") + 6));
   }
   *viewers = std::min(*viewers, console->viewers());
   const double cpu_start = ThreadCpuSeconds("kcrig-console");
@@ -465,8 +520,9 @@ void BM_ConsoleImpact(benchmark::State& state) {
     for (int pair = 0; pair < kPairs; ++pair) {
       RigSessionResult off, on;
       if (!RunOnEmulator(rig_config, emulator.port(), nullptr, &off) ||
-          !RunWatched(rig_config, emulator.port(), state.range(0) == 1, &on,
-                      &console_cpu, &viewers)) {
+          !RunWatched(rig_config, emulator.port(),
+                      static_cast<Watchers>(state.range(0)), &on, &console_cpu,
+                      &viewers)) {
         state.SkipWithError("a run failed");
         return;
       }
@@ -494,10 +550,12 @@ void BM_ConsoleImpact(benchmark::State& state) {
   const double seconds = static_cast<double>(cycles_on) * Rig().period;
   state.counters["console_cpu_percent"] = 100 * console_cpu / seconds;
 }
-// 0: three stream readers, 1: three Chromium pages.
+// Watchers: 0 three stream readers, 1 three Chromium pages, 2 three
+// stream readers among hostile clients.
 BENCHMARK(BM_ConsoleImpact)
     ->Arg(0)
     ->Arg(1)
+    ->Arg(2)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
 

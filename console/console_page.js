@@ -279,7 +279,10 @@
   function showTrip(trip) {
     if (!trip) return;
     const banner = $("trip");
-    banner.textContent = "TRIPPED: " + trip.message;
+    const stop = trip.cause === "signal";
+    banner.textContent = (stop ? "STOPPED by the operator: " : "TRIPPED: ") +
+        trip.message;
+    banner.className = stop ? "stop" : "";
     banner.style.display = "block";
     body.dataset.trip = trip.cause;
     body.dataset.tripSeenAt = String(trip.seen_at_ms);
@@ -341,15 +344,11 @@
     body.dataset.iterations = String(state.iterations);
   }
 
+  // A path on the rig PC, as text: a page served over http may not link
+  // to a file, and the operator's browser may be on another machine.
   function showReport(path) {
     if (!path) return;
-    const div = $("report");
-    div.replaceChildren();
-    div.append("report: ");
-    const a = document.createElement("a");
-    a.href = "file://" + encodeURI(path);
-    a.textContent = path;
-    div.appendChild(a);
+    text("report", "report written: " + path);
     body.dataset.report = path;
   }
 

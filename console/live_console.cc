@@ -1,47 +1,59 @@
 #include "console/live_console.h"
 
 #include <arpa/inet.h>
+#include <civetweb.h>
+#include <dirent.h>
 #include <netdb.h>
 #include <netinet/in.h>
 #include <pthread.h>
 #include <sched.h>
+#include <signal.h>
+#include <sys/random.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include <algorithm>
-#include <cerrno>
 #include <chrono>
-#include <condition_variable>
+#include <cstdlib>
 #include <cstring>
-#include <deque>
-#include <mutex>
-#include <random>
+#include <thread>
 #include <utility>
-#include <vector>
 
 #include "base/input_file.h"
 #include "console/console_page.h"
-#include "httplib.h"
 #include "rt_core/runtime/realtime.h"
 
 namespace kcrig {
 namespace {
 
-constexpr int kIoTimeoutSeconds = 2;
-// A stream's comment line this often keeps proxies open and finds a
-// viewer that went away.
+// A request's whole head must arrive within this, a write to a viewer
+// must progress within it.
+constexpr int kIoTimeoutMs = 2000;
+// A request's head (line and headers) at most; civetweb refuses more.
+constexpr int kMaxRequestBytes = 8192;
+// Workers beyond the viewers' streams: for the page and the stop.
+constexpr int kSpareWorkers = 4;
+// Accepted connections waiting for a worker; beyond them the kernel's
+// backlog holds them.
+constexpr int kQueuedConnections = 64;
+// The server's threads need little stack; under a rig run's mlockall
+// every page of it is locked.
+constexpr std::size_t kThreadStackBytes = 512u << 10;
+// A stream's comment line this often finds a viewer that went away.
 constexpr auto kKeepAlive = std::chrono::seconds(5);
-// The kernel's buffer per viewer: a stalled one holds no more.
-constexpr int kSendBufferBytes = 256 << 10;
-constexpr std::size_t kMaxRequestBytes = 4096;
-constexpr int kListenBacklog = 128;
-// Workers beyond the viewers' streams: for the page, the stop, and
-// connections that send nothing until the read timeout drops them.
-constexpr int kSpareWorkers = 56;
+// One write to a viewer at most: a slow one is found within kIoTimeoutMs.
+constexpr std::size_t kMaxWriteBytes = 64u << 10;
+// The kernel's send buffer per connection (doubled by the kernel), fixed
+// so that it does not grow to megabytes on loopback: a viewer that stops
+// reading fills it within seconds and is dropped.
+constexpr int kSendBufferBytes = 64 << 10;
 constexpr std::size_t kMaxPlotlyBytes = 32u << 20;
 
 Status ParseAddress(const std::string& text, std::string* host, int* port) {
+  const auto malformed = [&text] {
+    return Status::Error("--console " + text +
+                         ": expected HOST:PORT or PORT (0 picks a free port)");
+  };
   std::string port_text = text;
   *host = "127.0.0.1";
   const std::size_t colon = text.rfind(':');
@@ -49,63 +61,60 @@ Status ParseAddress(const std::string& text, std::string* host, int* port) {
     *host = text.substr(0, colon);
     port_text = text.substr(colon + 1);
     if (host->size() >= 2 && host->front() == '[' && host->back() == ']') {
-      *host = host->substr(1, host->size() - 2);
+      return Status::Error("--console " + text +
+                           ": IPv6 addresses are not supported (the "
+                           "console's server is built for IPv4)");
     }
+    if (host->find(':') != std::string::npos) return malformed();
   }
   char* end = nullptr;
   errno = 0;
   const long value = std::strtol(port_text.c_str(), &end, 10);
   if (host->empty() || port_text.empty() || *end != '\0' || errno != 0 ||
       value < 0 || value > 65535) {
-    return Status::Error("--console " + text +
-                         ": expected HOST:PORT or PORT (0 picks a free port)");
+    return malformed();
   }
   *port = static_cast<int>(value);
   return Status::Ok();
 }
 
-bool IsLoopback(const sockaddr* address) {
-  if (address->sa_family == AF_INET) {
-    const auto* v4 = reinterpret_cast<const sockaddr_in*>(address);
-    return (ntohl(v4->sin_addr.s_addr) >> 24) == 127;
-  }
-  if (address->sa_family == AF_INET6) {
-    const auto* v6 = reinterpret_cast<const sockaddr_in6*>(address);
-    return IN6_IS_ADDR_LOOPBACK(&v6->sin6_addr);
-  }
-  return false;
-}
-
-// Whether every address `host` names is a loopback one.
-Status ResolvesToLoopback(const std::string& host, bool* loopback) {
+// The IPv4 address `host` names (the first), as numbers: what is checked
+// is what is bound. `loopback`: whether it is 127.0.0.0/8.
+Status ResolveHost(const std::string& text, const std::string& host,
+                   std::string* numeric, bool* loopback) {
   addrinfo hints{};
-  hints.ai_family = AF_UNSPEC;
+  hints.ai_family = AF_INET;
   hints.ai_socktype = SOCK_STREAM;
   addrinfo* found = nullptr;
   const int error = getaddrinfo(host.c_str(), nullptr, &hints, &found);
-  if (error != 0) {
-    return Status::Error("--console " + host + ": " + gai_strerror(error));
+  if (error != 0 || found == nullptr) {
+    return Status::Error("--console " + text + ": " +
+                         (error != 0 ? gai_strerror(error) : "no address"));
   }
-  *loopback = true;
-  for (const addrinfo* a = found; a != nullptr; a = a->ai_next) {
-    *loopback = *loopback && IsLoopback(a->ai_addr);
-  }
+  const auto* v4 = reinterpret_cast<const sockaddr_in*>(found->ai_addr);
+  char name[INET_ADDRSTRLEN] = {};
+  inet_ntop(AF_INET, &v4->sin_addr, name, sizeof(name));
+  *numeric = name;
+  *loopback = (ntohl(v4->sin_addr.s_addr) >> 24) == 127;
   freeaddrinfo(found);
   return Status::Ok();
 }
 
-std::string RandomToken() {
-  std::random_device device;  // getrandom(2)
-  std::string token;
-  static const char kHex[] = "0123456789abcdef";
-  for (int i = 0; i < 8; ++i) {
-    const unsigned word = device();
-    for (int shift = 0; shift < 32; shift += 8) {
-      token += kHex[(word >> (shift + 4)) & 15];
-      token += kHex[(word >> shift) & 15];
-    }
+// 256 bits from the kernel's random source, in hex.
+Status RandomToken(std::string* token) {
+  unsigned char bytes[32];
+  if (getrandom(bytes, sizeof(bytes), 0) !=
+      static_cast<ssize_t>(sizeof(bytes))) {
+    return Status::Error("--console: no random token (getrandom: " +
+                         std::string(std::strerror(errno)) + ")");
   }
-  return token;
+  static const char kHex[] = "0123456789abcdef";
+  token->clear();
+  for (unsigned char b : bytes) {
+    *token += kHex[b >> 4];
+    *token += kHex[b & 15];
+  }
+  return Status::Ok();
 }
 
 // Compares in time independent of where they differ.
@@ -118,95 +127,39 @@ bool SameToken(const std::string& given, const std::string& token) {
   return diff == 0;
 }
 
-// The console's threads run as ordinary, lower-priority work whatever the
-// caller's policy, and off the loop's CPU when it has one of its own.
-void BelowTheLoop(int loop_cpu) {
-  sched_param none{};
-  pthread_setschedparam(pthread_self(), SCHED_OTHER, &none);
-  setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 5);
-  pthread_setname_np(pthread_self(), "kcrig-console");
-  KeepOffCpu(loop_cpu);
+// civetweb has no hook for its sockets' options: its listening socket,
+// found by its port, gets the send buffer that accepted sockets inherit.
+void LimitSendBuffers(int port) {
+  DIR* fds = opendir("/proc/self/fd");
+  if (fds == nullptr) return;
+  while (const dirent* entry = readdir(fds)) {
+    const int fd = std::atoi(entry->d_name);
+    int listening = 0;
+    socklen_t size = sizeof(listening);
+    sockaddr_in address{};
+    socklen_t address_size = sizeof(address);
+    if (entry->d_name[0] == '.' || fd == dirfd(fds) ||
+        getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &listening, &size) != 0 ||
+        listening == 0 ||
+        getsockname(fd, reinterpret_cast<sockaddr*>(&address), &address_size) !=
+            0 ||
+        address.sin_family != AF_INET || ntohs(address.sin_port) != port) {
+      continue;
+    }
+    setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &kSendBufferBytes,
+               sizeof(kSendBufferBytes));
+  }
+  closedir(fds);
 }
 
-// The server's workers: a fixed number of threads with small stacks (a
-// rig run locks every page of the process, mlockall) below the loop's
-// priority. Enough of them that a few dozen connections that send nothing
-// (each held until the read timeout) leave room for the viewers; beyond
-// them connections wait in the queue (a socket each).
-class ConsoleWorkers final : public httplib::TaskQueue {
- public:
-  ConsoleWorkers(int count, int loop_cpu) : loop_cpu_(loop_cpu) {
-    pthread_attr_t attributes;
-    pthread_attr_init(&attributes);
-    pthread_attr_setstacksize(&attributes, kStackBytes);
-    for (int i = 0; i < count; ++i) {
-      pthread_t thread;
-      if (pthread_create(&thread, &attributes, &Work, this) == 0) {
-        threads_.push_back(thread);
-      }
-    }
-    pthread_attr_destroy(&attributes);
-  }
-
-  void enqueue(std::function<void()> job) override {
-    std::lock_guard<std::mutex> lock(mutex_);
-    jobs_.push_back(std::move(job));
-    ready_.notify_one();
-  }
-
-  // Runs what is queued (each closes its socket), then joins.
-  void shutdown() override {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stopping_ = true;
-    }
-    ready_.notify_all();
-    for (pthread_t thread : threads_) pthread_join(thread, nullptr);
-    threads_.clear();
-  }
-
-  ~ConsoleWorkers() override { shutdown(); }
-
- private:
-  static constexpr std::size_t kStackBytes = 512u << 10;
-
-  static void* Work(void* self) {
-    auto* workers = static_cast<ConsoleWorkers*>(self);
-    BelowTheLoop(workers->loop_cpu_);
-    workers->Loop();
-    return nullptr;
-  }
-
-  void Loop() {
-    for (;;) {
-      std::function<void()> job;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        ready_.wait(lock, [this] { return stopping_ || !jobs_.empty(); });
-        if (jobs_.empty()) return;
-        job = std::move(jobs_.front());
-        jobs_.pop_front();
-      }
-      job();
-    }
-  }
-
-  int loop_cpu_;
-  std::vector<pthread_t> threads_;
-  std::mutex mutex_;
-  std::condition_variable ready_;
-  std::deque<std::function<void()>> jobs_;
-  bool stopping_ = false;
-};
-
 std::string UrlHost(const std::string& host) {
-  if (host == "0.0.0.0" || host == "::") {
+  if (host == "0.0.0.0") {
     char name[256] = {};
     if (gethostname(name, sizeof(name) - 1) == 0 && name[0] != '\0') {
       return name;
     }
   }
-  return host.find(':') != std::string::npos ? "[" + host + "]" : host;
+  return host;
 }
 
 // The page with its plotting library inlined: one response, no file.
@@ -215,45 +168,73 @@ Status BuildPage(const std::string& plotly_path, std::string* page) {
   const char* override_path = std::getenv("KCRIG_PLOTLY_JS");
   const std::string path =
       override_path != nullptr ? override_path : plotly_path;
-  Status status = ReadInputFile(path, kMaxPlotlyBytes, &plotly);
+  const Status status = ReadInputFile(path, kMaxPlotlyBytes, &plotly);
   if (!status.ok()) {
     return Status::Error("--console: plotly.js not found (" + status.message() +
                          "; Debian package python3-plotly, or "
                          "KCRIG_PLOTLY_JS names another copy)");
   }
   *page = kConsolePageHtml;
-  const std::pair<const char*, const std::string*> parts[] = {
-      {"/*KCRIG_PLOTLY*/", &plotly}, {"/*KCRIG_CONSOLE_SCRIPT*/", nullptr}};
-  const std::string script = kConsolePageJs;
-  for (const auto& [marker, text] : parts) {
+  for (const auto& [marker, text] :
+       {std::pair<std::string, const char*>{"/*KCRIG_PLOTLY*/", plotly.c_str()},
+        {"/*KCRIG_CONSOLE_SCRIPT*/", kConsolePageJs}}) {
     const std::size_t at = page->find(marker);
-    if (at == std::string::npos) {
-      return Status::Error("console page: marker missing");
-    }
-    page->replace(at, std::strlen(marker), text != nullptr ? *text : script);
+    if (at == std::string::npos) return Status::Error("console page: broken");
+    page->replace(at, marker.size(), text);
   }
   return Status::Ok();
+}
+
+// Headers every response carries.
+constexpr const char* kCommonHeaders =
+    "Cache-Control: no-store\r\n"
+    "X-Content-Type-Options: nosniff\r\n"
+    "Referrer-Policy: no-referrer\r\n"
+    "Connection: close\r\n";
+
+int Respond(mg_connection* conn, int status, const char* reason,
+            const char* type, const std::string& body,
+            const char* extra_headers = "") {
+  mg_printf(conn,
+            "HTTP/1.1 %d %s\r\nContent-Type: %s\r\nContent-Length: %zu\r\n"
+            "%s%s\r\n",
+            status, reason, type, body.size(), kCommonHeaders, extra_headers);
+  mg_write(conn, body.data(), body.size());
+  return status;
+}
+
+// Writes `text` in pieces; false when the viewer went away or took longer
+// than kIoTimeoutMs for one piece (a viewer that reads too slowly).
+bool WriteToViewer(mg_connection* conn, const std::string& text) {
+  for (std::size_t at = 0; at < text.size(); at += kMaxWriteBytes) {
+    const std::size_t n = std::min(kMaxWriteBytes, text.size() - at);
+    const auto start = std::chrono::steady_clock::now();
+    if (mg_write(conn, text.data() + at, n) != static_cast<int>(n) ||
+        std::chrono::steady_clock::now() - start >
+            std::chrono::milliseconds(kIoTimeoutMs)) {
+      return false;
+    }
+  }
+  return true;
 }
 
 }  // namespace
 
 LiveConsole::LiveConsole(ConsoleOptions options)
-    : options_(std::move(options)),
-      feed_([this] {
+    : options_(std::move(options)), feed_([this] {
         LiveFeed::Options feed;
         feed.on_failure = options_.on_failure;
         return feed;
-      }()),
-      server_(std::make_unique<httplib::Server>()),
-      token_(RandomToken()) {}
+      }()) {}
 
 Status LiveConsole::Start(ConsoleOptions options,
                           std::unique_ptr<LiveConsole>* console) {
-  std::string host;
+  std::string host, numeric;
   int port = 0;
-  KCRIG_RETURN_IF_ERROR(ParseAddress(options.address, &host, &port));
   bool loopback = true;
-  KCRIG_RETURN_IF_ERROR(ResolvesToLoopback(host, &loopback));
+  KCRIG_RETURN_IF_ERROR(ParseAddress(options.address, &host, &port));
+  KCRIG_RETURN_IF_ERROR(
+      ResolveHost(options.address, host, &numeric, &loopback));
   if (!loopback && !options.allow_remote) {
     return Status::Error(
         "--console " + options.address +
@@ -262,142 +243,167 @@ Status LiveConsole::Start(ConsoleOptions options,
   }
   std::unique_ptr<LiveConsole> made(new LiveConsole(std::move(options)));
   made->remote_ = !loopback;
+  KCRIG_RETURN_IF_ERROR(RandomToken(&made->token_));
   KCRIG_RETURN_IF_ERROR(BuildPage(made->options_.plotly_js, &made->page_));
-  made->Route();
-  KCRIG_RETURN_IF_ERROR(made->Listen(host, port));
-  made->thread_ = std::thread([c = made.get()] { c->Serve(); });
+  KCRIG_RETURN_IF_ERROR(made->Listen(numeric, port));
+  made->url_ = "http://" + UrlHost(numeric) + ":" +
+               std::to_string(made->port_) + "/?token=" + made->token_;
   *console = std::move(made);
   return Status::Ok();
 }
 
 Status LiveConsole::Listen(const std::string& host, int port) {
-  httplib::Server& s = *server_;
-  s.set_read_timeout(kIoTimeoutSeconds, 0);
-  s.set_write_timeout(kIoTimeoutSeconds, 0);
-  s.set_keep_alive_timeout(kIoTimeoutSeconds);
-  s.set_payload_max_length(kMaxRequestBytes);
-  const int threads = options_.max_viewers + kSpareWorkers;
-  s.new_task_queue = [threads, cpu = options_.loop_cpu] {
-    return new ConsoleWorkers(threads, cpu);
+  const std::string ports = host + ":" + std::to_string(port);
+  const std::string threads =
+      std::to_string(options_.max_viewers + kSpareWorkers);
+  const std::string timeout = std::to_string(kIoTimeoutMs);
+  const std::string request = std::to_string(kMaxRequestBytes);
+  const std::string queue = std::to_string(kQueuedConnections);
+  const char* config[] = {"listening_ports",
+                          ports.c_str(),
+                          "num_threads",
+                          threads.c_str(),
+                          "request_timeout_ms",
+                          timeout.c_str(),
+                          "max_request_size",
+                          request.c_str(),
+                          "connection_queue",
+                          queue.c_str(),
+                          "enable_keep_alive",
+                          "no",
+                          "enable_directory_listing",
+                          "no",
+                          nullptr};
+  mg_callbacks callbacks{};
+  // The server's threads, made in mg_start: below the loop, off its CPU.
+  callbacks.init_thread = [](const mg_context* context, int) -> void* {
+    const auto* self =
+        static_cast<const LiveConsole*>(mg_get_user_data(context));
+    BelowTheLoop(self->options_.loop_cpu);
+    return nullptr;
   };
-  int listening = -1;
-  s.set_socket_options([&listening](int sock) {
-    listening = sock;
-    const int yes = 1;
-    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
-    setsockopt(sock, SOL_SOCKET, SO_SNDBUF, &kSendBufferBytes,
-               sizeof(kSendBufferBytes));
-  });
-  errno = 0;
-  const int bound = port == 0 ? s.bind_to_any_port(host)
-                              : (s.bind_to_port(host, port) ? port : -1);
-  s.set_socket_options(httplib::default_socket_options);
-  // The library listens with a backlog of 5: a burst of connections (a
-  // page and its stream from a few browsers, or junk) would be refused.
-  if (bound > 0 && listening >= 0) listen(listening, kListenBacklog);
-  if (bound <= 0) {
-    return Status::Error(
-        "--console " + options_.address + ": cannot listen there (" +
-        (errno != 0 ? std::strerror(errno) : "bind failed") + ")");
+  // The terminal is the run's: the server's own complaints stay off it.
+  callbacks.log_message = [](const mg_connection*, const char*) { return 1; };
+  mg_init_library(0);
+  // mg_start ignores SIGCHLD, which would reap children that kcrig waits
+  // for; it gets its own small stacks.
+  struct sigaction child {};
+  sigaction(SIGCHLD, nullptr, &child);
+  pthread_attr_t defaults, small;
+  pthread_getattr_default_np(&defaults);
+  pthread_getattr_default_np(&small);
+  pthread_attr_setstacksize(&small, kThreadStackBytes);
+  pthread_setattr_default_np(&small);
+  context_ = mg_start(&callbacks, this, config);
+  pthread_setattr_default_np(&defaults);
+  pthread_attr_destroy(&small);
+  pthread_attr_destroy(&defaults);
+  sigaction(SIGCHLD, &child, nullptr);
+  mg_server_port bound{};
+  if (context_ == nullptr || mg_get_server_ports(context_, 1, &bound) != 1) {
+    return Status::Error("--console " + options_.address +
+                         ": cannot listen there (in use, or not an address "
+                         "of this machine)");
   }
-  url_ = "http://" + UrlHost(host) + ":" + std::to_string(bound) +
-         "/?token=" + token_;
+  port_ = bound.port;
+  LimitSendBuffers(port_);
+  mg_set_request_handler(context_, "/", &LiveConsole::Handle, this);
   return Status::Ok();
 }
 
-void LiveConsole::Serve() {
-  BelowTheLoop(options_.loop_cpu);
-  if (!server_->listen_after_bind() && !stopping_ && options_.on_failure) {
-    options_.on_failure("the console stopped serving; the run goes on");
+void LiveConsole::BelowTheLoop(int loop_cpu) {
+  sched_param none{};
+  pthread_setschedparam(pthread_self(), SCHED_OTHER, &none);
+  setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 5);
+  pthread_setname_np(pthread_self(), "kcrig-console");
+  KeepOffCpu(loop_cpu);
+}
+
+// Every request: the token first, then the page, its stream or the stop;
+// nothing else exists. An exception never crosses into the C server.
+int LiveConsole::Handle(mg_connection* conn, void* self_pointer) {
+  auto* self = static_cast<LiveConsole*>(self_pointer);
+  try {
+    const mg_request_info* request = mg_get_request_info(conn);
+    if (!self->Authorized(conn, request)) {
+      return Respond(conn, 403, "Forbidden", "text/plain",
+                     "kcrig console: refused without the token of the URL "
+                     "kcrig printed\n");
+    }
+    const std::string method = request->request_method;
+    const std::string path =
+        request->local_uri != nullptr ? request->local_uri : "";
+    if (method == "GET" && path == "/") return self->ServePage(conn);
+    if (method == "GET" && path == "/events") return self->ServeStream(conn);
+    if (method == "POST" && path == "/stop") {
+      return self->Stop(conn, request->remote_addr);
+    }
+    return Respond(conn, 404, "Not Found", "text/plain",
+                   "kcrig console: no such page\n");
+  } catch (...) {
+    return 500;  // the connection closes; the run goes on
   }
 }
 
-void LiveConsole::Route() {
-  using httplib::Request;
-  using httplib::Response;
-  httplib::Server& s = *server_;
-  s.set_pre_routing_handler([this](const Request& req, Response& res) {
-    const std::string given = req.has_header("X-Kcrig-Token")
-                                  ? req.get_header_value("X-Kcrig-Token")
-                                  : req.get_param_value("token");
-    if (SameToken(given, token_)) {
-      return httplib::Server::HandlerResponse::Unhandled;
+bool LiveConsole::Authorized(mg_connection* conn,
+                             const mg_request_info* request) const {
+  const char* header = mg_get_header(conn, "X-Kcrig-Token");
+  if (header != nullptr) return SameToken(header, token_);
+  char given[128] = {};
+  const char* query = request->query_string;
+  return query != nullptr &&
+         mg_get_var(query, std::strlen(query), "token", given, sizeof(given)) >
+             0 &&
+         SameToken(given, token_);
+}
+
+int LiveConsole::ServePage(mg_connection* conn) {
+  // Scripts and styles inline only, connections to this console only.
+  return Respond(conn, 200, "OK", "text/html; charset=utf-8", page_,
+                 "Content-Security-Policy: default-src 'none'; script-src "
+                 "'unsafe-inline' 'unsafe-eval'; style-src 'unsafe-inline'; "
+                 "img-src data: blob:; font-src data:; connect-src 'self'; "
+                 "base-uri 'none'; form-action 'none'; frame-ancestors "
+                 "'none'\r\n");
+}
+
+int LiveConsole::Stop(mg_connection* conn, const std::string& from) {
+  if (!stop_requested_.exchange(true)) {
+    feed_.Note("operator stop from the console (" + from + "): ramping down");
+    if (options_.on_stop) options_.on_stop();
+  }
+  return Respond(conn, 200, "OK", "application/json", "{\"stopping\":true}\n");
+}
+
+// The snapshot, then every message as it comes, until the feed ends, the
+// console stops, or the viewer stalls or goes away.
+int LiveConsole::ServeStream(mg_connection* conn) {
+  if (viewers_.fetch_add(1) >= options_.max_viewers) {
+    viewers_.fetch_sub(1);
+    return Respond(conn, 503, "Service Unavailable", "text/plain",
+                   "kcrig console: too many viewers\n");
+  }
+  mg_printf(conn,
+            "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\n%s\r\n",
+            kCommonHeaders);
+  std::uint64_t seq = 0;
+  std::string out = feed_.Snapshot(&seq);
+  auto written = std::chrono::steady_clock::now() - kKeepAlive;
+  for (;;) {
+    const LiveFeed::Read read =
+        feed_.ReadAfter(&seq, &out, std::chrono::milliseconds(250));
+    if (read == LiveFeed::Read::kStalled || stopping_) break;
+    const auto now = std::chrono::steady_clock::now();
+    if (out.empty() && now - written >= kKeepAlive) out = ":\n\n";
+    if (!out.empty()) {
+      if (!WriteToViewer(conn, out)) break;
+      written = now;
+      out.clear();
     }
-    res.status = 403;
-    res.set_content(
-        "kcrig console: refused without the token of the URL kcrig "
-        "printed\n",
-        "text/plain");
-    return httplib::Server::HandlerResponse::Handled;
-  });
-  s.set_post_routing_handler([](const Request&, Response& res) {
-    res.set_header("Cache-Control", "no-store");
-    res.set_header("X-Content-Type-Options", "nosniff");
-    res.set_header("Referrer-Policy", "no-referrer");
-  });
-  s.Get("/", [this](const Request&, Response& res) {
-    // Scripts and styles inline only, connections to this console only.
-    res.set_header("Content-Security-Policy",
-                   "default-src 'none'; script-src 'unsafe-inline' "
-                   "'unsafe-eval'; style-src 'unsafe-inline'; img-src data: "
-                   "blob:; font-src data:; connect-src 'self'; base-uri "
-                   "'none'; form-action 'none'; frame-ancestors 'none'");
-    // Through a provider of known length: served as it is, never
-    // recompressed per request (brotli takes seconds over 8 MB).
-    res.set_content_provider(page_.size(), "text/html; charset=utf-8",
-                             [this](std::size_t offset, std::size_t length,
-                                    httplib::DataSink& sink) {
-                               return sink.write(
-                                   page_.data() + offset,
-                                   std::min(length, page_.size() - offset));
-                             });
-  });
-  s.Post("/stop", [this](const Request& req, Response& res) {
-    if (!stop_requested_.exchange(true)) {
-      feed_.Note("operator stop from the console (" + req.remote_addr +
-                 "): ramping down");
-      if (options_.on_stop) options_.on_stop();
-    }
-    res.set_content("{\"stopping\":true}\n", "application/json");
-  });
-  s.Get("/events", [this](const Request&, Response& res) {
-    if (viewers_.fetch_add(1) >= options_.max_viewers) {
-      viewers_.fetch_sub(1);
-      res.status = 503;
-      res.set_content("kcrig console: too many viewers\n", "text/plain");
-      return;
-    }
-    struct Cursor {
-      bool started = false;
-      std::uint64_t seq = 0;
-      std::chrono::steady_clock::time_point written =
-          std::chrono::steady_clock::now();
-    };
-    auto cursor = std::make_shared<Cursor>();
-    res.set_chunked_content_provider(
-        "text/event-stream",
-        [this, cursor](std::size_t, httplib::DataSink& sink) {
-          std::string out;
-          if (!cursor->started) {
-            out = feed_.Snapshot(&cursor->seq);
-            cursor->started = true;
-          }
-          const LiveFeed::Read read = feed_.ReadAfter(
-              &cursor->seq, &out, std::chrono::milliseconds(250));
-          if (read == LiveFeed::Read::kStalled) return false;
-          const auto now = std::chrono::steady_clock::now();
-          if (out.empty() && now - cursor->written >= kKeepAlive) {
-            out = ":\n\n";
-          }
-          if (!out.empty()) {
-            if (!sink.write(out.data(), out.size())) return false;
-            cursor->written = now;
-          }
-          if (read == LiveFeed::Read::kEnded) sink.done();
-          return true;
-        },
-        [this](bool) { viewers_.fetch_sub(1); });
-  });
+    if (read == LiveFeed::Read::kEnded) break;
+  }
+  viewers_.fetch_sub(1);
+  return 200;
 }
 
 void LiveConsole::Shutdown(const std::string& outcome) {
@@ -406,13 +412,14 @@ void LiveConsole::Shutdown(const std::string& outcome) {
   // the write timeout is cut.
   feed_.End(outcome);
   const auto until = std::chrono::steady_clock::now() +
-                     std::chrono::seconds(kIoTimeoutSeconds);
+                     std::chrono::milliseconds(kIoTimeoutMs);
   while (viewers_.load() > 0 && std::chrono::steady_clock::now() < until) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   stopping_ = true;
-  server_->stop();
-  if (thread_.joinable()) thread_.join();
+  // Joins the server's threads; a read or write in progress sees the stop.
+  if (context_ != nullptr) mg_stop(context_);
+  context_ = nullptr;
 }
 
 LiveConsole::~LiveConsole() { Shutdown("kcrig ended"); }

@@ -1,5 +1,5 @@
 // The operator console of `kcrig run` and `kcrig campaign` (--console):
-// one page, served over HTTP by cpp-httplib, that a browser opens to watch
+// one page, served over HTTP by civetweb, that a browser opens to watch
 // the run (its LiveFeed, pushed to the page as Server-Sent Events) and to
 // stop it. Safe by default: it listens on loopback unless another address
 // is allowed explicitly, every request must carry the random token of the
@@ -15,14 +15,13 @@
 #include <functional>
 #include <memory>
 #include <string>
-#include <thread>
 
 #include "base/status.h"
 #include "console/live_feed.h"
 
-namespace httplib {
-class Server;
-}
+struct mg_connection;
+struct mg_context;
+struct mg_request_info;
 
 namespace kcrig {
 
@@ -72,13 +71,17 @@ class LiveConsole {
  private:
   explicit LiveConsole(ConsoleOptions options);
   Status Listen(const std::string& host, int port);
-  void Route();
-  void Serve();
+  static void BelowTheLoop(int loop_cpu);
+  static int Handle(mg_connection* conn, void* self);
+  bool Authorized(mg_connection* conn, const mg_request_info* request) const;
+  int ServePage(mg_connection* conn);
+  int ServeStream(mg_connection* conn);
+  int Stop(mg_connection* conn, const std::string& from);
 
   ConsoleOptions options_;
   LiveFeed feed_;
-  std::unique_ptr<httplib::Server> server_;
-  std::thread thread_;
+  mg_context* context_ = nullptr;
+  int port_ = 0;
   std::string token_;
   std::string page_;
   std::string url_;

@@ -62,15 +62,30 @@ Json Array(const double* values, int n) {
 void LiveFeed::Bin::Merge(const Bin& later) {
   t1 = later.t1;
   for (int i = 0; i < kSignals; ++i) {
-    lo[i] = std::min(lo[i], later.lo[i]);
-    hi[i] = std::max(hi[i], later.hi[i]);
+    lo[i] = std::fmin(lo[i], later.lo[i]);
+    hi[i] = std::fmax(hi[i], later.hi[i]);
     last[i] = later.last[i];
   }
 }
 
 LiveFeed::LiveFeed(Options options) : options_(std::move(options)) {}
 
+// The feed's calls come from the loop's logger and the command's thread,
+// which must never see an exception of the console's: the feed stops.
+template <typename Work>
+void LiveFeed::Guarded(Work work) {
+  try {
+    work();
+  } catch (const std::exception& error) {
+    Fail(error.what());
+  }
+}
+
 void LiveFeed::RunStarted(const Run& run) {
+  Guarded([&] { Start(run); });
+}
+
+void LiveFeed::Start(const Run& run) {
   run_ = run;
   running_ = true;
   bin_index_ = -1;
@@ -115,16 +130,16 @@ void LiveFeed::RunStarted(const Run& run) {
 
 void LiveFeed::CycleLogged(const CycleRecord& record) {
   if (failed_ || !running_) return;
-  try {
-    Ingest(record);
-  } catch (const std::bad_alloc&) {
-    Fail("out of memory");
-  }
+  Guarded([&] { Ingest(record); });
 }
 
 void LiveFeed::Ingest(const CycleRecord& r) {
   const double t = static_cast<double>(r.cycle) * run_.period;
-  if (r.cycle > next_cycle_) live_.skipped += r.cycle - next_cycle_;
+  // Cycles skipped by overruns have no record: they count for the
+  // watchdog as the loop counts them.
+  const std::int64_t skipped = std::max<std::int64_t>(r.cycle - next_cycle_, 0);
+  live_.skipped += skipped;
+  not_fresh_ = r.fresh ? 0 : not_fresh_ + 1 + skipped;
   next_cycle_ = r.cycle + 1;
   ++live_.cycles;
   live_.t = t;
@@ -162,8 +177,8 @@ void LiveFeed::Ingest(const CycleRecord& r) {
   bin_.t1 = t;
   for (int i = 0; i < kSignals; ++i) {
     const auto value = static_cast<float>(v[i]);
-    bin_.lo[i] = std::min(bin_.lo[i], value);
-    bin_.hi[i] = std::max(bin_.hi[i], value);
+    bin_.lo[i] = std::fmin(bin_.lo[i], value);  // a NaN never hides a value
+    bin_.hi[i] = std::fmax(bin_.hi[i], value);
     bin_.last[i] = value;
   }
   const bool changed = r.phase != live_.phase || r.safety != live_.safety;
@@ -213,7 +228,6 @@ void LiveFeed::Margins(const CycleRecord& r, const double* v) {
                             angle ? l.error_angle_max : l.error_position_max));
     }
   }
-  not_fresh_ = r.fresh ? 0 : not_fresh_ + 1;
   live_.watchdog = std::max(live_.watchdog,
                             Fraction(static_cast<double>(not_fresh_),
                                      static_cast<double>(l.watchdog_cycles)));
@@ -322,7 +336,7 @@ std::string LiveFeed::StatusJson() const {
 void LiveFeed::RunEnded(bool completed, const std::string& outcome,
                         const LoopResult& loop) {
   if (failed_) return;
-  try {
+  Guarded([&] {
     if (running_) PublishUpdate(true);
     const Json doc = {{"completed", completed},
                       {"outcome", outcome},
@@ -333,55 +347,71 @@ void LiveFeed::RunEnded(bool completed, const std::string& outcome,
     std::lock_guard<std::mutex> lock(mutex_);
     run_end_json_ = Dump(doc);
     Publish("run_end", run_end_json_);
-  } catch (const std::bad_alloc&) {
-    Fail("out of memory");
-  }
+  });
 }
 
-void LiveFeed::Title(const std::string& command, const std::string& rig) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  title_json_ = Dump(Json{{"command", command}, {"rig", rig}});
-  Publish("title", title_json_);
+void LiveFeed::Title(const std::string& command) {
+  Guarded([&] {
+    std::lock_guard<std::mutex> lock(mutex_);
+    title_json_ = Dump(Json{{"command", command}});
+    Publish("title", title_json_);
+  });
 }
 
+// Stages change with every batch of a design: at most one message per
+// update interval, the newest always in the snapshot.
 void LiveFeed::Stage(const std::string& text) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const std::string doc = Dump(Json(text));
-  if (doc == stage_json_) return;
-  stage_json_ = doc;
-  Publish("stage", stage_json_);
+  Guarded([&] {
+    const auto now = std::chrono::steady_clock::now();
+    std::lock_guard<std::mutex> lock(mutex_);
+    stage_json_ = Dump(Json(text));
+    if (now - last_stage_ <
+        std::chrono::duration<double>(options_.update_seconds)) {
+      return;
+    }
+    last_stage_ = now;
+    Publish("stage", stage_json_);
+  });
 }
 
 void LiveFeed::Iteration(const std::string& entry_json) {
-  const Json parsed = Json::parse(entry_json, nullptr, false);
-  if (parsed.is_discarded()) return Note("an iteration could not be shown");
-  const std::string doc = Dump(parsed);
-  std::lock_guard<std::mutex> lock(mutex_);
-  iterations_.push_back(doc);
-  Publish("iteration", doc);
+  Guarded([&] {
+    const Json parsed = Json::parse(entry_json, nullptr, false);
+    if (parsed.is_discarded()) return Note("an iteration could not be shown");
+    const std::string doc = Dump(parsed);
+    std::lock_guard<std::mutex> lock(mutex_);
+    iterations_.push_back(doc);
+    Publish("iteration", doc);
+  });
 }
 
 void LiveFeed::ReportWritten(const std::string& path) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  report_json_ = Dump(Json(path));
-  Publish("report", report_json_);
+  Guarded([&] {
+    std::lock_guard<std::mutex> lock(mutex_);
+    report_json_ = Dump(Json(path));
+    Publish("report", report_json_);
+  });
 }
 
 void LiveFeed::Note(const std::string& line) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const std::string doc = Dump(Json(line));
-  // The newest few, for a late viewer.
-  if (notes_.size() >= 20) notes_.erase(notes_.begin());
-  notes_.push_back(doc);
-  Publish("note", doc);
+  Guarded([&] {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const std::string doc = Dump(Json(line));
+    // The newest few, for a late viewer.
+    if (notes_.size() >= 20) notes_.erase(notes_.begin());
+    notes_.push_back(doc);
+    Publish("note", doc);
+  });
 }
 
 void LiveFeed::End(const std::string& outcome) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (ended_) return;
-  end_json_ = Dump(Json(outcome));
-  Publish("end", end_json_);
-  ended_ = true;
+  Guarded([&] {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (ended_) return;
+    end_json_ = Dump(Json(outcome));
+    Publish("end", end_json_);
+    ended_ = true;
+  });
 }
 
 void LiveFeed::Fail(const char* what) {
@@ -428,25 +458,30 @@ void LiveFeed::Publish(const char* event, std::string data) {
   changed_.notify_all();
 }
 
+// Copied under the lock, formatted outside it: the logger never waits for
+// a viewer's snapshot.
 std::string LiveFeed::Snapshot(std::uint64_t* seq) const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  std::string iterations = "[";
-  for (std::size_t i = 0; i < iterations_.size(); ++i) {
-    iterations += (i > 0 ? "," : "") + iterations_[i];
+  std::vector<Bin> history;
+  std::string text = "event: snapshot\ndata: {";
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    history = history_;
+    *seq = next_seq_ - 1;
+    const auto list = [](const std::vector<std::string>& items) {
+      std::string out = "[";
+      for (std::size_t i = 0; i < items.size(); ++i) {
+        out += (i > 0 ? "," : "") + items[i];
+      }
+      return out + "]";
+    };
+    text += "\"title\":" + title_json_ + ",\"run\":" + run_json_ +
+            ",\"status\":" + status_json_ + ",\"trip\":" + trip_json_ +
+            ",\"run_end\":" + run_end_json_ + ",\"stage\":" + stage_json_ +
+            ",\"iterations\":" + list(iterations_) +
+            ",\"report\":" + report_json_ + ",\"notes\":" + list(notes_) +
+            ",\"end\":" + end_json_;
   }
-  iterations += "]";
-  std::string notes = "[";
-  for (std::size_t i = 0; i < notes_.size(); ++i) {
-    notes += (i > 0 ? "," : "") + notes_[i];
-  }
-  notes += "]";
-  *seq = next_seq_ - 1;
-  return "event: snapshot\ndata: {\"title\":" + title_json_ +
-         ",\"run\":" + run_json_ + ",\"history\":" + BinsJson(history_) +
-         ",\"status\":" + status_json_ + ",\"trip\":" + trip_json_ +
-         ",\"run_end\":" + run_end_json_ + ",\"stage\":" + stage_json_ +
-         ",\"iterations\":" + iterations + ",\"report\":" + report_json_ +
-         ",\"notes\":" + notes + ",\"end\":" + end_json_ + "}\n\n";
+  return text + ",\"history\":" + BinsJson(history) + "}\n\n";
 }
 
 LiveFeed::Read LiveFeed::ReadAfter(std::uint64_t* seq, std::string* out,
@@ -456,6 +491,8 @@ LiveFeed::Read LiveFeed::ReadAfter(std::uint64_t* seq, std::string* out,
   if (!log_.empty() && log_.front().seq > *seq + 1) return Read::kStalled;
   for (const Message& m : log_) {
     if (m.seq <= *seq) continue;
+    // A bounded copy per call: the rest comes with the next.
+    if (out->size() >= kMaxReadBytes) return Read::kMessages;
     *out += m.text;
     *seq = m.seq;
   }

@@ -62,7 +62,7 @@ class LiveFeed final : public RunMonitor {
                 const LoopResult& loop) override;
 
   // The command around the runs (any thread).
-  void Title(const std::string& command, const std::string& rig);
+  void Title(const std::string& command);
   void Stage(const std::string& text);
   // One iteration of campaign.json ("iterations"' entry), as it lands.
   void Iteration(const std::string& entry_json);
@@ -81,6 +81,9 @@ class LiveFeed final : public RunMonitor {
   Read ReadAfter(std::uint64_t* seq, std::string* out,
                  std::chrono::milliseconds wait) const;
 
+  // A viewer's read copies at most about this much at once.
+  static constexpr std::size_t kMaxReadBytes = 256u << 10;
+
   // Memory the log and the history hold [bytes] (tests).
   std::size_t held_bytes() const;
 
@@ -91,6 +94,9 @@ class LiveFeed final : public RunMonitor {
     void Merge(const Bin& later);
   };
 
+  template <typename Work>
+  void Guarded(Work work);
+  void Start(const Run& run);
   void Ingest(const CycleRecord& record);
   void Margins(const CycleRecord& record, const double* v);
   void CloseBin();
@@ -132,6 +138,7 @@ class LiveFeed final : public RunMonitor {
   std::size_t log_bytes_ = 0;
   std::uint64_t next_seq_ = 1;
   bool ended_ = false;
+  std::chrono::steady_clock::time_point last_stage_{};
   // The state a late viewer starts from.
   std::string title_json_ = "{}";
   std::string run_json_ = "null";

@@ -153,6 +153,7 @@ RunLogger::Options LoggerOptionsFor(const RigConfig& rig_config,
         (std::filesystem::path(options.log_dir) / "run.csv").string();
   }
   logger.on_warning = options.on_warning;
+  if (RealTime(options)) logger.loop_cpu = rig_config.realtime.cpu;
   if (options.monitor != nullptr) {
     logger.on_record = [monitor = options.monitor](const CycleRecord& r) {
       monitor->CycleLogged(r);

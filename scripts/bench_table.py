@@ -506,7 +506,10 @@ def rows(d):
         "target ratio ≤ 1.5; tails vary widely between runs on a shared VM")
     ingest = d.get("rt_bench", "BM_LiveFeedIngest")
     for arg, viewers in (("0", "three stream readers (curl)"),
-                         ("1", "three headless Chromium pages")):
+                         ("1", "three headless Chromium pages"),
+                         ("2", "three stream readers among 50 idle "
+                               "connections, a stream never read and three "
+                               "malformed requests")):
         name = "BM_ConsoleImpact/" + arg
         impact = d.get("rt_bench", name)
         note = "target ratios ≤ 1.1, no extra overrun, console CPU ≤ 5 %"

@@ -14,7 +14,7 @@ packages=(
   qemu-system-x86 busybox-static cpio python3-can python3-canmatrix
   clang-14 libclang-rt-14-dev
   python3-plotly chromium fonts-dejavu-core python3-numpy python3-scipy python3-yaml
-  libcpp-httplib-dev chromium-driver python3-selenium
+  libcivetweb-dev chromium-driver python3-selenium
 )
 
 missing=()

@@ -1,15 +1,18 @@
 #!/usr/bin/python3
 """The live operator console (--console) in headless Chromium, driven by
 Selenium through chromedriver: a campaign watched on the embedded rig, a
-trip's banner, the stop button (with and without the token), and clients
-that misbehave while a run goes on.
+trip's banner (an injected fault on the embedded rig, and a rig's own
+emergency stop over Modbus in real time), the stop button (with and
+without the token), and clients that misbehave while a run goes on.
 
-Usage: console_browser_test.py KCRIG ARTIFACT_DIR
+Usage: console_browser_test.py KCRIG ARTIFACT_DIR [TEST_NAME...]
+(ctest runs the real-time test apart, alone.)
 """
 import json
 import os
 import re
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -199,6 +202,36 @@ class ConsoleTest(unittest.TestCase):
                   "wb") as f:
             f.write(d.get_screenshot_as_png())
 
+    def test_a_rigs_emergency_stop_is_on_the_page_within_half_a_second(self):
+        # The real loop over Modbus TCP in real time: the rig's e-stop
+        # (SIGUSR1 to kcrig emulate) to the banner, end to end.
+        log = os.path.join(self.dir, "estop")
+        emulator = subprocess.Popen(
+            [KCRIG, "emulate", "--modbus-tcp", "127.0.0.1:0"],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            start_new_session=True)
+        try:
+            uri = re.search(r"(modbus-tcp://\S+)",
+                            emulator.stdout.readline()).group(1)
+            self.kcrig = Kcrig(["run", "--rig", uri, "--console", "0",
+                                "--log-dir", log, "--quiet"])
+            self.open(self.kcrig)
+            d = self.driver
+            until(lambda: data(d, "phase") == "ramp", 20, "the ramp")
+            pressed = time.time() * 1000
+            emulator.send_signal(signal.SIGUSR1)
+            until(lambda: data(d, "trip"), 10, "the trip banner", step=0.01)
+            latency = float(data(d, "tripShownAt")) - pressed
+            print("rig e-stop to the banner: %.0f ms" % latency)
+            self.assertEqual(data(d, "trip"), "rig_fault")
+            self.assertIn("emergency stop",
+                          d.find_element(By.ID, "trip").text)
+            self.assertLessEqual(latency, 500)
+            self.assertEqual(self.kcrig.wait(60), 3, self.kcrig.output())
+        finally:
+            emulator.terminate()
+            emulator.wait(10)
+
     def test_stop_needs_the_token_and_ramps_down(self):
         log = os.path.join(self.dir, "stop")
         self.kcrig = Kcrig(["run", "--rig", "sim", "--console", "0",
@@ -225,8 +258,9 @@ class ConsoleTest(unittest.TestCase):
 
     def test_misbehaving_clients_do_not_disturb_the_run(self):
         log = os.path.join(self.dir, "hostile")
+        # A 20 s ramp: 22.7 s of run, long enough to see a stall dropped.
         self.kcrig = Kcrig(["run", "--rig", "sim", "--console", "0",
-                            "--log-dir", log, "--quiet"])
+                            "--duration", "20", "--log-dir", log, "--quiet"])
         k = self.kcrig
         host, port = k.base[len("http://"):].split(":")
         port = int(port)
@@ -242,33 +276,64 @@ class ConsoleTest(unittest.TestCase):
         stalled.connect((host, port))
         stalled.sendall(("GET /events?token=%s HTTP/1.1\r\nHost: x\r\n\r\n"
                          % k.token).encode())
+        opened = time.monotonic()
         for garbage in [b"\x16\x03\x01\x02\x00\x01\x00\x01\xfc\x03\x03",
                         b"GET / HTTP/1.1\r\n" + b"X: " + b"a" * 100000,
                         b"BREW /coffee HTCPCP/1.0\r\n\r\n"]:
             s = socket.create_connection((host, port))
             s.sendall(garbage)
             s.close()
-        for path in ["/", "/events", "/../../etc/passwd",
-                     "/run.csv?token=" + k.token]:
+        for path in ["/", "/events", "/../../etc/passwd", "/stop"]:
             status, _ = request(k.base + path)
-            self.assertIn(status, (403, 404), path)
-        status, _ = request(k.base + "/etc/passwd?token=" + k.token)
-        self.assertEqual(status, 404)
+            self.assertEqual(status, 403, path)
+        for path in ["/etc/passwd", "/run.csv", "/../run.json", "/events/x"]:
+            status, _ = request(k.base + path + "?token=" + k.token)
+            self.assertEqual(status, 404, path)
+        # Eight viewers at most: a ninth is refused.
+        streams = []
+        for _ in range(8):
+            s = socket.create_connection((host, port))
+            s.sendall(("GET /events?token=%s HTTP/1.1\r\nHost: x\r\n\r\n"
+                       % k.token).encode())
+            streams.append(s)
+        time.sleep(1)
+        status, _ = request(k.base + "/events?token=" + k.token)
+        self.assertEqual(status, 503)
+        for s in streams:
+            s.close()
         # A well-behaved viewer still gets the run.
         self.open(k)
         d = self.driver
         until(lambda: data(d, "updates") and int(data(d, "updates")) > 3, 30,
               "updates beside the misbehaving clients")
+        # The stream never read for 12 s has been dropped (the server
+        # closed it) while the run still goes on.
+        time.sleep(max(0.0, 12 - (time.monotonic() - opened)))
+        # What it holds is read within 2 s; a kept stream goes on after it.
+        stalled.settimeout(0.5)
+        dropped = False
+        drain_end = time.monotonic() + 2
+        try:
+            while time.monotonic() < drain_end and not dropped:
+                dropped = stalled.recv(1 << 16) == b""
+        except socket.timeout:
+            dropped = False
+        except OSError:
+            dropped = True
+        self.assertIsNone(k.proc.poll(), "the run ended before the check")
+        self.assertTrue(dropped, "a stream never read was kept open")
         self.assertEqual(k.wait(60), 0, k.output())
         for s in idle + [stalled]:
             s.close()
         with open(os.path.join(log, "run.json")) as f:
             hil = json.load(f)["hil"]
-        self.assertEqual(hil["cycles"], 6700, hil)
+        self.assertEqual(hil["cycles"], 22700, hil)
         self.assertEqual(hil["overruns"], 0, hil)
         self.assertEqual(hil["dropped_log_records"], 0, hil)
 
 
 if __name__ == "__main__":
     os.makedirs(ARTIFACTS, exist_ok=True)
-    unittest.main(argv=sys.argv[:1], verbosity=2)
+    unittest.main(argv=sys.argv[:1] + ["ConsoleTest." + name
+                                       for name in sys.argv[3:]],
+                  verbosity=2)

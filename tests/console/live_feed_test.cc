@@ -168,7 +168,7 @@ TEST(LiveFeedTest, UserStringsNeverThrowAndStayText) {
   RunMonitor::Run run = TestRun();
   run.log_dir = "/tmp/\xff\xfe<script>alert(1)</script>";
   feed.RunStarted(run);
-  feed.Title("kcrig run", "rig \"quoted\" \xc3");
+  feed.Title("kcrig run \"quoted\" \xc3");
   feed.Iteration("not json");
   feed.Note("<b>bold</b>");
   std::uint64_t seq = 0;
@@ -206,7 +206,7 @@ TEST(LiveConsoleTest, ListensOnLoopbackAndRefusesOtherAddressesUnlessAllowed) {
   EXPECT_TRUE(second->remote());
 
   for (const char* bad : {"127.0.0.1:99999", "127.0.0.1:", ":80", "x:y",
-                          "no-such-host.invalid:0"}) {
+                          "no-such-host.invalid:0", "[::1]:0", "::1"}) {
     const Status status = LiveConsole::Start(TestConsole(bad), &second);
     EXPECT_FALSE(status.ok()) << bad;
     EXPECT_EQ(status.message().rfind("--console ", 0), 0u) << status.message();
@@ -217,6 +217,14 @@ TEST(LiveConsoleTest, ListensOnLoopbackAndRefusesOtherAddressesUnlessAllowed) {
   const Status taken =
       LiveConsole::Start(TestConsole("127.0.0.1:" + port), &second);
   EXPECT_FALSE(taken.ok());
+}
+
+TEST(LiveConsoleTest, StopsAtOnceHoweverSoonAfterItStarted) {
+  for (int i = 0; i < 4; ++i) {
+    std::unique_ptr<LiveConsole> console;
+    ASSERT_TRUE(LiveConsole::Start(TestConsole("0"), &console).ok());
+    if (i % 2 == 0) console->Shutdown("stopped at once");
+  }
 }
 
 TEST(VirtualClockTest, APacedClockNeverRunsAheadOfItsPace) {
