@@ -72,6 +72,28 @@ class Kcrig:
         return "".join(self.lines)
 
 
+def rss_kib(pid):
+    with open("/proc/%d/status" % pid) as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    return 0
+
+
+def flood(host, port, chunks):
+    """Sends `chunks` until the server closes; the bytes it took."""
+    sent = 0
+    with socket.create_connection((host, port)) as s:
+        s.settimeout(5)
+        try:
+            for chunk in chunks:
+                s.sendall(chunk)
+                sent += len(chunk)
+        except OSError:
+            pass
+    return sent
+
+
 def browser():
     options = webdriver.ChromeOptions()
     options.binary_location = "/usr/bin/chromium"
@@ -283,6 +305,17 @@ class ConsoleTest(unittest.TestCase):
             s = socket.create_connection((host, port))
             s.sendall(garbage)
             s.close()
+        # Heads without end, before any token is checked: refused after a
+        # few kilobytes, the process's memory flat.
+        before = rss_kib(k.proc.pid)
+        taken = [
+            flood(host, port, [b"GET /"] + [b"a" * 65536] * 800),
+            flood(host, port, [b"GET / HTTP/1.1\r\n"] +
+                  [b"X-A: b\r\n"] * 100000),
+            flood(host, port, [b"GET /?token=x HTTP/1.1\r\nRange: bytes=" +
+                               b"0-0," * 2000 + b"0-0\r\n\r\n"])]
+        self.assertLess(max(taken[:2]), 16 << 20, taken)
+        self.assertLess(rss_kib(k.proc.pid) - before, 20 << 10)
         for path in ["/", "/events", "/../../etc/passwd", "/stop"]:
             status, _ = request(k.base + path)
             self.assertEqual(status, 403, path)
