@@ -23,7 +23,6 @@
 #include "estimator/estimate_io.h"
 #include "hil/campaign_rig.h"
 #include "hil/rig_config.h"
-#include "nlohmann/json.hpp"
 #include "records/run_log.h"
 #include "report/report.h"
 #include "rt_core/model/channels.h"
@@ -271,12 +270,6 @@ int Fail(const Status& status) {
   return 1;
 }
 
-// campaign.json's entry of one iteration, for the console.
-std::string IterationEntry(const CampaignIteration& it, Criterion criterion) {
-  return nlohmann::json::parse(CampaignToJson(criterion, {it}))["iterations"][0]
-      .dump();
-}
-
 // The campaign as the user sees it: progress, campaign.json, the report;
 // and on the console (`feed`, optional) the stages, iterations and report.
 int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
@@ -304,7 +297,7 @@ int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
     std::fflush(stdout);
     FollowsRankZero(it, options.criterion, args.out);
     if (feed != nullptr) {
-      feed->Iteration(IterationEntry(it, options.criterion));
+      feed->Iteration(CampaignIterationToJson(it));
     }
     complete.push_back(it);
     if (written.ok()) {

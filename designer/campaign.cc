@@ -610,6 +610,76 @@ Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
   return CampaignRun(config, options, rig, out_dir, iterations).Run();
 }
 
+namespace {
+
+// One iteration's entry of campaign.json.
+nlohmann::ordered_json IterationEntry(const CampaignIteration& it) {
+  // The stiffnesses (the campaign's parameters) apart from an adopted
+  // effect's, so that every iteration lists the same `parameters`.
+  const size_t stiffnesses = it.model == "nominal"
+                                 ? it.estimate.parameters.size()
+                                 : it.nominal_estimate.parameters.size();
+  nlohmann::ordered_json entry = {
+      {"iteration", it.index},
+      {"logs", it.logs},
+      {"experiment",
+       {{"phi_deg", it.experiment.phi / kDegree}, {"z_a", it.experiment.z_a}}},
+      {"model", it.model},
+      {"model_step_s", it.model_step > 0 ? nlohmann::ordered_json(it.model_step)
+                                         : nlohmann::ordered_json()},
+      {"parameters", ParametersJson(it.estimate, 0, stiffnesses)},
+      {"effect_parameters",
+       ParametersJson(it.estimate, stiffnesses, it.estimate.parameters.size())},
+      {"nominal_parameters",
+       ParametersJson(it.nominal_estimate, 0,
+                      it.nominal_estimate.parameters.size())},
+      {"check", it.failed_checks},
+      {"adequacy",
+       nlohmann::ordered_json::parse(AdequacyToJson(it.estimate.adequacy))},
+      {"prediction", it.prediction.assessed ? nlohmann::ordered_json::parse(
+                                                  AdequacyToJson(it.prediction))
+                                            : nlohmann::ordered_json()},
+      {"consistency",
+       {{"max_z", it.consistency_z},
+        {"parameter", it.least_consistent},
+        {"consistent", it.consistent}}},
+      {"diagnosis",
+       it.diagnosed
+           ? nlohmann::ordered_json{{"verdict", it.diagnosis.verdict},
+                                    {"model", it.diagnosis.model},
+                                    {"components", it.diagnosis.components},
+                                    {"confidence", it.diagnosis.confidence},
+                                    {"reason", it.diagnosis.reason},
+                                    {"gap_source", it.diagnosis.gap_source},
+                                    {"action", it.action},
+                                    {"rejected_adoption", it.rejected_adoption}}
+           : nlohmann::ordered_json()},
+      {"criterion_of_data", it.criterion_of_data}};
+  if (it.special_excitation) {
+    const RampExcitation<double>& e = *it.special_excitation;
+    entry["experiment"]["excitation"] = {{"fmax_n", e.fmax},
+                                         {"tf_s", e.duration},
+                                         {"hold_s", e.hold},
+                                         {"return_s", e.return_duration}};
+  }
+  if (it.designed) {
+    const OptimizationResult& r = it.design.result;
+    entry["next_design"] = {{"optimizer", r.optimizer},
+                            {"phi_deg", r.best.phi / kDegree},
+                            {"z_a", r.best.z_a},
+                            {"criterion_at_start", r.start_value},
+                            {"criterion_at_optimum", r.best_value},
+                            {"evaluations", r.evaluations}};
+  }
+  return entry;
+}
+
+}  // namespace
+
+std::string CampaignIterationToJson(const CampaignIteration& it) {
+  return IterationEntry(it).dump();
+}
+
 std::string CampaignToJson(Criterion criterion,
                            const std::vector<CampaignIteration>& iterations) {
   nlohmann::ordered_json doc;
@@ -617,68 +687,7 @@ std::string CampaignToJson(Criterion criterion,
   doc["criterion"] = CriterionName(criterion);
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
   for (const CampaignIteration& it : iterations) {
-    // The stiffnesses (the campaign's parameters) apart from an adopted
-    // effect's, so that every iteration lists the same `parameters`.
-    const size_t stiffnesses = it.model == "nominal"
-                                   ? it.estimate.parameters.size()
-                                   : it.nominal_estimate.parameters.size();
-    nlohmann::ordered_json entry = {
-        {"iteration", it.index},
-        {"logs", it.logs},
-        {"experiment",
-         {{"phi_deg", it.experiment.phi / kDegree},
-          {"z_a", it.experiment.z_a}}},
-        {"model", it.model},
-        {"model_step_s", it.model_step > 0
-                             ? nlohmann::ordered_json(it.model_step)
-                             : nlohmann::ordered_json()},
-        {"parameters", ParametersJson(it.estimate, 0, stiffnesses)},
-        {"effect_parameters", ParametersJson(it.estimate, stiffnesses,
-                                             it.estimate.parameters.size())},
-        {"nominal_parameters",
-         ParametersJson(it.nominal_estimate, 0,
-                        it.nominal_estimate.parameters.size())},
-        {"check", it.failed_checks},
-        {"adequacy",
-         nlohmann::ordered_json::parse(AdequacyToJson(it.estimate.adequacy))},
-        {"prediction",
-         it.prediction.assessed
-             ? nlohmann::ordered_json::parse(AdequacyToJson(it.prediction))
-             : nlohmann::ordered_json()},
-        {"consistency",
-         {{"max_z", it.consistency_z},
-          {"parameter", it.least_consistent},
-          {"consistent", it.consistent}}},
-        {"diagnosis",
-         it.diagnosed
-             ? nlohmann::ordered_json{{"verdict", it.diagnosis.verdict},
-                                      {"model", it.diagnosis.model},
-                                      {"components", it.diagnosis.components},
-                                      {"confidence", it.diagnosis.confidence},
-                                      {"reason", it.diagnosis.reason},
-                                      {"gap_source", it.diagnosis.gap_source},
-                                      {"action", it.action},
-                                      {"rejected_adoption",
-                                       it.rejected_adoption}}
-             : nlohmann::ordered_json()},
-        {"criterion_of_data", it.criterion_of_data}};
-    if (it.special_excitation) {
-      const RampExcitation<double>& e = *it.special_excitation;
-      entry["experiment"]["excitation"] = {{"fmax_n", e.fmax},
-                                           {"tf_s", e.duration},
-                                           {"hold_s", e.hold},
-                                           {"return_s", e.return_duration}};
-    }
-    if (it.designed) {
-      const OptimizationResult& r = it.design.result;
-      entry["next_design"] = {{"optimizer", r.optimizer},
-                              {"phi_deg", r.best.phi / kDegree},
-                              {"z_a", r.best.z_a},
-                              {"criterion_at_start", r.start_value},
-                              {"criterion_at_optimum", r.best_value},
-                              {"evaluations", r.evaluations}};
-    }
-    list.push_back(entry);
+    list.push_back(IterationEntry(it));
   }
   doc["iterations"] = list;
   return doc.dump(2) + "\n";

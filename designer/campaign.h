@@ -127,6 +127,10 @@ std::string CampaignCheck(const CampaignIteration& iteration);
 Status ValidateCampaignOptions(const KcrigConfig& config,
                                const CampaignOptions& options);
 
+// One iteration's entry of campaign.json (an element of its "iterations"),
+// as the iteration lands (the live console shows it).
+std::string CampaignIterationToJson(const CampaignIteration& it);
+
 // campaign.json: per iteration the logs, the experiment, the estimates with
 // intervals and log10 diag((J^T J)^-1), the criterion and the next design.
 std::string CampaignToJson(Criterion criterion,
