@@ -414,8 +414,11 @@
     };
     source.onerror = () => {
       $("connection").className = "field lost";
+      // Closed for good: refused (a ninth viewer) or kcrig has gone.
+      const closed = source.readyState === EventSource.CLOSED;
       $("connection").lastElementChild.textContent =
-          body.dataset.ended ? "closed" : "reconnecting";
+          body.dataset.ended ? "closed" :
+          closed ? "refused or gone (eight viewers at most)" : "reconnecting";
       if (body.dataset.ended) source.close();
     };
   }
