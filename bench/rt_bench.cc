@@ -352,8 +352,14 @@ bool RunOnEmulator(const RigConfig& rig_config, int port, RunMonitor* monitor,
   RigSessionOptions options;
   options.excitation = PaperRun().excitation;
   options.monitor = monitor;
-  return RunRigSession(Config(), rig_config, &rig, options, result).ok() &&
-         result->completed;
+  const Status status =
+      RunRigSession(Config(), rig_config, &rig, options, result);
+  if (!status.ok() || !result->completed) {
+    std::fprintf(
+        stderr, "rt_bench: the run failed: %s\n",
+        status.ok() ? result->trip_message.c_str() : status.message().c_str());
+  }
+  return status.ok() && result->completed;
 }
 
 // CPU time [s] of this process's threads called `name` (/proc's comm),
