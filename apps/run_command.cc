@@ -154,13 +154,16 @@ int RunRun(const RunArgs& args) {
   for (const std::string& warning : result.realtime.warnings) {
     std::fprintf(stderr, "kcrig run: warning: %s\n", warning.c_str());
   }
-  if (console != nullptr) {
-    console->Shutdown(!status.ok()       ? status.message()
-                      : result.completed ? std::string("the run completed")
-                                         : result.trip_message);
+  if (!status.ok()) {
+    if (console != nullptr) console->Shutdown(status.message());
+    return fail(status);
   }
-  if (!status.ok()) return fail(status);
   PrintOutcome("kcrig run", result, args.log_dir);
+  std::fflush(stdout);
+  if (console != nullptr) {
+    console->Shutdown(result.completed ? std::string("the run completed")
+                                       : result.trip_message);
+  }
   return result.completed ? 0 : kTripped;
 }
 

@@ -27,12 +27,13 @@ void AddSilRigOptions(CLI::App* cmd, SilRigArgs* args, bool with_faults) {
          "time (0: as fast as the CPU allows, the default; 1 with --console, "
          "so that the run can be watched). The logs are the same either way")
       ->check([](const std::string& text) {
-        // Slower than 1/100 of real time a cycle would outlast the pace's
-        // re-anchoring (1 s); 0 is unpaced.
+        // Slower than 1/10 of real time a cycle of rig.yaml's longest
+        // period (0.1 s) would outlast the pace's restart (1.5 s ahead);
+        // 0 is unpaced.
         const double pace = std::strtod(text.c_str(), nullptr);
-        return pace == 0 || (pace >= 0.01 && pace <= 1e6)
+        return pace == 0 || (pace >= 0.1 && pace <= 1e6)
                    ? std::string()
-                   : "0 (as fast as the CPU allows) or 0.01 .. 1e6";
+                   : "0 (as fast as the CPU allows) or 0.1 .. 1e6";
       });
   if (!with_faults) return;
   cmd->add_option(

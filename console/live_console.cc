@@ -7,7 +7,6 @@
 #include <netinet/in.h>
 #include <pthread.h>
 #include <sched.h>
-#include <signal.h>
 #include <sys/random.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
@@ -36,9 +35,6 @@ constexpr int kSpareWorkers = 4;
 // Accepted connections waiting for a worker; beyond them the kernel's
 // backlog holds them.
 constexpr int kQueuedConnections = 64;
-// The server's threads need little stack; under a rig run's mlockall
-// every page of it is locked.
-constexpr std::size_t kThreadStackBytes = 512u << 10;
 // A stream's comment line this often finds a viewer that went away.
 constexpr auto kKeepAlive = std::chrono::seconds(5);
 // One write to a viewer at most: a slow one is found within kIoTimeoutMs.
@@ -259,21 +255,16 @@ Status LiveConsole::Listen(const std::string& host, int port) {
   const std::string timeout = std::to_string(kIoTimeoutMs);
   const std::string request = std::to_string(kMaxRequestBytes);
   const std::string queue = std::to_string(kQueuedConnections);
-  const char* config[] = {"listening_ports",
-                          ports.c_str(),
-                          "num_threads",
-                          threads.c_str(),
-                          "request_timeout_ms",
-                          timeout.c_str(),
-                          "max_request_size",
-                          request.c_str(),
-                          "connection_queue",
-                          queue.c_str(),
-                          "enable_keep_alive",
-                          "no",
-                          "enable_directory_listing",
-                          "no",
-                          nullptr};
+  const char* config[] = {
+      "listening_ports", ports.c_str(), "num_threads", threads.c_str(),
+      "request_timeout_ms", timeout.c_str(), "max_request_size",
+      request.c_str(), "connection_queue", queue.c_str(), "enable_keep_alive",
+      "no", "enable_directory_listing", "no",
+      // No CORS preflight answered by civetweb itself
+      // (its default allows every origin): OPTIONS
+      // reaches the token check like every request.
+      "access_control_allow_origin", "", "access_control_allow_methods", "",
+      "access_control_allow_headers", "", nullptr};
   mg_callbacks callbacks{};
   // The server's threads, made in mg_start: below the loop, off its CPU.
   callbacks.init_thread = [](const mg_context* context, int) -> void* {
@@ -285,20 +276,7 @@ Status LiveConsole::Listen(const std::string& host, int port) {
   // The terminal is the run's: the server's own complaints stay off it.
   callbacks.log_message = [](const mg_connection*, const char*) { return 1; };
   mg_init_library(0);
-  // mg_start ignores SIGCHLD, which would reap children that kcrig waits
-  // for; it gets its own small stacks.
-  struct sigaction child {};
-  sigaction(SIGCHLD, nullptr, &child);
-  pthread_attr_t defaults, small;
-  pthread_getattr_default_np(&defaults);
-  pthread_getattr_default_np(&small);
-  pthread_attr_setstacksize(&small, kThreadStackBytes);
-  pthread_setattr_default_np(&small);
   context_ = mg_start(&callbacks, this, config);
-  pthread_setattr_default_np(&defaults);
-  pthread_attr_destroy(&small);
-  pthread_attr_destroy(&defaults);
-  sigaction(SIGCHLD, &child, nullptr);
   mg_server_port bound{};
   if (context_ == nullptr || mg_get_server_ports(context_, 1, &bound) != 1) {
     return Status::Error("--console " + options_.address +
@@ -323,8 +301,16 @@ void LiveConsole::BelowTheLoop(int loop_cpu) {
 // nothing else exists. An exception never crosses into the C server.
 int LiveConsole::Handle(mg_connection* conn, void* self_pointer) {
   auto* self = static_cast<LiveConsole*>(self_pointer);
+  // Closed after the answer: civetweb then never reads the rest of a body
+  // (which a client could trickle for ever).
+  mg_disable_connection_keep_alive(conn);
   try {
     const mg_request_info* request = mg_get_request_info(conn);
+    if (request->content_length > 0 ||
+        mg_get_header(conn, "Transfer-Encoding") != nullptr) {
+      return Respond(conn, 413, "Content Too Large", "text/plain",
+                     "kcrig console: no request takes a body\n");
+    }
     if (!self->Authorized(conn, request)) {
       return Respond(conn, 403, "Forbidden", "text/plain",
                      "kcrig console: refused without the token of the URL "
@@ -341,7 +327,9 @@ int LiveConsole::Handle(mg_connection* conn, void* self_pointer) {
     return Respond(conn, 404, "Not Found", "text/plain",
                    "kcrig console: no such page\n");
   } catch (...) {
-    return 500;  // the connection closes; the run goes on
+    // The run goes on; the viewer gets an error (when nothing was sent).
+    mg_send_http_error(conn, 500, "%s", "kcrig console: internal error\n");
+    return 500;
   }
 }
 
@@ -378,18 +366,33 @@ int LiveConsole::Stop(mg_connection* conn, const std::string& from) {
 // The snapshot, then every message as it comes, until the feed ends, the
 // console stops, or the viewer stalls or goes away.
 int LiveConsole::ServeStream(mg_connection* conn) {
+  // Counted on every way out, an exception's too.
+  struct Viewer {
+    std::atomic<int>* count;
+    ~Viewer() { count->fetch_sub(1); }
+  } viewer{&viewers_};
   if (viewers_.fetch_add(1) >= options_.max_viewers) {
-    viewers_.fetch_sub(1);
     return Respond(conn, 503, "Service Unavailable", "text/plain",
                    "kcrig console: too many viewers\n");
   }
+  std::uint64_t seq = 0;
+  std::string out = feed_.Snapshot(&seq);
   mg_printf(conn,
             "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\n%s\r\n",
             kCommonHeaders);
-  std::uint64_t seq = 0;
-  std::string out = feed_.Snapshot(&seq);
+  try {
+    Stream(conn, seq, std::move(out));
+  } catch (...) {
+    // Headers are out: the stream just ends; the page reconnects.
+  }
+  return 200;
+}
+
+void LiveConsole::Stream(mg_connection* conn, std::uint64_t seq,
+                         std::string out) {
   auto written = std::chrono::steady_clock::now() - kKeepAlive;
   for (;;) {
+    feed_.FlushStage();
     const LiveFeed::Read read =
         feed_.ReadAfter(&seq, &out, std::chrono::milliseconds(250));
     if (read == LiveFeed::Read::kStalled || stopping_) break;
@@ -402,8 +405,6 @@ int LiveConsole::ServeStream(mg_connection* conn) {
     }
     if (read == LiveFeed::Read::kEnded) break;
   }
-  viewers_.fetch_sub(1);
-  return 200;
 }
 
 void LiveConsole::Shutdown(const std::string& outcome) {
@@ -417,7 +418,8 @@ void LiveConsole::Shutdown(const std::string& outcome) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   stopping_ = true;
-  // Joins the server's threads; a read or write in progress sees the stop.
+  // Joins the server's threads, a read or write in progress seeing the
+  // stop; civetweb's listening thread wakes from its poll within 2 s.
   if (context_ != nullptr) mg_stop(context_);
   context_ = nullptr;
 }

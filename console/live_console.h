@@ -12,6 +12,7 @@
 #define KCRIG_CONSOLE_LIVE_CONSOLE_H_
 
 #include <atomic>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -65,7 +66,8 @@ class LiveConsole {
   int viewers() const { return viewers_.load(); }
 
   // Ends the feed with `outcome`, gives the viewers up to the write
-  // timeout (2 s) to receive it, stops serving. Idempotent.
+  // timeout (2 s) to receive it, stops serving (civetweb's listening
+  // thread wakes within 2 s): at most about 4 s. Idempotent.
   void Shutdown(const std::string& outcome);
 
  private:
@@ -76,6 +78,7 @@ class LiveConsole {
   bool Authorized(mg_connection* conn, const mg_request_info* request) const;
   int ServePage(mg_connection* conn);
   int ServeStream(mg_connection* conn);
+  void Stream(mg_connection* conn, std::uint64_t seq, std::string out);
   int Stop(mg_connection* conn, const std::string& from);
 
   ConsoleOptions options_;

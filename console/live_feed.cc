@@ -33,6 +33,12 @@ std::string Dump(const Json& doc) {
   return doc.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
+// The larger share of a limit; a NaN stays (the page shows it red) until
+// the next update, as the loop trips on one.
+double Peak(double a, double b) {
+  return std::isnan(a) || std::isnan(b) ? std::nan("") : std::max(a, b);
+}
+
 double Fraction(double value, double limit) {
   return limit > 0 ? std::fabs(value) / limit : 0;
 }
@@ -78,6 +84,8 @@ void LiveFeed::Guarded(Work work) {
     work();
   } catch (const std::exception& error) {
     Fail(error.what());
+  } catch (...) {
+    Fail("an unknown error");
   }
 }
 
@@ -204,14 +212,14 @@ void LiveFeed::Ingest(const CycleRecord& r) {
 void LiveFeed::Margins(const CycleRecord& r, const double* v) {
   const SafetyLimits& l = run_.limits;
   for (int k = 0; k < 3; ++k) {
-    live_.force[k] = std::max(live_.force[k], Fraction(v[k], l.force_max));
+    live_.force[k] = Peak(live_.force[k], Fraction(v[k], l.force_max));
     if (have_command_) {
       const double rate = (v[k] - last_command_[k]) / run_.period;
-      live_.rate[k] = std::max(live_.rate[k], Fraction(rate, l.force_rate_max));
+      live_.rate[k] = Peak(live_.rate[k], Fraction(rate, l.force_rate_max));
       if (r.fresh && r.safety == SafetyState::kNormal) {
         live_.tracking[k] =
-            std::max(live_.tracking[k],
-                     Fraction(v[3 + k] - last_command_[k], l.force_error_max));
+            Peak(live_.tracking[k],
+                 Fraction(v[3 + k] - last_command_[k], l.force_error_max));
       }
     }
     last_command_[k] = v[k];
@@ -219,18 +227,18 @@ void LiveFeed::Margins(const CycleRecord& r, const double* v) {
   have_command_ = true;
   for (int k = 0; k < 6; ++k) {
     const bool angle = k >= 3;
-    live_.limit[k] = std::max(
-        live_.limit[k], Fraction(r.y[k], angle ? l.angle_max : l.travel_max));
+    live_.limit[k] = Peak(live_.limit[k],
+                          Fraction(r.y[k], angle ? l.angle_max : l.travel_max));
     if (r.phase != RunPhase::kTare) {
       live_.error[k] =
-          std::max(live_.error[k],
-                   Fraction(v[6 + k] - v[12 + k],
-                            angle ? l.error_angle_max : l.error_position_max));
+          Peak(live_.error[k],
+               Fraction(v[6 + k] - v[12 + k],
+                        angle ? l.error_angle_max : l.error_position_max));
     }
   }
-  live_.watchdog = std::max(live_.watchdog,
-                            Fraction(static_cast<double>(not_fresh_),
-                                     static_cast<double>(l.watchdog_cycles)));
+  live_.watchdog =
+      Peak(live_.watchdog, Fraction(static_cast<double>(not_fresh_),
+                                    static_cast<double>(l.watchdog_cycles)));
 }
 
 // Bins waiting for the next update stay few: faster than real time,
@@ -285,12 +293,13 @@ void LiveFeed::PublishUpdate(bool with_open_bin) {
     bins.swap(merged);
   }
   std::string status = StatusJson();
+  const std::string bins_json = bins.empty() ? "" : BinsJson(bins);
   live_.force = live_.rate = live_.tracking = {};
   live_.limit = live_.error = {};
   live_.watchdog = 0;
   std::lock_guard<std::mutex> lock(mutex_);
   if (!bins.empty()) {
-    Publish("bins", BinsJson(bins));
+    Publish("bins", bins_json);
     history_.insert(history_.end(), bins.begin(), bins.end());
     const auto cap = static_cast<std::size_t>(options_.history_bins);
     if (history_.size() > cap) {
@@ -359,19 +368,33 @@ void LiveFeed::Title(const std::string& command) {
 }
 
 // Stages change with every batch of a design: at most one message per
-// update interval, the newest always in the snapshot.
+// update interval; one held back is sent by FlushStage, and is always in
+// the snapshot.
 void LiveFeed::Stage(const std::string& text) {
   Guarded([&] {
-    const auto now = std::chrono::steady_clock::now();
     std::lock_guard<std::mutex> lock(mutex_);
     stage_json_ = Dump(Json(text));
-    if (now - last_stage_ <
-        std::chrono::duration<double>(options_.update_seconds)) {
-      return;
-    }
-    last_stage_ = now;
-    Publish("stage", stage_json_);
+    stage_pending_ = true;
+    PublishStageIfDue();
   });
+}
+
+void LiveFeed::FlushStage() {
+  Guarded([&] {
+    std::lock_guard<std::mutex> lock(mutex_);
+    PublishStageIfDue();
+  });
+}
+
+void LiveFeed::PublishStageIfDue() {
+  const auto now = std::chrono::steady_clock::now();
+  if (!stage_pending_ || now - last_stage_ < std::chrono::duration<double>(
+                                                 options_.update_seconds)) {
+    return;
+  }
+  stage_pending_ = false;
+  last_stage_ = now;
+  Publish("stage", stage_json_);
 }
 
 void LiveFeed::Iteration(const std::string& entry_json) {
@@ -415,7 +438,7 @@ void LiveFeed::End(const std::string& outcome) {
 }
 
 void LiveFeed::Fail(const char* what) {
-  failed_ = true;
+  if (failed_.exchange(true)) return;
   if (options_.on_failure) {
     options_.on_failure(std::string("the console's feed stopped (") + what +
                         ")");

@@ -12,6 +12,7 @@
 #define KCRIG_CONSOLE_LIVE_FEED_H_
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -64,6 +65,9 @@ class LiveFeed final : public RunMonitor {
   // The command around the runs (any thread).
   void Title(const std::string& command);
   void Stage(const std::string& text);
+  // Sends a stage held back by the rate limit once its time has come (a
+  // viewer's stream calls it).
+  void FlushStage();
   // One iteration of campaign.json ("iterations"' entry), as it lands.
   void Iteration(const std::string& entry_json);
   void ReportWritten(const std::string& path);
@@ -104,6 +108,7 @@ class LiveFeed final : public RunMonitor {
   void PublishTrip(const CycleRecord& record);
   std::string StatusJson() const;
   void Publish(const char* event, std::string data);  // needs mutex_
+  void PublishStageIfDue();                           // needs mutex_
   void Fail(const char* what);
   static std::string BinsJson(const std::vector<Bin>& bins);
 
@@ -125,7 +130,7 @@ class LiveFeed final : public RunMonitor {
   std::int64_t next_cycle_ = 0;
   TimingStatistics wakeup_;
   std::chrono::steady_clock::time_point last_update_{};
-  bool failed_ = false;
+  std::atomic<bool> failed_{false};  // set by any thread, once
 
   // Shared with the viewers' threads.
   mutable std::mutex mutex_;
@@ -139,6 +144,7 @@ class LiveFeed final : public RunMonitor {
   std::uint64_t next_seq_ = 1;
   bool ended_ = false;
   std::chrono::steady_clock::time_point last_stage_{};
+  bool stage_pending_ = false;
   // The state a late viewer starts from.
   std::string title_json_ = "{}";
   std::string run_json_ = "null";

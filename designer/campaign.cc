@@ -677,7 +677,8 @@ nlohmann::ordered_json IterationEntry(const CampaignIteration& it) {
 }  // namespace
 
 std::string CampaignIterationToJson(const CampaignIteration& it) {
-  return IterationEntry(it).dump();
+  return IterationEntry(it).dump(
+      -1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
 }
 
 std::string CampaignToJson(Criterion criterion,

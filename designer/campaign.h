@@ -128,7 +128,8 @@ Status ValidateCampaignOptions(const KcrigConfig& config,
                                const CampaignOptions& options);
 
 // One iteration's entry of campaign.json (an element of its "iterations"),
-// as the iteration lands (the live console shows it).
+// as the iteration lands, for display (the live console): invalid UTF-8 in
+// a path is replaced.
 std::string CampaignIterationToJson(const CampaignIteration& it);
 
 // campaign.json: per iteration the logs, the experiment, the estimates with

@@ -34,7 +34,7 @@ void VirtualClock::SleepUntil(std::int64_t deadline) {
 void VirtualClock::Pace(std::int64_t deadline) {
   // Further off the pace than this, either way, starts it afresh.
   constexpr std::int64_t kMaxBehind = 50'000'000;
-  constexpr std::int64_t kMaxAhead = 1'000'000'000;
+  constexpr std::int64_t kMaxAhead = 1'500'000'000;
   const std::int64_t wall = MonotonicNanoseconds();
   const std::int64_t due =
       wall_anchor_ +

@@ -51,9 +51,13 @@ std::vector<json> Events(const std::string& text, const std::string& event) {
   return found;
 }
 
+// Every message after *seq (a read copies a bounded part).
 std::string ReadAll(const LiveFeed& feed, std::uint64_t* seq) {
   std::string out;
-  feed.ReadAfter(seq, &out, std::chrono::milliseconds(0));
+  for (std::size_t before = 1; before != out.size();) {
+    before = out.size();
+    feed.ReadAfter(seq, &out, std::chrono::milliseconds(0));
+  }
   return out;
 }
 
