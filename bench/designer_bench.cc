@@ -8,7 +8,9 @@
 //  - whole campaigns on the embedded SIL rig, without an effect and
 //    adopting one (issue #17); the main job also on the pure model
 //    simulation the embedded rig was before the SIL rig (issue #47: the
-//    pair's ratio).
+//    pair's ratio);
+//  - the hysteresis model's fit to two SIL logs that remember, with and
+//    without estimating each log's initial state (issue #47).
 // Run: build/bin/designer_bench --benchmark_format=json
 #include <cmath>
 #include <filesystem>
@@ -18,6 +20,7 @@
 #include "designer/campaign.h"
 #include "designer/internal/ecnoise.h"
 #include "designer/optimizers.h"
+#include "diagnosis/effect_model.h"
 #include "emulator/plant_config.h"
 #include "emulator/sil_rig.h"
 #include "emulator/simulated_run.h"
@@ -243,6 +246,67 @@ BENCHMARK_CAPTURE(BM_Campaign, 3_experiments_rig_compliance_adopted, 2,
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(1);
+
+// Two SIL logs of the paper's experiment back to back, hysteresis in every
+// bushing kept from the first run to the second (issue #47's memory).
+std::vector<Experiment> RememberingRigLogs(const KcrigConfig& config) {
+  PlantConfig plant;
+  if (!LoadPlantConfig(KCRIG_BENCH_CONFIG_DIR, config.model, &plant).ok() ||
+      !ParseEffect("hysteresis:force=369,sigma=3.4e7", &plant.effects).ok()) {
+    std::abort();
+  }
+  const RigRunner rig = SilRigRunner(config, plant);
+  const std::string dir =
+      (std::filesystem::temp_directory_path() / "kcrig_memory_bench").string();
+  std::filesystem::create_directories(dir);
+  const ExperimentConfig& e = config.experiment;
+  std::vector<Experiment> experiments(2);
+  for (int run = 0; run < 2; ++run) {
+    const std::string csv = dir + "/run" + std::to_string(run) + ".csv";
+    if (!rig(RampExcitation<double>{e.phi, e.z_a, e.fmax, e.duration}, run, csv)
+             .ok() ||
+        !LoadExperiment(csv, config, "", &experiments[run]).ok()) {
+      std::abort();
+    }
+  }
+  std::filesystem::remove_all(dir);
+  return experiments;
+}
+
+// The hysteresis model's fit to those logs (5 stiffnesses, the effect's
+// force and sigma), each log started from the Dahl forces its tare shows
+// (`initial_state`: BasicRigPlant::SettleAtRest) or from rest: the cost of
+// estimating the initial state (issue #47: <= 1.2x).
+void BM_HysteresisFitOfRigLogs(benchmark::State& state, bool initial_state) {
+  const Setup& s = TheSetup();
+  static const std::vector<Experiment> logs = RememberingRigLogs(s.config);
+  std::vector<Experiment> experiments = logs;
+  if (!initial_state) {
+    for (Experiment& e : experiments) e.rest_pose.reset();
+  }
+  EffectModel model;
+  if (!EffectModel::CreateNamed(s.config.model, "hysteresis", 0.25, 4.0, &model)
+           .ok()) {
+    std::abort();
+  }
+  EffectFit fit;
+  for (auto _ : state) {
+    if (!FitEffectModel(model, experiments, {}, EffectFitOptions{},
+                        s.config.experiment.step, &fit)
+             .ok()) {
+      std::abort();
+    }
+  }
+  state.counters["iterations"] = fit.result.iterations;
+  state.counters["chi2_per_dof"] =
+      fit.result.adequacy.chi_square / fit.result.adequacy.dof;
+}
+BENCHMARK_CAPTURE(BM_HysteresisFitOfRigLogs, initial_state_from_tare, true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_HysteresisFitOfRigLogs, from_rest, false)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace kcrig

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <utility>
 
+#include "estimator/internal/applied_force.h"
 #include "records/read_log.h"
 #include "rt_core/model/excitation.h"
 
@@ -36,6 +37,18 @@ std::optional<Vec6<double>> TarePose(const RunLog& log) {
   }
   if (count == 0) return std::nullopt;
   return Vec6<double>(sum / count);
+}
+
+// The actuator's response to its command within 50 ms (dead time and lag);
+// what is slower is left to the moving average.
+int ActuatorResponseTaps(double rate) {
+  return std::max(1, static_cast<int>(std::lround(0.05 * rate)));
+}
+
+// +-10 ms: the load cell's noise down by about 4.6 at 1 kHz; the force the
+// response leaves varies slower than that.
+int LoadCellSmoothing(double rate) {
+  return std::max(0, static_cast<int>(std::lround(0.01 * rate)));
 }
 
 }  // namespace
@@ -112,6 +125,15 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
           (1 - std::clamp(w, 0.0, 1.0)) * experiment->forces[before] +
           std::clamp(w, 0.0, 1.0) * experiment->forces[right];
     }
+  }
+  if (log.has_measured_force && log.has_commanded_force) {
+    std::vector<Vec3<double>> commanded_forces;
+    for (const LogSample& s : log.samples) {
+      commanded_forces.push_back(s.commanded);
+    }
+    experiment->forces =
+        AppliedForce(experiment->forces, commanded_forces,
+                     ActuatorResponseTaps(m.rate), LoadCellSmoothing(m.rate));
   }
   experiment->memory_rows = MemoryRows(log);
   experiment->rest_pose = TarePose(log);

@@ -18,8 +18,11 @@
 namespace kcrig {
 
 struct Experiment {
-  std::string source;                  // file name, for messages
-  std::vector<Vec3<double>> forces;    // load on the wheel at t_j [N]
+  std::string source;  // file name, for messages
+  // Load on the wheel at t_j [N]. In a rig log with a load cell and the
+  // loop's command, the force the rig applied: the load cell's reading with
+  // its noise taken out (internal/applied_force.h says why and how).
+  std::vector<Vec3<double>> forces;
   std::vector<Vec6<double>> measured;  // x, y, z [m], angles [rad] at t_j
   // Whether sample j enters the fit and its statistics. A rig log's row
   // with fresh = 0 carries no new measurement: its residual is zero and its

@@ -10,28 +10,33 @@ namespace kcrig {
 
 Status CampaignRig::Open(const std::string& uri, const KcrigConfig& config,
                          CampaignRig* rig) {
-  RigConfig rig_config;
-  KCRIG_RETURN_IF_ERROR(LoadRigConfig(config.directory, &rig_config));
-  RigConnector connect = [uri, rig_config](
+  KCRIG_RETURN_IF_ERROR(LoadRigConfig(config.directory, &rig->rig_config_));
+  RigConnector connect = [uri, rig_config = rig->rig_config_](
                              const std::string& log_dir,
                              std::unique_ptr<RigInterface>* link) {
     return MakeRig(uri, rig_config, log_dir, link);
   };
-  return Open(uri, std::move(connect), nullptr, RunMetadata(), config, rig);
+  return rig->Init(uri, std::move(connect), nullptr, RunMetadata(), config);
 }
 
 Status CampaignRig::Open(const std::string& name, RigConnector connect,
                          Clock* clock, const RunMetadata& truth,
                          const KcrigConfig& config, CampaignRig* rig) {
-  rig->name_ = name;
-  rig->connect_ = std::move(connect);
-  rig->clock_ = clock;
-  if (!truth.truth_parameters.empty()) {
-    rig->truth_ = std::make_shared<const RunMetadata>(truth);
-  }
-  rig->config_ = config;
   KCRIG_RETURN_IF_ERROR(LoadRigConfig(config.directory, &rig->rig_config_));
-  return rig->Check();
+  return rig->Init(name, std::move(connect), clock, truth, config);
+}
+
+Status CampaignRig::Init(const std::string& name, RigConnector connect,
+                         Clock* clock, const RunMetadata& truth,
+                         const KcrigConfig& config) {
+  name_ = name;
+  connect_ = std::move(connect);
+  clock_ = clock;
+  if (!truth.truth_parameters.empty()) {
+    truth_ = std::make_shared<const RunMetadata>(truth);
+  }
+  config_ = config;
+  return Check();
 }
 
 Status CampaignRig::Check() const {

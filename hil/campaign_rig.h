@@ -50,6 +50,9 @@ class CampaignRig {
              RunMonitor* monitor = nullptr) const;
 
  private:
+  // The rest of Open, rig_config_ loaded.
+  Status Init(const std::string& name, RigConnector connect, Clock* clock,
+              const RunMetadata& truth, const KcrigConfig& config);
   Status Check() const;
 
   std::string name_;

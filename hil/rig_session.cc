@@ -115,11 +115,6 @@ std::string TripMessage(const LoopResult& loop, double period,
   return "tripped: " + TripCauseText(loop, period, detail) + outcome;
 }
 
-// Whether the run is paced in real time (not on a virtual clock).
-bool RealTime(const RigSessionOptions& options) {
-  return options.clock == nullptr || options.clock->real_time();
-}
-
 Status CreateLogDir(const std::string& log_dir) {
   if (log_dir.empty()) return Status::Ok();
   std::error_code error;
@@ -153,7 +148,7 @@ RunLogger::Options LoggerOptionsFor(const RigConfig& rig_config,
         (std::filesystem::path(options.log_dir) / "run.csv").string();
   }
   logger.on_warning = options.on_warning;
-  if (RealTime(options)) logger.loop_cpu = rig_config.realtime.cpu;
+  if (IsRealTime(options.clock)) logger.loop_cpu = rig_config.realtime.cpu;
   if (options.monitor != nullptr) {
     logger.on_record = [monitor = options.monitor](const CycleRecord& r) {
       monitor->CycleLogged(r);
@@ -249,9 +244,10 @@ std::string HilJson(const RigConfig& rig_config,
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   hil["peak_memory_mib"] =
-      RealTime(options) ? nlohmann::ordered_json(
-                              static_cast<double>(usage.ru_maxrss) / 1024.0)
-                        : nlohmann::ordered_json();
+      IsRealTime(options.clock)
+          ? nlohmann::ordered_json(static_cast<double>(usage.ru_maxrss) /
+                                   1024.0)
+          : nlohmann::ordered_json();
   return hil.dump();
 }
 
@@ -385,8 +381,8 @@ Status RunAndRecord(const KcrigConfig& config, const RigConfig& rig_config,
   if (rig != nullptr) loop.add_log_failure(rig->record_write_failed());
   KCRIG_RETURN_IF_ERROR(logger.Open());
   logger.Start(&ring);
-  const Status activated =
-      RunOnRig(rig_config.realtime, RealTime(options), rig, &loop, result);
+  const Status activated = RunOnRig(
+      rig_config.realtime, IsRealTime(options.clock), rig, &loop, result);
   logger.Stop();
   if (!activated.ok()) {
     logger.Discard();
@@ -437,7 +433,7 @@ Status RunAndRecord(const KcrigConfig& config, const RigConfig& rig_config,
       (std::filesystem::path(options.log_dir) / "timing.json").string();
   // A virtual clock's run has no timing: its phases took CPU, not time (an
   // earlier run's file would tell of another run).
-  if (!RealTime(options)) {
+  if (!IsRealTime(options.clock)) {
     std::error_code ignored;
     std::filesystem::remove(timing_path, ignored);
     return Status::Ok();
@@ -455,7 +451,7 @@ RunMonitor::Run MonitoredRun(const RigConfig& rig_config,
   run.limits = rig_config.safety;
   run.period = rig_config.period;
   run.duration = RunProfile(rig_config.profile, options.excitation).duration();
-  run.real_time = RealTime(options);
+  run.real_time = IsRealTime(options.clock);
   run.log_dir = options.log_dir;
   return run;
 }

@@ -79,6 +79,11 @@ class BasicRigPlant {
 
  private:
   void UpdateHysteresis();
+  // The state at rest under `force` before its equilibrium is solved.
+  void Rest(const Vec3<T>& force, const T& z_a);
+  // Solves the static equilibrium under `force` with the extra bushing
+  // forces the model holds, and starts the Dahl elements there.
+  Status SolveRest(const Vec3<T>& force);
   // Settle with the Dahl forces `h` locked in (no tangent while settling).
   Status SettleWithDahlForces(const Vec3<T>& force, const T& z_a,
                               const std::array<T, kNumBushings>& h);
@@ -163,18 +168,22 @@ BasicRigPlant<T, Model>::BasicRigPlant(
 }
 
 template <typename T, typename Model>
-Status BasicRigPlant<T, Model>::Settle(const Vec3<T>& force, const T& z_a) {
+void BasicRigPlant<T, Model>::Rest(const Vec3<T>& force, const T& z_a) {
   z_a_ = z_a;
   hysteresis_ = {};
-  model_.SetExtraBushingForce(hysteresis_);
   std::fill(delay_line_.begin(), delay_line_.end(), force);
   previous_delayed_ = force;
   wheel_force_ = force;
   state_ = ModelState<T>();
+}
+
+template <typename T, typename Model>
+Status BasicRigPlant<T, Model>::SolveRest(const Vec3<T>& force) {
   RigLoad<T> load;
   load.force = force;
   load.point << T(0), T(0), z_a_;
   const Status status = SolveStaticEquilibrium(model_, load, 50, &state_.y);
+  // The Dahl elements start here, with the forces they were solved with.
   if (effects_.hysteresis.enabled) {
     hysteresis_.reference = model_.BushingDeflections(state_.y);
     for (int i = 0; i < kNumBushings; ++i) {
@@ -182,26 +191,27 @@ Status BasicRigPlant<T, Model>::Settle(const Vec3<T>& force, const T& z_a) {
         hysteresis_.stiffness[i] = effects_.hysteresis.sigma;
       }
     }
-    model_.SetExtraBushingForce(hysteresis_);
   }
+  model_.SetExtraBushingForce(hysteresis_);
   return status;
+}
+
+template <typename T, typename Model>
+Status BasicRigPlant<T, Model>::Settle(const Vec3<T>& force, const T& z_a) {
+  Rest(force, z_a);
+  model_.SetExtraBushingForce(hysteresis_);
+  return SolveRest(force);
 }
 
 template <typename T, typename Model>
 Status BasicRigPlant<T, Model>::SettleWithDahlForces(
     const Vec3<T>& force, const T& z_a, const std::array<T, kNumBushings>& h) {
-  KCRIG_RETURN_IF_ERROR(Settle(force, z_a));
+  Rest(force, z_a);
   typename SuspensionModel<T>::ExtraBushingForce locked;
   locked.force = h;
   model_.SetExtraBushingForce(locked);
-  RigLoad<T> load;
-  load.force = force;
-  load.point << T(0), T(0), z_a_;
-  const Status status = SolveStaticEquilibrium(model_, load, 50, &state_.y);
   hysteresis_.force = h;
-  hysteresis_.reference = model_.BushingDeflections(state_.y);
-  model_.SetExtraBushingForce(hysteresis_);
-  return status;
+  return SolveRest(force);
 }
 
 template <typename T, typename Model>

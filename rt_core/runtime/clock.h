@@ -36,6 +36,11 @@ class MonotonicClock final : public Clock {
 // The process's monotonic clock, for those given no other.
 MonotonicClock* SystemClock();
 
+// Whether a loop given `clock` (nullptr: SystemClock()) runs in real time.
+inline bool IsRealTime(const Clock* clock) {
+  return clock == nullptr || clock->real_time();
+}
+
 // Virtual time, starting at 0: sleeping moves it to the deadline; its owner
 // may also advance it, from any thread.
 class VirtualClock final : public Clock {

@@ -17,7 +17,7 @@ ControlLoop::ControlLoop(const SuspensionParameters<double>& model,
       rig_(rig),
       ring_(ring),
       stop_signal_(stop_signal),
-      virtual_time_(options.clock != nullptr && !options.clock->real_time()),
+      virtual_time_(!IsRealTime(options.clock)),
       profile_(options.profile, options.excitation),
       safety_(options.safety, options.period) {
   direction_ << std::cos(options.excitation.phi),

@@ -175,11 +175,21 @@ TEST_F(CampaignChecksCliTest, CampaignAdoptsAWrongKnownParameter) {
 // finds nothing that explains it, and the campaign stops with its own exit
 // status instead of presenting intervals.
 TEST_F(CampaignChecksCliTest, CampaignStopsOnAnUnexplainedGap) {
-  const CliResult r = RunKcrig(
-      "campaign --plant-effect hysteresis:force=300 --plant-effect "
-      "actuator_lag:tau=0.03 --plant-effect rig_compliance:k=2e7 "
-      "--iterations 2 --budget 20 --quiet --no-report --out " +
-      Path("campaign"));
+  // Three large effects at once: the experiment that tells two pairs of
+  // candidates apart moves the wheel a degree off the nominal model, which
+  // trips the loop's error detector (2 mm, 0.5 deg), as on a real rig; the
+  // rehearsal widens it.
+  EditConfig(Path("config"), "rig.yaml", "error_position_max: 0.002",
+             "error_position_max: 0.02");
+  const std::string config =
+      EditConfig(Path("config"), "rig.yaml", "error_angle_max_deg: 0.5",
+                 "error_angle_max_deg: 5.0");
+  const CliResult r =
+      RunKcrig("campaign --config " + config +
+               " --plant-effect hysteresis:force=300 --plant-effect "
+               "actuator_lag:tau=0.03 --plant-effect rig_compliance:k=2e7 "
+               "--iterations 2 --budget 20 --quiet --no-report --out " +
+               Path("campaign"));
   ASSERT_EQ(r.exit_code, 5) << r.output;
   EXPECT_NE(r.output.find("the campaign stopped"), std::string::npos)
       << r.output;
