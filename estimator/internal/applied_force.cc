@@ -35,6 +35,10 @@ Eigen::VectorXd FitFir(const Eigen::VectorXd& u, const Eigen::VectorXd& y,
   return normal.ldlt().solve(right);
 }
 
+Eigen::VectorXd Differences(const Eigen::VectorXd& v) {
+  return v.tail(v.size() - 1) - v.head(v.size() - 1);
+}
+
 Eigen::VectorXd Filtered(const Eigen::VectorXd& b, const Eigen::VectorXd& u) {
   Eigen::VectorXd out = Eigen::VectorXd::Zero(u.size());
   for (Eigen::Index i = 0; i < b.size(); ++i) {
@@ -71,7 +75,13 @@ std::vector<Vec3<double>> AppliedForce(
       y(j) = measured[j](axis);
       u(j) = commanded[j](axis);
     }
-    const Eigen::VectorXd response = Filtered(FitFir(u, y, taps), u);
+    // Fitted to the changes from sample to sample: a slow force the command
+    // does not explain barely changes between samples, so it cannot bend
+    // the filter (the filter commutes with the difference).
+    const Eigen::VectorXd b = n > taps
+                                  ? FitFir(Differences(u), Differences(y), taps)
+                                  : Eigen::VectorXd::Zero(taps);
+    const Eigen::VectorXd response = Filtered(b, u);
     const Eigen::VectorXd slow = CentredMean(y - response, half_width);
     for (Eigen::Index j = 0; j < n; ++j) {
       applied[j](axis) = response(j) + slow(j);
