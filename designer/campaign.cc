@@ -209,8 +209,10 @@ Status ValidateCampaignOptions(const KcrigConfig& config,
 
 namespace {
 
-// An adopted model is fitted down to a quarter of the configured step.
-constexpr int kMaxStepHalvings = 2;
+// An adopted model is fitted down to an eighth of the configured step: a
+// Dahl element with a large loop (F / sigma of tens of um) errs by 0.3-0.4
+// sigma at a quarter, enough for Ljung-Box to see where it reverses.
+constexpr int kMaxStepHalvings = 3;
 
 }  // namespace
 
