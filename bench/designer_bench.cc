@@ -12,9 +12,12 @@
 //  - the hysteresis model's fit to two SIL logs that remember, with and
 //    without estimating each log's initial state (issue #47).
 // Run: build/bin/designer_bench --benchmark_format=json
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 #include "benchmark/benchmark.h"
 #include "designer/campaign.h"
@@ -256,8 +259,9 @@ std::vector<Experiment> RememberingRigLogs(const KcrigConfig& config) {
     std::abort();
   }
   const RigRunner rig = SilRigRunner(config, plant);
-  const std::string dir =
-      (std::filesystem::temp_directory_path() / "kcrig_memory_bench").string();
+  const std::string dir = (std::filesystem::temp_directory_path() /
+                           ("kcrig_memory_bench_" + std::to_string(getpid())))
+                              .string();
   std::filesystem::create_directories(dir);
   const ExperimentConfig& e = config.experiment;
   std::vector<Experiment> experiments(2);

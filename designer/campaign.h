@@ -82,7 +82,7 @@ struct CampaignIteration {
   std::string model = "nominal";
   EstimationResult estimate;  // its adequacy: of the fit to all logs
   // The integrator step `estimate` was fitted at [s]: the configured one,
-  // or with an adopted effect down to a quarter of it (see
+  // or with an adopted effect down to an eighth of it (see
   // EffectFitOptions::max_step_halvings). 0: the configured one.
   double model_step = 0;
   // With an adopted effect, the nominal model's fit to the same logs, for

@@ -47,15 +47,20 @@ Eigen::VectorXd Filtered(const Eigen::VectorXd& b, const Eigen::VectorXd& u) {
   return out;
 }
 
-Eigen::VectorXd CentredMean(const Eigen::VectorXd& r, int half_width) {
+// The mean over 2 half_width + 1 samples around each, the window shifted
+// inside the log at its ends: the first rows (the tare, from which a model
+// settles) are averaged as much as the rest.
+Eigen::VectorXd MovingMean(const Eigen::VectorXd& r, int half_width) {
   const Eigen::Index n = r.size();
+  const Eigen::Index width = std::min<Eigen::Index>(2 * half_width + 1, n);
   Eigen::VectorXd sum(n + 1);
   sum(0) = 0;
   for (Eigen::Index j = 0; j < n; ++j) sum(j + 1) = sum(j) + r(j);
   Eigen::VectorXd out(n);
   for (Eigen::Index j = 0; j < n; ++j) {
-    const Eigen::Index w = std::min<Eigen::Index>({half_width, j, n - 1 - j});
-    out(j) = (sum(j + w + 1) - sum(j - w)) / static_cast<double>(2 * w + 1);
+    const Eigen::Index first =
+        std::clamp<Eigen::Index>(j - half_width, 0, n - width);
+    out(j) = (sum(first + width) - sum(first)) / static_cast<double>(width);
   }
   return out;
 }
@@ -66,9 +71,11 @@ std::vector<Vec3<double>> AppliedForce(
     const std::vector<Vec3<double>>& measured,
     const std::vector<Vec3<double>>& commanded, int taps, int half_width) {
   const Eigen::Index n = static_cast<Eigen::Index>(measured.size());
-  taps = static_cast<int>(std::min<Eigen::Index>(taps, n));
+  if (n == 0 || commanded.size() != measured.size() || taps < 1 ||
+      half_width < 0) {
+    return measured;
+  }
   std::vector<Vec3<double>> applied(measured.size());
-  if (n == 0 || taps < 1) return applied;
   for (int axis = 0; axis < 3; ++axis) {
     Eigen::VectorXd y(n), u(n);
     for (Eigen::Index j = 0; j < n; ++j) {
@@ -77,12 +84,16 @@ std::vector<Vec3<double>> AppliedForce(
     }
     // Fitted to the changes from sample to sample: a slow force the command
     // does not explain barely changes between samples, so it cannot bend
-    // the filter (the filter commutes with the difference).
-    const Eigen::VectorXd b = n > taps
-                                  ? FitFir(Differences(u), Differences(y), taps)
-                                  : Eigen::VectorXd::Zero(taps);
-    const Eigen::VectorXd response = Filtered(b, u);
-    const Eigen::VectorXd slow = CentredMean(y - response, half_width);
+    // the filter. The filter then runs on the command's change since the
+    // first sample (the command held before it, as the differences assume);
+    // the mean puts back any constant, so its gain at rest does not matter.
+    // (A log no longer than the filter: the mean alone.)
+    Eigen::VectorXd response = Eigen::VectorXd::Zero(n);
+    if (n > taps) {
+      response = Filtered(FitFir(Differences(u), Differences(y), taps),
+                          (u.array() - u(0)).matrix());
+    }
+    const Eigen::VectorXd slow = MovingMean(y - response, half_width);
     for (Eigen::Index j = 0; j < n; ++j) {
       applied[j](axis) = response(j) + slow(j);
     }

@@ -17,12 +17,12 @@
 namespace kcrig {
 
 // Per axis: the actuator's linear response to the command (a causal FIR
-// filter of `taps` samples fitted to the reading by least squares, which
-// holds the actuator's dead time and lag whatever they are), plus a centred
-// moving average over +-`half_width` samples of what that response leaves
-// (slow force the command does not explain, e.g. the rig's reaction). The
-// moving average narrows symmetrically at the ends, so that a linear trend
-// passes unbiased. `measured` and `commanded` have one entry per sample.
+// filter of `taps` samples fitted by least squares to the reading's changes
+// from sample to sample, which holds the actuator's dead time and lag up to
+// `taps` samples), plus a moving mean over 2 `half_width` + 1 samples of
+// what that response leaves (slow force the command does not explain, e.g.
+// the rig's reaction, and any offset). `measured` and `commanded` have one
+// entry per sample; without (sizes that differ, taps < 1), `measured`.
 std::vector<Vec3<double>> AppliedForce(
     const std::vector<Vec3<double>>& measured,
     const std::vector<Vec3<double>>& commanded, int taps, int half_width);

@@ -21,7 +21,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class CampaignChecksCliTest : public TempDirTest {};
+class CampaignChecksCliTest : public TempDirTest {
+ protected:
+  // config/ with the loop's error detector (rig.yaml: 2 mm, 0.5 deg between
+  // the rig and the nominal model's live prediction) ten times wider.
+  std::string WidenedDetectorConfig() {
+    EditConfig(Path("config"), "rig.yaml", "error_position_max: 0.002",
+               "error_position_max: 0.02");
+    return EditConfig(Path("config"), "rig.yaml", "error_angle_max_deg: 0.5",
+                      "error_angle_max_deg: 5.0");
+  }
+};
 
 // A plant with a rig compliance the stiffnesses absorb: the first fit is
 // inadequate but one log cannot tell the compliance from the stiffnesses;
@@ -129,13 +139,9 @@ TEST_F(CampaignChecksCliTest, AWornBushingStaysAdoptedThoughTheRigRemembers) {
 // estimates it with the stiffnesses; the report is drawn.
 TEST_F(CampaignChecksCliTest, CampaignAdoptsAWrongKnownParameter) {
   // A spring 27 % stiffer moves the wheel by millimetres and tenths of a
-  // degree more than the model: the loop's error detector (2 mm, 0.5 deg)
-  // would trip the rig, as on a real one; the rehearsal widens it.
-  EditConfig(Path("config"), "rig.yaml", "error_position_max: 0.002",
-             "error_position_max: 0.02");
-  const std::string config =
-      EditConfig(Path("config"), "rig.yaml", "error_angle_max_deg: 0.5",
-                 "error_angle_max_deg: 5.0");
+  // degree more than the model: the loop's error detector would trip the
+  // rig, as on a real one; the rehearsal widens it.
+  const std::string config = WidenedDetectorConfig();
   const CliResult r = RunKcrig(
       "campaign --config " + config +
       " --iterations 2 --budget 20 --quiet --plant-set k_spring=1.4e5 --out " +
@@ -177,13 +183,9 @@ TEST_F(CampaignChecksCliTest, CampaignAdoptsAWrongKnownParameter) {
 TEST_F(CampaignChecksCliTest, CampaignStopsOnAnUnexplainedGap) {
   // Three large effects at once: the experiment that tells two pairs of
   // candidates apart moves the wheel a degree off the nominal model, which
-  // trips the loop's error detector (2 mm, 0.5 deg), as on a real rig; the
-  // rehearsal widens it.
-  EditConfig(Path("config"), "rig.yaml", "error_position_max: 0.002",
-             "error_position_max: 0.02");
-  const std::string config =
-      EditConfig(Path("config"), "rig.yaml", "error_angle_max_deg: 0.5",
-                 "error_angle_max_deg: 5.0");
+  // trips the loop's error detector, as on a real rig; the rehearsal
+  // widens it.
+  const std::string config = WidenedDetectorConfig();
   const CliResult r =
       RunKcrig("campaign --config " + config +
                " --plant-effect hysteresis:force=300 --plant-effect "

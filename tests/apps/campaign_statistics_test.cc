@@ -88,7 +88,7 @@ std::string DrawSpec(const std::string& effect, std::mt19937_64* rng) {
     std::snprintf(text, sizeof(text), "bushing_damping:d=%.6g",
                   LogUniform(5e5, 3e6, u(*rng)));
   } else if (effect == "hysteresis" || effect == "hysteresis@bushing") {
-    // sigma drawn first, as the tier always has. One bushing's loop moves
+    // sigma drawn first, as above. One bushing's loop moves
     // the sensors less than five: its force is drawn larger.
     const double sigma = LogUniform(1e7, 1e8, u(*rng));
     const double force = effect == "hysteresis"
@@ -108,20 +108,26 @@ std::string DrawSpec(const std::string& effect, std::mt19937_64* rng) {
     std::snprintf(text, sizeof(text), "progressive_stiffness:c3=%.6g",
                   LogUniform(2e12, 1e13, u(*rng)));
   } else if (effect == "actuator_lag") {
+    // In the order g++ evaluated these as the arguments of one call (right
+    // to left), which drew the tier's cases: the same cases on any compiler.
+    const double dead_time = 0.01 * u(*rng);
+    const double tau = LogUniform(0.01, 0.05, u(*rng));
     std::snprintf(text, sizeof(text), "actuator_lag:tau=%.6g,dead_time=%.6g",
-                  LogUniform(0.01, 0.05, u(*rng)), 0.01 * u(*rng));
+                  tau, dead_time);
   } else if (effect == "rig_compliance") {
     std::snprintf(text, sizeof(text), "rig_compliance:k=%.6g",
                   LogUniform(3e6, 7e6, u(*rng)));
   } else if (effect == "sensor_offset") {
     const double f = LogUniform(2, 10, u(*rng));
-    auto sign = [&] { return u(*rng) < 0.5 ? -1.0 : 1.0; };
+    // The signs of scale, caster, ..., x: drawn last to first, as above.
+    double sign[7];
+    for (int k = 6; k >= 0; --k) sign[k] = u(*rng) < 0.5 ? -1.0 : 1.0;
     std::snprintf(text, sizeof(text),
                   "sensor_offset:x=%.6g,y=%.6g,z=%.6g,toe=%.6g,camber=%.6g,"
                   "caster=%.6g,scale=%.6g",
-                  f * 1e-4 * sign(), f * 1e-4 * sign(), f * 1e-4 * sign(),
-                  f * 2e-4 * sign(), f * 2e-4 * sign(), f * 2e-4 * sign(),
-                  1 + 0.01 * f * sign());
+                  f * 1e-4 * sign[0], f * 1e-4 * sign[1], f * 1e-4 * sign[2],
+                  f * 2e-4 * sign[3], f * 2e-4 * sign[4], f * 2e-4 * sign[5],
+                  1 + 0.01 * f * sign[6]);
   } else {
     return "";
   }
