@@ -266,7 +266,7 @@ std::vector<Experiment> RememberingRigLogs(const KcrigConfig& config) {
   const ExperimentConfig& e = config.experiment;
   std::vector<Experiment> experiments(2);
   for (int run = 0; run < 2; ++run) {
-    const std::string csv = dir + "/run" + std::to_string(run) + ".csv";
+    const std::string csv = dir + "/run" + std::to_string(run) + "/run.csv";
     if (!rig(RampExcitation<double>{e.phi, e.z_a, e.fmax, e.duration}, run, csv)
              .ok() ||
         !LoadExperiment(csv, config, "", &experiments[run]).ok()) {
