@@ -301,7 +301,7 @@ void BM_HysteresisFitOfRigLogs(benchmark::State& state, bool initial_state) {
       std::abort();
     }
   }
-  state.counters["iterations"] = fit.result.iterations;
+  state.counters["fit_iterations"] = fit.result.iterations;
   state.counters["chi2_per_dof"] =
       fit.result.adequacy.chi_square / fit.result.adequacy.dof;
 }

@@ -408,6 +408,23 @@ def rows(d):
         duration(pure.seconds) if pure else d.why_not("designer_bench", pure_name),
         ratio(sil and sil.seconds, pure and pure.seconds),
         "target ratio ≤ 1.5 (#47); paper §5.2: each design optimisation ≈ 2 h CPU")
+    tare_name = "BM_HysteresisFitOfRigLogs/initial_state_from_tare"
+    rest_name = "BM_HysteresisFitOfRigLogs/from_rest"
+    tare = d.get("designer_bench", tare_name)
+    rest = d.get("designer_bench", rest_name)
+
+    def fit(b, name):
+        if not b:
+            return d.why_not("designer_bench", name)
+        return "%s (%d iterations)" % (duration(b.seconds),
+                                       b.counter("fit_iterations"))
+    row("the hysteresis model's fit (5 stiffnesses, force, σ) to two SIL "
+        "logs back to back, each started from the Dahl forces its tare shows",
+        fit(tare, tare_name),
+        "the same fit with each log started from rest",
+        fit(rest, rest_name),
+        ratio(tare and tare.seconds, rest and rest.seconds),
+        "the cost of estimating the initial state, target ≤ 1.2 (#47)")
 
     # diagnosis_bench
     def diagnosis(threads, half):
