@@ -288,8 +288,11 @@ void BM_HysteresisFitOfRigLogs(benchmark::State& state, bool initial_state) {
   if (!initial_state) {
     for (Experiment& e : experiments) e.rest_pose.reset();
   }
+  // The box of the campaign's fits.
+  const EstimatorOptions box;
   EffectModel model;
-  if (!EffectModel::CreateNamed(s.config.model, "hysteresis", 0.25, 4.0, &model)
+  if (!EffectModel::CreateNamed(s.config.model, "hysteresis", box.lower_scale,
+                                box.upper_scale, &model)
            .ok()) {
     std::abort();
   }
