@@ -251,7 +251,8 @@ BENCHMARK_CAPTURE(BM_Campaign, 3_experiments_rig_compliance_adopted, 2,
     ->Iterations(1);
 
 // Two SIL logs of the paper's experiment back to back, hysteresis in every
-// bushing kept from the first run to the second (issue #47's memory).
+// bushing: the first from a fresh plant, the second from the friction the
+// first left (issue #47's memory).
 std::vector<Experiment> RememberingRigLogs(const KcrigConfig& config) {
   PlantConfig plant;
   if (!LoadPlantConfig(KCRIG_BENCH_CONFIG_DIR, config.model, &plant).ok() ||

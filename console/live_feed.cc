@@ -512,10 +512,11 @@ LiveFeed::Read LiveFeed::ReadAfter(std::uint64_t* seq, std::string* out,
   std::unique_lock<std::mutex> lock(mutex_);
   changed_.wait_for(lock, wait, [&] { return next_seq_ - 1 > *seq || ended_; });
   if (!log_.empty() && log_.front().seq > *seq + 1) return Read::kStalled;
+  const std::size_t start = out->size();
   for (const Message& m : log_) {
     if (m.seq <= *seq) continue;
     // A bounded copy per call: the rest comes with the next.
-    if (out->size() >= kMaxReadBytes) return Read::kMessages;
+    if (out->size() - start >= kMaxReadBytes) return Read::kMessages;
     *out += m.text;
     *seq = m.seq;
   }

@@ -78,7 +78,8 @@ class LiveFeed final : public RunMonitor {
   // For a viewer's stream: the state to start from (one SSE message) and
   // the sequence number it covers.
   std::string Snapshot(std::uint64_t* seq) const;
-  // Appends the messages after *seq to `out`, waiting up to `wait` for one.
+  // Appends the messages after *seq to `out` (about kMaxReadBytes at most
+  // per call, whatever `out` held), waiting up to `wait` for one.
   // kStalled: *seq has fallen out of the log (drop the viewer); kEnded:
   // `out` holds all there will be.
   enum class Read { kMessages, kStalled, kEnded };

@@ -88,7 +88,9 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
   // set-points the rig log recorded, else the commanded ramp of the sidecar
   // (its time origin is the log's first sample).
   const RampExcitation<double>& commanded = m.excitation;
+  std::vector<Vec3<double>> commanded_forces;  // the loop's, when logged
   for (const LogSample& s : log.samples) {
+    if (log.has_commanded_force) commanded_forces.push_back(s.commanded);
     experiment->forces.push_back(log.has_measured_force ? s.force
                                  : log.has_commanded_force
                                      ? s.commanded
@@ -127,10 +129,6 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
     }
   }
   if (log.has_measured_force && log.has_commanded_force) {
-    std::vector<Vec3<double>> commanded_forces;
-    for (const LogSample& s : log.samples) {
-      commanded_forces.push_back(s.commanded);
-    }
     experiment->forces =
         AppliedForce(experiment->forces, commanded_forces,
                      ActuatorResponseTaps(m.rate), LoadCellSmoothing(m.rate));

@@ -416,8 +416,10 @@ def rows(d):
     def fit(b, name):
         if not b:
             return d.why_not("designer_bench", name)
-        return "%s (%d iterations)" % (duration(b.seconds),
-                                       b.counter("fit_iterations"))
+        iterations = b.counter("fit_iterations")
+        if iterations is None:
+            return duration(b.seconds)
+        return "%s (%d iterations)" % (duration(b.seconds), iterations)
     row("the hysteresis model's fit (5 stiffnesses, force, σ) to two SIL "
         "logs back to back, each started from the Dahl forces its tare shows",
         fit(tare, tare_name),
