@@ -25,18 +25,32 @@ int MemoryRows(const RunLog& log) {
   return rows;
 }
 
-// The mean of a rig log's fresh tare rows; unset without any.
+// A rig log's pose at its first row: per channel, the straight line through
+// its fresh tare rows at the first row's time (a structure still relaxing
+// from the last run moves during the tare; the line's slope takes that out
+// of the mean). Unset without any fresh tare row.
 std::optional<Vec6<double>> TarePose(const RunLog& log) {
-  Vec6<double> sum = Vec6<double>::Zero();
+  const double t0 = log.samples.front().t;
+  Vec6<double> sum_y = Vec6<double>::Zero(), sum_ty = Vec6<double>::Zero();
+  double sum_t = 0, sum_tt = 0;
   int count = 0;
   for (const LogSample& s : log.samples) {
     if (s.phase != RunPhaseName(RunPhase::kTare)) break;
     if (!s.fresh) continue;
-    sum += s.y;
+    const double t = s.t - t0;
+    sum_y += s.y;
+    sum_ty += t * s.y;
+    sum_t += t;
+    sum_tt += t * t;
     ++count;
   }
   if (count == 0) return std::nullopt;
-  return Vec6<double>(sum / count);
+  const Vec6<double> mean = sum_y / count;
+  const double t_mean = sum_t / count;
+  const double spread = sum_tt - count * t_mean * t_mean;
+  if (count < 3 || !(spread > 0)) return mean;
+  const Vec6<double> slope = (sum_ty - t_mean * sum_y) / spread;
+  return Vec6<double>(mean - slope * t_mean);
 }
 
 // The actuator's response to its command within 50 ms (dead time and lag);

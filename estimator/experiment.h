@@ -31,15 +31,16 @@ struct Experiment {
   // the state the rig kept from its last run (a bushing's hysteresis, a
   // structure still relaxing), which no model knows; the lead-in to -Fmax
   // wipes most of that memory out, in the rig and in the model, which runs
-  // through those rows (from rest, or a model with hysteresis from the
-  // Dahl forces the tare shows: rest_pose). Empty: all samples enter.
+  // through those rows (from rest, or from the state the tare shows:
+  // rest_pose). Empty: all samples enter.
   std::vector<bool> observed;
   // Of them, the leading rows left out as the rig's memory (tare, lead-in).
   int memory_rows = 0;
-  // A rig log's tare: the mean of its fresh tare rows, the rest pose the
-  // rig kept from its last run. A model with hysteresis starts from the
-  // Dahl forces that explain it (BasicRigPlant::SettleAtRest). Unset for a
-  // log without phases.
+  // A rig log's tare: its pose at the first row (a line through the fresh
+  // tare rows), what the rig kept from its last run. A model with
+  // hysteresis starts from the Dahl forces that explain it, one with bushing
+  // damping from that pose (BasicRigPlant::SettleAtRest). Unset for a log
+  // without phases.
   std::optional<Vec6<double>> rest_pose;
   double sample_period = 0;  // [s]
   double z_a = 0;            // acting height [m]

@@ -47,13 +47,15 @@ class BasicRigPlant {
   // the lagged force equal to `force`).
   Status Settle(const Vec3<T>& force, const T& z_a);
 
-  // Settle, but with each hysteretic bushing's Dahl force chosen (|h| <
-  // 0.999 F) so that the sensors read `rest` (weighted by 1/`sigma`) as
-  // nearly as they can: a rig log's tare, which shows the friction the rig
-  // kept from its last run. A bushing the run barely moves keeps that force
-  // all through the run; one it moves forgets it. Without hysteresis:
-  // Settle. A few Gauss-Newton steps on static equilibria, in T (the
-  // forces' sensitivities follow the parameters').
+  // Settle where a rig log's tare puts the sensors (`rest`, weighted by
+  // 1/`sigma`): what the rig kept from its last run. Each hysteretic
+  // bushing's Dahl force is chosen (|h| < 0.999 F) so that the sensors read
+  // `rest` as nearly as they can (a bushing the run barely moves keeps that
+  // force all through the run; one it moves forgets it): a few Gauss-Newton
+  // steps on static equilibria, in T (the forces' sensitivities follow the
+  // parameters'). With bushing damping the structure may still creep
+  // towards its equilibrium: it starts at the pose the sensors read. With
+  // neither: Settle.
   Status SettleAtRest(const Vec3<T>& force, const T& z_a,
                       const Vec6<double>& rest, const Vec6<double>& sigma);
 
@@ -87,6 +89,12 @@ class BasicRigPlant {
   // Settle with the Dahl forces `h` locked in (no tangent while settling).
   Status SettleWithDahlForces(const Vec3<T>& force, const T& z_a,
                               const std::array<T, kNumBushings>& h);
+  // SettleAtRest's Dahl forces.
+  Status SettleWithDahlForcesAtRest(const Vec3<T>& force, const T& z_a,
+                                    const Vec6<double>& rest,
+                                    const Vec6<double>& sigma);
+  // Moves the pose, at rest, to where the sensors read `rest`.
+  void MoveToSensedPose(const Vec6<double>& rest);
   // The load-cell force `back` steps ago (0: this step's).
   const Vec3<T>& Past(size_t back) const {
     return delay_line_[(delay_head_ + delay_line_.size() - back) %
@@ -218,8 +226,34 @@ template <typename T, typename Model>
 Status BasicRigPlant<T, Model>::SettleAtRest(const Vec3<T>& force, const T& z_a,
                                              const Vec6<double>& rest,
                                              const Vec6<double>& sigma) {
+  KCRIG_RETURN_IF_ERROR(
+      effects_.hysteresis.enabled
+          ? SettleWithDahlForcesAtRest(force, z_a, rest, sigma)
+          : Settle(force, z_a));
+  if (effects_.bushing_damping.enabled) MoveToSensedPose(rest);
+  return Status::Ok();
+}
+
+template <typename T, typename Model>
+void BasicRigPlant<T, Model>::MoveToSensedPose(const Vec6<double>& rest) {
+  // The sensors' own effects scale and mix the pose by a few per cent at
+  // most: two fixed-point passes.
+  for (int pass = 0; pass < 2; ++pass) {
+    const Vec6<T> sensed = Sensed();
+    for (int k = 0; k < 6; ++k) state_.y(k) -= sensed(k) - rest(k);
+  }
+  // The Dahl elements see no motion in the move.
+  if (effects_.hysteresis.enabled) {
+    hysteresis_.reference = model_.BushingDeflections(state_.y);
+    model_.SetExtraBushingForce(hysteresis_);
+  }
+}
+
+template <typename T, typename Model>
+Status BasicRigPlant<T, Model>::SettleWithDahlForcesAtRest(
+    const Vec3<T>& force, const T& z_a, const Vec6<double>& rest,
+    const Vec6<double>& sigma) {
   std::array<T, kNumBushings> h{};
-  if (!effects_.hysteresis.enabled) return Settle(force, z_a);
   std::vector<int> placed;
   for (int i = 0; i < kNumBushings; ++i) {
     if (effects_.hysteresis.at[i]) placed.push_back(i);

@@ -169,6 +169,28 @@ TEST(EstimatorTest, LogWithoutLoadCellUsesTheCommandedRamp) {
   }
 }
 
+// A structure still creeping from the last run moves during the tare: the
+// log's rest pose is its pose at the first row, not the tare's mean.
+TEST(EstimatorTest, ARigLogsRestPoseIsItsPoseAtTheFirstRow) {
+  const KcrigConfig config = SourceConfig();
+  RunLog log = SyntheticLog(config, DistinctBushingTruth(config.model),
+                            PaperInitialSpec(config));
+  const double t0 = log.samples.front().t;
+  const Vec6<double> first = log.samples.front().y;
+  const Vec6<double> drift = Vec6<double>::Constant(-1e-4);  // per second
+  for (size_t j = 0; j < log.samples.size(); ++j) {
+    LogSample& s = log.samples[j];
+    s.phase = j < 200 ? "tare" : j < 400 ? "lead_in" : "settle";
+    if (j < 200) s.y = first + drift * (s.t - t0);
+  }
+  Experiment experiment;
+  ASSERT_TRUE(
+      MakeExperiment("run.csv", log, config.experiment.step, &experiment).ok());
+  ASSERT_TRUE(experiment.rest_pose.has_value());
+  EXPECT_LT((*experiment.rest_pose - first).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(experiment.memory_rows, 400);
+}
+
 TEST(EstimatorTest, ParameterSelectionIsChecked) {
   KcrigConfig config = SourceConfig();
   std::vector<int> indices;

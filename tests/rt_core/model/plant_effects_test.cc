@@ -92,6 +92,44 @@ TEST(PlantEffectsTest, BushingDampingLagsBehindTheRampAndVanishesAtRest) {
   EXPECT_NEAR(slow_lag / lag, 0.5, 0.1);
 }
 
+// A rig log's tare can catch a damped structure still creeping from the
+// last run: the plant starts where the sensors read and relaxes to the
+// equilibrium at its own pace; without damping or hysteresis the tare is
+// no state at all.
+TEST(PlantEffectsTest, ADampedPlantStartsAtTheTareAndCreepsToItsEquilibrium) {
+  const KcrigConfig config = SourceConfig();
+  const Vec3<double> rest_force(0, 0, 0);
+  const Vec6<double> sigma = Vec6<double>::Constant(kSigmaPosition);
+  RigPlant equilibrium(config.model, PlantEffects(), kStep);
+  ASSERT_TRUE(equilibrium.Settle(rest_force, config.experiment.z_a).ok());
+  Vec6<double> tare = equilibrium.Sensed();
+  tare(kLateral) += 50 * kSigmaPosition;
+
+  RigPlant damped(config.model, With("bushing_damping:d=2e6"), kStep);
+  ASSERT_TRUE(
+      damped.SettleAtRest(rest_force, config.experiment.z_a, tare, sigma).ok());
+  EXPECT_LT((damped.Sensed() - tare).cwiseAbs().maxCoeff(), 1e-12);
+  std::vector<double> offset;
+  for (int k = 0; k <= 3000; ++k) {
+    if (k > 0) damped.Step(rest_force);
+    if (k % 500 == 0) {
+      offset.push_back(damped.pose()(kLateral) - equilibrium.pose()(kLateral));
+    }
+  }
+  // Creep, not a jump: still a tenth after 0.5 s (d/c is about 0.5 s), gone
+  // after 3 s, never past the equilibrium.
+  EXPECT_GT(offset[1], 0.1 * offset[0]);
+  EXPECT_LT(offset[1], offset[0]);
+  EXPECT_LT(std::abs(offset[6]), 0.05 * offset[0]);
+  for (double value : offset) EXPECT_GT(value, -0.05 * offset[0]);
+
+  RigPlant nominal(config.model, PlantEffects(), kStep);
+  ASSERT_TRUE(
+      nominal.SettleAtRest(rest_force, config.experiment.z_a, tare, sigma)
+          .ok());
+  EXPECT_EQ(nominal.pose(), equilibrium.pose());
+}
+
 TEST(PlantEffectsTest, HysteresisLagsIndependentlyOfRateAndLeavesRemanence) {
   const Response nominal = Respond(PlantEffects(), Ramp(4), 4);
   const Response dahl = Respond(With("hysteresis"), Ramp(4), 4);
