@@ -287,7 +287,7 @@ void BM_HysteresisFitOfRigLogs(benchmark::State& state, bool initial_state) {
   static const std::vector<Experiment> logs = RememberingRigLogs(s.config);
   std::vector<Experiment> experiments = logs;
   if (!initial_state) {
-    for (Experiment& e : experiments) e.rest_pose.reset();
+    for (Experiment& e : experiments) e.tare.reset();
   }
   // The box of the campaign's fits.
   const EstimatorOptions box;

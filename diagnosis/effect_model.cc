@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "Eigen/QR"
@@ -220,9 +221,9 @@ bool SimulateSensed(const EffectModel& model, const T* theta,
       experiment.sample_period * (forces.size() - 1)};
   // A rig log starts from what the rig kept of its last run: the tare.
   const Status settled =
-      experiment.rest_pose
+      experiment.tare
           ? plant.SettleAtRest(forces[0].cast<T>(), T(experiment.z_a),
-                               *experiment.rest_pose, experiment.sigma)
+                               *experiment.tare, experiment.sigma)
           : plant.Settle(forces[0].cast<T>(), T(experiment.z_a));
   if (!settled.ok()) return false;
   sensed->resize(forces.size());
@@ -912,6 +913,36 @@ Status StackedError(const EffectModel& model,
   return Status::Ok();
 }
 
+// Per experiment, the state the model at `theta` starts from: a rig log's
+// tare, and the Dahl forces SettleAtRest finds there.
+std::vector<LogInitialState> InitialStates(
+    const EffectModel& model, const std::vector<double>& theta,
+    const std::vector<Experiment>& experiments, double step) {
+  std::vector<LogInitialState> states = InitialStatesAtEquilibrium(experiments);
+  SuspensionParameters<double> parameters;
+  PlantEffects effects;
+  model.Build(theta.data(), &parameters, &effects);
+  const bool dahl = effects.hysteresis.enabled;
+  const bool creep = effects.bushing_damping.enabled;
+  for (size_t k = 0; k < experiments.size(); ++k) {
+    const Experiment& e = experiments[k];
+    if (!e.tare || !(dahl || creep)) continue;
+    LogInitialState& state = states[k];
+    state.start = dahl && creep ? "dahl_forces_and_tare_pose"
+                  : dahl        ? "dahl_forces"
+                                : "tare_pose";
+    if (!dahl) continue;
+    RigPlant plant(parameters, effects, step, model.max_dead_time());
+    state.dahl_forces.assign(kNumBushings,
+                             std::numeric_limits<double>::quiet_NaN());
+    if (plant.SettleAtRest(e.forces[0], e.z_a, *e.tare, e.sigma).ok()) {
+      state.dahl_forces.assign(plant.dahl_forces().begin(),
+                               plant.dahl_forces().end());
+    }
+  }
+  return states;
+}
+
 Status FitAtStep(const EffectModel& model,
                  const std::vector<Experiment>& experiments,
                  const std::vector<double>& initial,
@@ -971,6 +1002,8 @@ Status FitAtStep(const EffectModel& model,
   result.cost = cost;
   result.num_residuals = observed;
   result.memory_rows = MemoryRows(experiments);
+  result.initial_states =
+      InitialStates(model, theta, experiments, integrator_step);
   result.sigma_hat = observed > n ? std::sqrt(2 * cost / (observed - n)) : 0;
   result.iterations = summary.iterations;
   result.converged = summary.converged;

@@ -8,6 +8,7 @@
 
 #include "base/json_reader.h"
 #include "nlohmann/json.hpp"
+#include "rt_core/model/channels.h"
 
 namespace kcrig {
 namespace {
@@ -15,6 +16,60 @@ namespace {
 nlohmann::ordered_json Number(double value) {
   if (std::isfinite(value)) return value;
   return nullptr;
+}
+
+// A pose in mm and deg, keyed x_mm .. caster_deg.
+nlohmann::ordered_json PoseToJson(const Vec6<double>& pose) {
+  nlohmann::ordered_json out;
+  for (int k = 0; k < kNumChannels; ++k) {
+    out[std::string(kChannelNames[k]) + "_" + ChannelDisplayUnit(k)] =
+        Number(ChannelDisplayValue(k, pose(k)));
+  }
+  return out;
+}
+
+// Per log: where its model started, the tare's mean (and the first row's
+// pose where the model started there) in mm and deg, and the Dahl forces
+// of a model with hysteresis (LogInitialState).
+nlohmann::ordered_json InitialStatesToJson(
+    const std::vector<LogInitialState>& states) {
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  for (const LogInitialState& s : states) {
+    nlohmann::ordered_json log;
+    log["start"] = s.start;
+    log["tare_pose"] = s.has_tare ? PoseToJson(s.tare.mean) : nullptr;
+    if (s.has_tare && s.start.find("tare_pose") != std::string::npos) {
+      log["start_pose"] = PoseToJson(s.tare.at_start);
+    }
+    if (!s.dahl_forces.empty()) {
+      for (size_t i = 0; i < s.dahl_forces.size(); ++i) {
+        log["dahl_force_N"][std::string(kBushingChassisNames[i])] =
+            Number(s.dahl_forces[i]);
+      }
+    }
+    out.push_back(log);
+  }
+  return out;
+}
+
+// One line per log whose model started from Dahl forces: the rig's
+// friction kept from its last run, per bushing [N].
+std::string DahlForcesSummary(const std::vector<LogInitialState>& states) {
+  std::string out;
+  for (size_t k = 0; k < states.size(); ++k) {
+    if (states[k].dahl_forces.empty()) continue;
+    out += "  initial state of log " + std::to_string(k + 1) +
+           ": Dahl forces kept from its last run";
+    for (size_t i = 0; i < states[k].dahl_forces.size(); ++i) {
+      char text[48];
+      std::snprintf(text, sizeof(text), "%s %s %.0f N", i == 0 ? "" : ",",
+                    std::string(kBushingChassisNames[i]).c_str(),
+                    states[k].dahl_forces[i]);
+      out += text;
+    }
+    out += "\n";
+  }
+  return out;
 }
 
 nlohmann::ordered_json Matrix(const Eigen::MatrixXd& m) {
@@ -145,6 +200,7 @@ std::string EstimationResultToJson(
   doc["residual_rms_units"] = "m for x, y, z; rad for toe, camber, caster";
   doc["num_residuals"] = result.num_residuals;
   doc["rig_memory_rows"] = result.memory_rows;
+  doc["rig_initial_state"] = InitialStatesToJson(result.initial_states);
   doc["cost"] = result.cost;
   doc["sigma_hat"] = result.sigma_hat;
   doc["iterations"] = result.iterations;
@@ -199,6 +255,7 @@ std::string EstimationSummary(const EstimationResult& result,
     out += "  left out: the tare and lead-in rows of each rig log (" + rows +
            "), which start from the rig's memory of its last run\n";
   }
+  out += DahlForcesSummary(result.initial_states);
   std::snprintf(line, sizeof(line), "  %-10s %14s %12s %-6s  %s\n", "parameter",
                 "estimate", "+- 95 %", "", "log10 diag((J^T J)^-1)");
   out += line;

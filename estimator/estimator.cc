@@ -225,6 +225,17 @@ void AddDiscretisationBias(const Eigen::VectorXd& gradient,
   }
 }
 
+std::vector<LogInitialState> InitialStatesAtEquilibrium(
+    const std::vector<Experiment>& experiments) {
+  std::vector<LogInitialState> states(experiments.size());
+  for (size_t k = 0; k < experiments.size(); ++k) {
+    if (!experiments[k].tare) continue;
+    states[k].has_tare = true;
+    states[k].tare = *experiments[k].tare;
+  }
+  return states;
+}
+
 Status Estimate(const SuspensionParameters<double>& nominal,
                 const std::vector<Experiment>& experiments,
                 const EstimatorOptions& options,
@@ -284,6 +295,7 @@ Status Estimate(const SuspensionParameters<double>& nominal,
   // carry no data.
   int unobserved_rows = 0;
   result->memory_rows = MemoryRows(experiments);
+  result->initial_states = InitialStatesAtEquilibrium(experiments);
   for (const Experiment& experiment : experiments) {
     unobserved_rows +=
         static_cast<int>(std::count(experiment.observed.begin(),

@@ -79,6 +79,27 @@ struct ParameterEstimate {
   double discretisation_bias = 0;
 };
 
+// A log's initial state: where its model started, what the rig kept from
+// its last run (README: "How kcrig handles the memory").
+struct LogInitialState {
+  // The log's tare (Experiment::tare). A log without phases has none.
+  bool has_tare = false;
+  TarePose tare;
+  // "equilibrium": at rest under the first force; "dahl_forces": a model
+  // with hysteresis, with the Dahl forces below that put its sensors at the
+  // tare's mean; "tare_pose": a model with bushing damping, at the tare's
+  // pose at the first row;
+  // "dahl_forces_and_tare_pose": both.
+  std::string start = "equilibrium";
+  // [N] per bushing, O1..P (0 where none); empty without hysteresis.
+  std::vector<double> dahl_forces;
+};
+
+// Per experiment, the initial state of a model that starts at rest under
+// the first force (`start` "equilibrium").
+std::vector<LogInitialState> InitialStatesAtEquilibrium(
+    const std::vector<Experiment>& experiments);
+
 struct EstimationResult {
   std::vector<ParameterEstimate> parameters;
   Eigen::MatrixXd covariance;  // sigma_hat^2 (J^T J)^-1, physical units
@@ -101,6 +122,8 @@ struct EstimationResult {
   // Per log, its leading rows left out as the rig's memory of its last run
   // (tare and lead-in; Experiment::memory_rows).
   std::vector<int> memory_rows;
+  // Per log, the state its model started from (LogInitialState).
+  std::vector<LogInitialState> initial_states;
   double cost = 0;       // 0.5 * sum of squared weighted residuals
   double sigma_hat = 0;  // sqrt(2 cost / (m - n)); ~1 when sigmas are right
   // Whether the model explains the fitted logs down to the sensor noise.

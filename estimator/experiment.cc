@@ -25,11 +25,11 @@ int MemoryRows(const RunLog& log) {
   return rows;
 }
 
-// A rig log's pose at its first row: per channel, the straight line through
-// its fresh tare rows at the first row's time (a structure still relaxing
-// from the last run moves during the tare; the line's slope takes that out
-// of the mean). Unset without any fresh tare row.
-std::optional<Vec6<double>> TarePose(const RunLog& log) {
+// A rig log's tare: the mean of its fresh tare rows, and per channel the
+// straight line through them at the first row (a structure still relaxing
+// from the last run moves during the tare; the line's slope takes that
+// out). Unset without any fresh tare row.
+std::optional<TarePose> TareOf(const RunLog& log) {
   const double t0 = log.samples.front().t;
   Vec6<double> sum_y = Vec6<double>::Zero(), sum_ty = Vec6<double>::Zero();
   double sum_t = 0, sum_tt = 0;
@@ -45,12 +45,15 @@ std::optional<Vec6<double>> TarePose(const RunLog& log) {
     ++count;
   }
   if (count == 0) return std::nullopt;
-  const Vec6<double> mean = sum_y / count;
+  TarePose tare;
+  tare.mean = sum_y / count;
+  tare.at_start = tare.mean;
   const double t_mean = sum_t / count;
   const double spread = sum_tt - count * t_mean * t_mean;
-  if (count < 3 || !(spread > 0)) return mean;
-  const Vec6<double> slope = (sum_ty - t_mean * sum_y) / spread;
-  return Vec6<double>(mean - slope * t_mean);
+  if (count >= 3 && spread > 0) {
+    tare.at_start -= (sum_ty - t_mean * sum_y) / spread * t_mean;
+  }
+  return tare;
 }
 
 // The actuator's response to its command within 50 ms (dead time and lag);
@@ -148,7 +151,7 @@ Status MakeExperiment(const std::string& source, const RunLog& log,
                      ActuatorResponseTaps(m.rate), LoadCellSmoothing(m.rate));
   }
   experiment->memory_rows = MemoryRows(log);
-  experiment->rest_pose = TarePose(log);
+  experiment->tare = TareOf(log);
   if (experiment->memory_rows > 0) {
     experiment->observed.resize(n, true);
     std::fill_n(experiment->observed.begin(), experiment->memory_rows, false);

@@ -14,6 +14,7 @@
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/model_config.h"
 #include "rt_core/model/rotation.h"
+#include "rt_core/model/tare_pose.h"
 
 namespace kcrig {
 
@@ -32,16 +33,16 @@ struct Experiment {
   // structure still relaxing), which no model knows; the lead-in to -Fmax
   // wipes most of that memory out, in the rig and in the model, which runs
   // through those rows (from rest, or from the state the tare shows:
-  // rest_pose). Empty: all samples enter.
+  // `tare`). Empty: all samples enter.
   std::vector<bool> observed;
   // Of them, the leading rows left out as the rig's memory (tare, lead-in).
   int memory_rows = 0;
-  // A rig log's tare: its pose at the first row (a line through the fresh
-  // tare rows), what the rig kept from its last run. A model with
-  // hysteresis starts from the Dahl forces that explain it, one with bushing
-  // damping from that pose (BasicRigPlant::SettleAtRest). Unset for a log
-  // without phases.
-  std::optional<Vec6<double>> rest_pose;
+  // A rig log's tare, what the rig kept from its last run: its mean, and
+  // the pose at the first row (a line through the fresh tare rows). A
+  // model with hysteresis starts from the Dahl forces that explain the
+  // mean, one with bushing damping from the first row's pose
+  // (BasicRigPlant::SettleAtRest). Unset for a log without phases.
+  std::optional<TarePose> tare;
   double sample_period = 0;  // [s]
   double z_a = 0;            // acting height [m]
   Vec6<double> sigma = Vec6<double>::Ones();

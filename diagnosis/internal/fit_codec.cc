@@ -114,6 +114,15 @@ void Visit(A& a, Adequacy& q) {
 }
 
 template <typename A>
+void Visit(A& a, LogInitialState& s) {
+  a(s.has_tare);
+  a(s.tare.mean);
+  a(s.tare.at_start);
+  a(s.start);
+  a(s.dahl_forces);
+}
+
+template <typename A>
 void Visit(A& a, EstimationResult& r) {
   a(r.parameters);
   a(r.covariance);
@@ -129,6 +138,7 @@ void Visit(A& a, EstimationResult& r) {
   a(r.channel_used);
   a(r.num_residuals);
   a(r.memory_rows);
+  a(r.initial_states);
   a(r.cost);
   a(r.sigma_hat);
   Visit(a, r.adequacy);
@@ -158,7 +168,8 @@ void Visit(A& a, Status& status) {
 // Elements of vectors: structs by Visit, the rest as fields.
 template <typename T>
 void Writer::Element(T& x) {
-  if constexpr (std::is_same_v<T, ParameterEstimate>) {
+  if constexpr (std::is_same_v<T, ParameterEstimate> ||
+                std::is_same_v<T, LogInitialState>) {
     Visit(*this, x);
   } else {
     (*this)(x);
@@ -166,7 +177,8 @@ void Writer::Element(T& x) {
 }
 template <typename T>
 void Reader::Element(T& x) {
-  if constexpr (std::is_same_v<T, ParameterEstimate>) {
+  if constexpr (std::is_same_v<T, ParameterEstimate> ||
+                std::is_same_v<T, LogInitialState>) {
     Visit(*this, x);
   } else {
     (*this)(x);

@@ -22,6 +22,7 @@
 #include "rt_core/model/simulation.h"
 #include "rt_core/model/suspension_model.h"
 #include "rt_core/model/tangent_linear.h"
+#include "rt_core/model/tare_pose.h"
 
 namespace kcrig {
 
@@ -47,17 +48,17 @@ class BasicRigPlant {
   // the lagged force equal to `force`).
   Status Settle(const Vec3<T>& force, const T& z_a);
 
-  // Settle where a rig log's tare puts the sensors (`rest`, weighted by
-  // 1/`sigma`): what the rig kept from its last run. Each hysteretic
-  // bushing's Dahl force is chosen (|h| < 0.999 F) so that the sensors read
-  // `rest` as nearly as they can (a bushing the run barely moves keeps that
-  // force all through the run; one it moves forgets it): a few Gauss-Newton
-  // steps on static equilibria, in T (the forces' sensitivities follow the
-  // parameters'). With bushing damping the structure may still creep
-  // towards its equilibrium: it starts at the pose the sensors read. With
-  // neither: Settle.
-  Status SettleAtRest(const Vec3<T>& force, const T& z_a,
-                      const Vec6<double>& rest, const Vec6<double>& sigma);
+  // Settle where a rig log's tare puts the sensors: what the rig kept from
+  // its last run. Each hysteretic bushing's Dahl force is chosen (|h| <
+  // 0.999 F) so that the sensors read the tare's mean (weighted by
+  // 1/`sigma`) as nearly as they can (a bushing the run barely moves keeps
+  // that force all through the run; one it moves forgets it): a few
+  // Gauss-Newton steps on static equilibria, in T (the forces'
+  // sensitivities follow the parameters'). With bushing damping the
+  // structure may still creep towards its equilibrium: it starts at the
+  // pose the sensors read at the first row. With neither: Settle.
+  Status SettleAtRest(const Vec3<T>& force, const T& z_a, const TarePose& tare,
+                      const Vec6<double>& sigma);
 
   // Advances one step h; `force` is the force the rig applies at the end of
   // the step as its load cell reads it.
@@ -73,6 +74,10 @@ class BasicRigPlant {
   // The force acting on the wheel (differs from the load cell's only with
   // actuator_lag).
   const Vec3<T>& wheel_force() const { return wheel_force_; }
+  // hysteresis: the Dahl force per bushing [N] (0 where none).
+  const std::array<T, kNumBushings>& dahl_forces() const {
+    return hysteresis_.force;
+  }
   // What the position and angle sensors read, before noise: the pose with
   // rig_compliance and sensor_offset applied.
   Vec6<T> Sensed() const;
@@ -89,12 +94,12 @@ class BasicRigPlant {
   // Settle with the Dahl forces `h` locked in (no tangent while settling).
   Status SettleWithDahlForces(const Vec3<T>& force, const T& z_a,
                               const std::array<T, kNumBushings>& h);
-  // SettleAtRest's Dahl forces.
+  // SettleAtRest's Dahl forces, for the sensors to read `rest`.
   Status SettleWithDahlForcesAtRest(const Vec3<T>& force, const T& z_a,
                                     const Vec6<double>& rest,
                                     const Vec6<double>& sigma);
-  // Moves the pose, at rest, to where the sensors read `rest`.
-  void MoveToSensedPose(const Vec6<double>& rest);
+  // Moves the pose, at rest, to where the sensors read `sensed`.
+  void MoveToSensedPose(const Vec6<double>& sensed);
   // The load-cell force `back` steps ago (0: this step's).
   const Vec3<T>& Past(size_t back) const {
     return delay_line_[(delay_head_ + delay_line_.size() - back) %
@@ -224,23 +229,23 @@ Status BasicRigPlant<T, Model>::SettleWithDahlForces(
 
 template <typename T, typename Model>
 Status BasicRigPlant<T, Model>::SettleAtRest(const Vec3<T>& force, const T& z_a,
-                                             const Vec6<double>& rest,
+                                             const TarePose& tare,
                                              const Vec6<double>& sigma) {
   KCRIG_RETURN_IF_ERROR(
       effects_.hysteresis.enabled
-          ? SettleWithDahlForcesAtRest(force, z_a, rest, sigma)
+          ? SettleWithDahlForcesAtRest(force, z_a, tare.mean, sigma)
           : Settle(force, z_a));
-  if (effects_.bushing_damping.enabled) MoveToSensedPose(rest);
+  if (effects_.bushing_damping.enabled) MoveToSensedPose(tare.at_start);
   return Status::Ok();
 }
 
 template <typename T, typename Model>
-void BasicRigPlant<T, Model>::MoveToSensedPose(const Vec6<double>& rest) {
+void BasicRigPlant<T, Model>::MoveToSensedPose(const Vec6<double>& sensed) {
   // The sensors' own effects scale and mix the pose by a few per cent at
   // most: two fixed-point passes.
   for (int pass = 0; pass < 2; ++pass) {
-    const Vec6<T> sensed = Sensed();
-    for (int k = 0; k < 6; ++k) state_.y(k) -= sensed(k) - rest(k);
+    const Vec6<T> now = Sensed();
+    for (int k = 0; k < 6; ++k) state_.y(k) -= now(k) - sensed(k);
   }
   // The Dahl elements see no motion in the move.
   if (effects_.hysteresis.enabled) {

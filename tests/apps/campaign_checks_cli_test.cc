@@ -126,6 +126,22 @@ TEST_F(CampaignChecksCliTest, AWornBushingStaysAdoptedThoughTheRigRemembers) {
     EXPECT_EQ(it["adequacy"]["verdict"], "adequate") << k << it["adequacy"];
     EXPECT_EQ(it["check"], "ok") << k;
     EXPECT_GT(std::abs(tare_x(k) - tare_x(0)), 20e-6) << k;
+    // est.json says where each log's model started: the friction O2 kept
+    // from the run before (about 300 N), none in the other bushings.
+    const nlohmann::json states = nlohmann::json::parse(
+        std::ifstream(Path("campaign/iteration_" + std::to_string(k) +
+                           "/est.json")))["rig_initial_state"];
+    ASSERT_EQ(states.size(), static_cast<size_t>(k + 1)) << states;
+    const nlohmann::json& last_log = states.back();
+    EXPECT_EQ(last_log["start"], "dahl_forces") << last_log;
+    EXPECT_GT(std::abs(last_log["dahl_force_N"]["O2"].get<double>()), 50)
+        << last_log;
+    EXPECT_LT(std::abs(last_log["dahl_force_N"]["O2"].get<double>()), 320)
+        << last_log;
+    EXPECT_EQ(last_log["dahl_force_N"]["O1"], 0) << last_log;
+    EXPECT_NEAR(last_log["tare_pose"]["x_mm"].get<double>(), 1e3 * tare_x(k),
+                0.015)
+        << last_log;
     for (int i = 0; i < 5; ++i) {
       const nlohmann::json& p = it["parameters"][i];
       EXPECT_LE(p["ci95"][0].get<double>(), truth[i]) << k << p;

@@ -170,7 +170,7 @@ TEST(EstimatorTest, LogWithoutLoadCellUsesTheCommandedRamp) {
 }
 
 // A structure still creeping from the last run moves during the tare: the
-// log's rest pose is its pose at the first row, not the tare's mean.
+// log's tare gives its mean and the pose at the first row.
 TEST(EstimatorTest, ARigLogsRestPoseIsItsPoseAtTheFirstRow) {
   const KcrigConfig config = SourceConfig();
   RunLog log = SyntheticLog(config, DistinctBushingTruth(config.model),
@@ -186,8 +186,13 @@ TEST(EstimatorTest, ARigLogsRestPoseIsItsPoseAtTheFirstRow) {
   Experiment experiment;
   ASSERT_TRUE(
       MakeExperiment("run.csv", log, config.experiment.step, &experiment).ok());
-  ASSERT_TRUE(experiment.rest_pose.has_value());
-  EXPECT_LT((*experiment.rest_pose - first).cwiseAbs().maxCoeff(), 1e-12);
+  ASSERT_TRUE(experiment.tare.has_value());
+  EXPECT_LT((experiment.tare->at_start - first).cwiseAbs().maxCoeff(), 1e-12);
+  // The mean sits at the tare's middle: 99.5 rows of drift on.
+  const double middle = 99.5 * (log.samples[1].t - t0);
+  EXPECT_LT(
+      (experiment.tare->mean - (first + drift * middle)).cwiseAbs().maxCoeff(),
+      1e-12);
   EXPECT_EQ(experiment.memory_rows, 400);
 }
 
