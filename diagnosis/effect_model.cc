@@ -928,9 +928,9 @@ std::vector<LogInitialState> InitialStates(
     const Experiment& e = experiments[k];
     if (!e.tare || !(dahl || creep)) continue;
     LogInitialState& state = states[k];
-    state.start = dahl && creep ? "dahl_forces_and_tare_pose"
+    state.start = dahl && creep ? "dahl_forces_and_first_row_pose"
                   : dahl        ? "dahl_forces"
-                                : "tare_pose";
+                                : "first_row_pose";
     if (!dahl) continue;
     RigPlant plant(parameters, effects, step, model.max_dead_time());
     state.dahl_forces.assign(kNumBushings,

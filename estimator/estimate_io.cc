@@ -37,8 +37,8 @@ nlohmann::ordered_json InitialStatesToJson(
   for (const LogInitialState& s : states) {
     nlohmann::ordered_json log;
     log["start"] = s.start;
-    log["tare_pose"] = s.has_tare ? PoseToJson(s.tare.mean) : nullptr;
-    if (s.has_tare && s.start.find("tare_pose") != std::string::npos) {
+    log["tare_mean"] = s.has_tare ? PoseToJson(s.tare.mean) : nullptr;
+    if (s.has_tare && s.start.find("first_row_pose") != std::string::npos) {
       log["start_pose"] = PoseToJson(s.tare.at_start);
     }
     if (!s.dahl_forces.empty()) {
@@ -58,16 +58,20 @@ std::string DahlForcesSummary(const std::vector<LogInitialState>& states) {
   std::string out;
   for (size_t k = 0; k < states.size(); ++k) {
     if (states[k].dahl_forces.empty()) continue;
-    out += "  initial state of log " + std::to_string(k + 1) +
-           ": Dahl forces kept from its last run";
+    std::string forces;
     for (size_t i = 0; i < states[k].dahl_forces.size(); ++i) {
-      char text[48];
-      std::snprintf(text, sizeof(text), "%s %s %.0f N", i == 0 ? "" : ",",
-                    std::string(kBushingChassisNames[i]).c_str(),
-                    states[k].dahl_forces[i]);
-      out += text;
+      const double force = states[k].dahl_forces[i];
+      if (force == 0) continue;  // not hysteretic
+      char value[24] = "unknown";
+      if (std::isfinite(force)) {
+        std::snprintf(value, sizeof(value), "%.0f N", force);
+      }
+      forces += std::string(forces.empty() ? " " : ", ") +
+                std::string(kBushingChassisNames[i]) + " " + value;
     }
-    out += "\n";
+    if (forces.empty()) continue;
+    out += "  initial state of log " + std::to_string(k + 1) +
+           ": Dahl forces kept from its last run:" + forces + "\n";
   }
   return out;
 }

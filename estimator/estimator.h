@@ -87,11 +87,13 @@ struct LogInitialState {
   TarePose tare;
   // "equilibrium": at rest under the first force; "dahl_forces": a model
   // with hysteresis, with the Dahl forces below that put its sensors at the
-  // tare's mean; "tare_pose": a model with bushing damping, at the tare's
-  // pose at the first row;
-  // "dahl_forces_and_tare_pose": both.
+  // tare's mean; "first_row_pose": a model with bushing damping, at the
+  // tare's pose at the first row; "dahl_forces_and_first_row_pose": both
+  // (the Dahl forces hold the structure's equilibrium at the tare's mean,
+  // towards which it creeps from the first row's pose).
   std::string start = "equilibrium";
-  // [N] per bushing, O1..P (0 where none); empty without hysteresis.
+  // [N] per bushing, O1..P (0 where none; NaN where the settle failed);
+  // empty without hysteresis or without a tare.
   std::vector<double> dahl_forces;
 };
 

@@ -38,7 +38,8 @@ struct Experiment {
   // Of them, the leading rows left out as the rig's memory (tare, lead-in).
   int memory_rows = 0;
   // A rig log's tare, what the rig kept from its last run: its mean, and
-  // the pose at the first row (a line through the fresh tare rows). A
+  // the pose at the first row (a line through the fresh tare rows; their
+  // mean below three rows). A
   // model with hysteresis starts from the Dahl forces that explain the
   // mean, one with bushing damping from the first row's pose
   // (BasicRigPlant::SettleAtRest). Unset for a log without phases.

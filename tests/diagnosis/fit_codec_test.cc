@@ -48,6 +48,7 @@ EffectFit SomeFit() {
   fit.result.initial_states[0].tare.at_start << 2e-5, -1e-5, 0, 1e-4, 0, 1e-3;
   fit.result.initial_states[0].start = "dahl_forces";
   fit.result.initial_states[0].dahl_forces = {0, -305.5, 0, 12.25, 0};
+  fit.result.initial_states[1].start = "first_row_pose";
   fit.result.cost = 18003.25;
   fit.result.iterations = 17;
   fit.result.seconds = 0.25;
@@ -121,7 +122,7 @@ TEST(FitCodecTest, AFitAndItsStatusArriveBitForBit) {
   EXPECT_EQ(back.result.initial_states[0].dahl_forces,
             fit.result.initial_states[0].dahl_forces);
   EXPECT_FALSE(back.result.initial_states[1].has_tare);
-  EXPECT_EQ(back.result.initial_states[1].start, "equilibrium");
+  EXPECT_EQ(back.result.initial_states[1].start, "first_row_pose");
   EXPECT_TRUE(back.result.initial_states[1].dahl_forces.empty());
   EXPECT_EQ(back.result.cost, 18003.25);
   EXPECT_EQ(back.result.iterations, 17);

@@ -171,7 +171,7 @@ TEST(EstimatorTest, LogWithoutLoadCellUsesTheCommandedRamp) {
 
 // A structure still creeping from the last run moves during the tare: the
 // log's tare gives its mean and the pose at the first row.
-TEST(EstimatorTest, ARigLogsRestPoseIsItsPoseAtTheFirstRow) {
+TEST(EstimatorTest, ARigLogsTareGivesItsMeanAndItsFirstRowsPose) {
   const KcrigConfig config = SourceConfig();
   RunLog log = SyntheticLog(config, DistinctBushingTruth(config.model),
                             PaperInitialSpec(config));

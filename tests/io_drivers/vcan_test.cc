@@ -140,7 +140,8 @@ class VcanTest : public TempDirTest {
 // Agreement in standard errors: the estimator models the applied force from
 // the command, which can.log carries at the DBC's 0.5 N resolution and
 // run.csv at full precision (that quantum moves the estimates by about 5e-4
-// of a standard error, measured).
+// of a standard error, measured). A replay of the same frames estimates the
+// same to rounding: 1e-6 of a standard error is that, in the same unit.
 void ExpectSameEstimate(const nlohmann::json& a, const nlohmann::json& b,
                         double tolerance_in_standard_errors) {
   ASSERT_EQ(a["parameters"].size(), b["parameters"].size());

@@ -3,6 +3,7 @@
 // the same load history; and --effect parsing.
 #include "rt_core/model/plant_effects.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <string>
@@ -121,7 +122,7 @@ TEST(PlantEffectsTest, ADampedPlantStartsAtTheTareAndCreepsToItsEquilibrium) {
     }
   }
   // Creep, not a jump: still a tenth after 0.5 s (d/c is about 0.5 s), gone
-  // after 3 s, never past the equilibrium.
+  // after 3 s, never more than 5 % past the equilibrium.
   EXPECT_GT(offset[1], 0.1 * offset[0]);
   EXPECT_LT(offset[1], offset[0]);
   EXPECT_LT(std::abs(offset[6]), 0.05 * offset[0]);
@@ -132,6 +133,38 @@ TEST(PlantEffectsTest, ADampedPlantStartsAtTheTareAndCreepsToItsEquilibrium) {
       nominal.SettleAtRest(rest_force, config.experiment.z_a, tare, sigma)
           .ok());
   EXPECT_EQ(nominal.pose(), equilibrium.pose());
+}
+
+// With hysteresis too, the move to the first row's pose is no motion for
+// the Dahl elements: the forces the tare's mean asked for stay (a move of
+// 0.4 mm, forty times F/sigma, seen as motion would saturate them; a
+// step's creep changes them by tens of newtons at most).
+TEST(PlantEffectsTest, TheMoveToTheFirstRowsPoseKeepsTheDahlForces) {
+  const KcrigConfig config = SourceConfig();
+  PlantEffects effects = With("hysteresis:force=400");
+  ASSERT_TRUE(ParseEffect("bushing_damping:d=2e6", &effects).ok());
+  const Vec3<double> rest_force(0, 0, 0);
+  RigPlant equilibrium(config.model, PlantEffects(), kStep);
+  ASSERT_TRUE(equilibrium.Settle(rest_force, config.experiment.z_a).ok());
+  TarePose tare;
+  tare.mean = equilibrium.Sensed();
+  tare.mean(kLateral) += 5 * kSigmaPosition;  // friction kept
+  tare.at_start = tare.mean;
+  tare.at_start(kLateral) += 20 * kSigmaPosition;  // and still creeping
+  RigPlant plant(config.model, effects, kStep);
+  ASSERT_TRUE(plant
+                  .SettleAtRest(rest_force, config.experiment.z_a, tare,
+                                Vec6<double>::Constant(kSigmaPosition))
+                  .ok());
+  const auto kept = plant.dahl_forces();
+  double largest = 0;
+  for (double h : kept) largest = std::max(largest, std::abs(h));
+  EXPECT_GT(largest, 1.0);  // the tare's mean needed friction
+  EXPECT_LT((plant.Sensed() - tare.at_start).cwiseAbs().maxCoeff(), 1e-12);
+  plant.Step(rest_force);
+  for (int i = 0; i < kNumBushings; ++i) {
+    EXPECT_NEAR(plant.dahl_forces()[i], kept[i], 0.25 * 400) << i;
+  }
 }
 
 TEST(PlantEffectsTest, HysteresisLagsIndependentlyOfRateAndLeavesRemanence) {
