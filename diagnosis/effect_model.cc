@@ -928,9 +928,7 @@ std::vector<LogInitialState> InitialStates(
     const Experiment& e = experiments[k];
     if (!e.tare || !(dahl || creep)) continue;
     LogInitialState& state = states[k];
-    state.start = dahl && creep ? "dahl_forces_and_first_row_pose"
-                  : dahl        ? "dahl_forces"
-                                : "first_row_pose";
+    state.from_first_row_pose = creep;
     if (!dahl) continue;
     RigPlant plant(parameters, effects, step, model.max_dead_time());
     state.dahl_forces.assign(kNumBushings,

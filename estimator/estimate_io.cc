@@ -36,10 +36,15 @@ nlohmann::ordered_json InitialStatesToJson(
   nlohmann::ordered_json out = nlohmann::ordered_json::array();
   for (const LogInitialState& s : states) {
     nlohmann::ordered_json log;
-    log["start"] = s.start;
-    log["tare_mean"] = s.has_tare ? PoseToJson(s.tare.mean) : nullptr;
-    if (s.has_tare && s.start.find("first_row_pose") != std::string::npos) {
-      log["start_pose"] = PoseToJson(s.tare.at_start);
+    const bool dahl = !s.dahl_forces.empty();
+    log["start"] = dahl && s.from_first_row_pose
+                       ? "dahl_forces_and_first_row_pose"
+                   : dahl                  ? "dahl_forces"
+                   : s.from_first_row_pose ? "first_row_pose"
+                                           : "equilibrium";
+    log["tare_mean"] = s.tare ? PoseToJson(s.tare->mean) : nullptr;
+    if (s.tare && s.from_first_row_pose) {
+      log["start_pose"] = PoseToJson(s.tare->at_start);
     }
     if (!s.dahl_forces.empty()) {
       for (size_t i = 0; i < s.dahl_forces.size(); ++i) {

@@ -229,9 +229,7 @@ std::vector<LogInitialState> InitialStatesAtEquilibrium(
     const std::vector<Experiment>& experiments) {
   std::vector<LogInitialState> states(experiments.size());
   for (size_t k = 0; k < experiments.size(); ++k) {
-    if (!experiments[k].tare) continue;
-    states[k].has_tare = true;
-    states[k].tare = *experiments[k].tare;
+    states[k].tare = experiments[k].tare;
   }
   return states;
 }

@@ -6,6 +6,7 @@
 #define KCRIG_ESTIMATOR_ESTIMATOR_H_
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -83,17 +84,16 @@ struct ParameterEstimate {
 // its last run (README: "How kcrig handles the memory").
 struct LogInitialState {
   // The log's tare (Experiment::tare). A log without phases has none.
-  bool has_tare = false;
-  TarePose tare;
-  // "equilibrium": at rest under the first force; "dahl_forces": a model
-  // with hysteresis, with the Dahl forces below that put its sensors at the
-  // tare's mean; "first_row_pose": a model with bushing damping, at the
-  // tare's pose at the first row; "dahl_forces_and_first_row_pose": both
-  // (the Dahl forces hold the structure's equilibrium at the tare's mean,
-  // towards which it creeps from the first row's pose).
-  std::string start = "equilibrium";
-  // [N] per bushing, O1..P (0 where none; NaN where the settle failed);
-  // empty without hysteresis or without a tare.
+  std::optional<TarePose> tare;
+  // A model with bushing damping started at the tare's first-row pose (a
+  // structure still creeping).
+  bool from_first_row_pose = false;
+  // [N] per bushing, O1..P (0 where none; NaN where the settle failed): a
+  // model with hysteresis started from these Dahl forces, which put its
+  // sensors at the tare's mean (with bushing damping too, they hold the
+  // equilibrium the structure creeps to from the first row's pose). Empty
+  // without hysteresis or without a tare. With neither: at rest under the
+  // first force.
   std::vector<double> dahl_forces;
 };
 

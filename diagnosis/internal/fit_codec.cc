@@ -115,10 +115,14 @@ void Visit(A& a, Adequacy& q) {
 
 template <typename A>
 void Visit(A& a, LogInitialState& s) {
-  a(s.has_tare);
-  a(s.tare.mean);
-  a(s.tare.at_start);
-  a(s.start);
+  bool has_tare = s.tare.has_value();
+  a(has_tare);
+  if (has_tare && !s.tare) s.tare.emplace();  // reading
+  if (has_tare) {
+    a(s.tare->mean);
+    a(s.tare->at_start);
+  }
+  a(s.from_first_row_pose);
   a(s.dahl_forces);
 }
 

@@ -43,12 +43,12 @@ EffectFit SomeFit() {
   fit.result.num_residuals = 36006;
   fit.result.memory_rows = {1200, 0};
   fit.result.initial_states.resize(2);
-  fit.result.initial_states[0].has_tare = true;
-  fit.result.initial_states[0].tare.mean << 1e-5, -2e-5, 3e-6, 1e-4, 0, -1e-3;
-  fit.result.initial_states[0].tare.at_start << 2e-5, -1e-5, 0, 1e-4, 0, 1e-3;
-  fit.result.initial_states[0].start = "dahl_forces";
+  TarePose tare;
+  tare.mean << 1e-5, -2e-5, 3e-6, 1e-4, 0, -1e-3;
+  tare.at_start << 2e-5, -1e-5, 0, 1e-4, 0, 1e-3;
+  fit.result.initial_states[0].tare = tare;
   fit.result.initial_states[0].dahl_forces = {0, -305.5, 0, 12.25, 0};
-  fit.result.initial_states[1].start = "first_row_pose";
+  fit.result.initial_states[1].from_first_row_pose = true;
   fit.result.cost = 18003.25;
   fit.result.iterations = 17;
   fit.result.seconds = 0.25;
@@ -113,16 +113,16 @@ TEST(FitCodecTest, AFitAndItsStatusArriveBitForBit) {
   EXPECT_EQ(back.result.num_residuals, 36006);
   EXPECT_EQ(back.result.memory_rows, std::vector<int>({1200, 0}));
   ASSERT_EQ(back.result.initial_states.size(), 2u);
-  EXPECT_TRUE(back.result.initial_states[0].has_tare);
-  EXPECT_EQ(back.result.initial_states[0].tare.mean,
-            fit.result.initial_states[0].tare.mean);
-  EXPECT_EQ(back.result.initial_states[0].tare.at_start,
-            fit.result.initial_states[0].tare.at_start);
-  EXPECT_EQ(back.result.initial_states[0].start, "dahl_forces");
+  ASSERT_TRUE(back.result.initial_states[0].tare.has_value());
+  EXPECT_EQ(back.result.initial_states[0].tare->mean,
+            fit.result.initial_states[0].tare->mean);
+  EXPECT_EQ(back.result.initial_states[0].tare->at_start,
+            fit.result.initial_states[0].tare->at_start);
+  EXPECT_FALSE(back.result.initial_states[0].from_first_row_pose);
   EXPECT_EQ(back.result.initial_states[0].dahl_forces,
             fit.result.initial_states[0].dahl_forces);
-  EXPECT_FALSE(back.result.initial_states[1].has_tare);
-  EXPECT_EQ(back.result.initial_states[1].start, "first_row_pose");
+  EXPECT_FALSE(back.result.initial_states[1].tare.has_value());
+  EXPECT_TRUE(back.result.initial_states[1].from_first_row_pose);
   EXPECT_TRUE(back.result.initial_states[1].dahl_forces.empty());
   EXPECT_EQ(back.result.cost, 18003.25);
   EXPECT_EQ(back.result.iterations, 17);
