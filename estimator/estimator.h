@@ -92,13 +92,13 @@ struct LogInitialState {
   // model with hysteresis started from these Dahl forces, which put its
   // sensors at the tare's mean (with bushing damping too, they hold the
   // equilibrium the structure creeps to from the first row's pose). Empty
-  // without hysteresis or without a tare. With neither: at rest under the
-  // first force.
+  // without hysteresis or without a tare. Without Dahl forces and not from
+  // the first row's pose, the model started at rest under the first force.
   std::vector<double> dahl_forces;
 };
 
 // Per experiment, the initial state of a model that starts at rest under
-// the first force (`start` "equilibrium").
+// the first force (no Dahl forces, not from the first row's pose).
 std::vector<LogInitialState> InitialStatesAtEquilibrium(
     const std::vector<Experiment>& experiments);
 
