@@ -77,6 +77,9 @@ Status Prepare(const ValidateArgs& args, const Ranks& ranks,
   if (!args.effects.empty()) options->classes = SplitList(args.effects);
   if (!args.plan.empty()) {
     status = LoadBlindTestPlan(args.plan, &options->plan);
+    if (status.ok()) {
+      status = CheckBlindTestPlanOnRig(*config, args.plan, options->plan);
+    }
     if (!status.ok()) return status;
   }
   BlindCase probe;

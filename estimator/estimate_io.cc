@@ -355,6 +355,99 @@ std::string EstimationSummary(const EstimationResult& result,
   return out;
 }
 
+namespace {
+
+// A pose written by PoseToJson back in SI; null entries read as NaN.
+Status ReadPose(const nlohmann::json& pose, const std::string& field,
+                Vec6<double>* out) {
+  if (!pose.is_object()) return Status::Error(field + ": expected an object");
+  for (int k = 0; k < kNumChannels; ++k) {
+    const std::string key =
+        std::string(kChannelNames[k]) + "_" + ChannelDisplayUnit(k);
+    const auto value = pose.find(key);
+    if (value == pose.end() || !(value->is_number() || value->is_null())) {
+      return Status::Error(field + "." + key + ": missing or not a number");
+    }
+    (*out)(k) = value->is_null()
+                    ? std::numeric_limits<double>::quiet_NaN()
+                    : value->get<double>() / ChannelDisplayValue(k, 1.0);
+  }
+  return Status::Ok();
+}
+
+// One entry of rig_initial_state (InitialStatesToJson) back.
+Status ReadInitialState(const nlohmann::json& log, const std::string& field,
+                        LogInitialState* state) {
+  static const std::vector<std::string> kStarts = {
+      "equilibrium", "dahl_forces", "first_row_pose",
+      "dahl_forces_and_first_row_pose"};
+  const std::string start =
+      log.is_object() && log.contains("start") && log["start"].is_string()
+          ? log["start"].get<std::string>()
+          : "";
+  if (std::find(kStarts.begin(), kStarts.end(), start) == kStarts.end()) {
+    return Status::Error(field +
+                         ".start: expected equilibrium, dahl_forces, "
+                         "first_row_pose or dahl_forces_and_first_row_pose");
+  }
+  state->from_first_row_pose = start.find("first_row_pose") != start.npos;
+  if (log.contains("tare_mean") && !log["tare_mean"].is_null()) {
+    TarePose tare;
+    KCRIG_RETURN_IF_ERROR(
+        ReadPose(log["tare_mean"], field + ".tare_mean", &tare.mean));
+    if (log.contains("start_pose")) {
+      KCRIG_RETURN_IF_ERROR(
+          ReadPose(log["start_pose"], field + ".start_pose", &tare.at_start));
+    }
+    state->tare = tare;
+  }
+  if (start.find("dahl_forces") == start.npos) return Status::Ok();
+  const nlohmann::json* forces =
+      log.contains("dahl_force_N") ? &log["dahl_force_N"] : nullptr;
+  for (const std::string_view name : kBushingChassisNames) {
+    const std::string bushing(name);
+    const std::string key = field + ".dahl_force_N." + bushing;
+    if (forces == nullptr || !forces->is_object() ||
+        !forces->contains(bushing)) {
+      return Status::Error(key + ": missing");
+    }
+    const nlohmann::json& f = (*forces)[bushing];
+    if (!f.is_number() && !f.is_null()) {
+      return Status::Error(key + ": not a number");
+    }
+    state->dahl_forces.push_back(f.is_null()
+                                     ? std::numeric_limits<double>::quiet_NaN()
+                                     : f.get<double>());
+  }
+  return Status::Ok();
+}
+
+// est.json's logs and rig_initial_state, when it has them.
+Status ReadLogsAndInitialStates(const nlohmann::json& doc,
+                                EstimateFile* estimate) {
+  if (doc.contains("logs")) {
+    if (!doc["logs"].is_array()) return Status::Error("logs: not a list");
+    for (const nlohmann::json& log : doc["logs"]) {
+      if (!log.is_string()) return Status::Error("logs: not a list of paths");
+      estimate->logs.push_back(log.get<std::string>());
+    }
+  }
+  if (!doc.contains("rig_initial_state")) return Status::Ok();
+  const nlohmann::json& states = doc["rig_initial_state"];
+  if (!states.is_array()) {
+    return Status::Error("rig_initial_state: not a list");
+  }
+  for (size_t i = 0; i < states.size(); ++i) {
+    LogInitialState state;
+    KCRIG_RETURN_IF_ERROR(ReadInitialState(
+        states[i], "rig_initial_state[" + std::to_string(i) + "]", &state));
+    estimate->initial_states.push_back(std::move(state));
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status ReadEstimateFile(const std::string& path, EstimateFile* estimate) {
   nlohmann::json doc;
   KCRIG_RETURN_IF_ERROR(ReadJsonFile(path, &doc));
@@ -423,7 +516,8 @@ Status ReadEstimateFile(const std::string& path, EstimateFile* estimate) {
     }
     estimate->integrator_step = step.get<double>();
   }
-  return Status::Ok();
+  const Status states = ReadLogsAndInitialStates(doc, estimate);
+  return states.ok() ? states : Status::Error(path + ": " + states.message());
 }
 
 }  // namespace kcrig

@@ -57,10 +57,14 @@ std::string InadequacyWarning(const std::vector<std::string>& logs);
 // values and, when present, the information matrix J^T J of the data.
 struct EstimateFile {
   std::vector<std::string> names;
-  std::vector<double> values;   // physical units
-  Eigen::MatrixXd information;  // empty when the file has none
-  Eigen::MatrixXd covariance;   // physical units; empty when none
-  double integrator_step = 0;   // [s] the fit's step; 0 when unrecorded
+  std::vector<double> values;     // physical units
+  Eigen::MatrixXd information;    // empty when the file has none
+  Eigen::MatrixXd covariance;     // physical units; empty when none
+  double integrator_step = 0;     // [s] the fit's step; 0 when unrecorded
+  std::vector<std::string> logs;  // the logs the fit used, as written
+  // Per log, where the fit's model started (rig_initial_state); empty when
+  // the file has none.
+  std::vector<LogInitialState> initial_states;
 };
 
 // Reads and checks an est.json written by kcrig estimate; errors name the

@@ -467,6 +467,50 @@ Status KcJson(const KcrigConfig& config, const fs::path& root,
   return Status::Ok();
 }
 
+// Where the final fit's model started each log (its est.json's
+// rig_initial_state): the start, the tare's mean (mm, deg) and the Dahl
+// forces kept from the run before [N]; null when that est.json has none.
+Status InitialStatesJson(const fs::path& root,
+                         const std::vector<CampaignIteration>& iterations,
+                         Json* out) {
+  EstimateFile estimate;
+  KCRIG_RETURN_IF_ERROR(
+      ReadIterationEstimate(root, iterations.back().index, &estimate));
+  *out = nullptr;
+  if (estimate.initial_states.empty()) return Status::Ok();
+  Json channels = Json::array(), logs = Json::array();
+  for (int k = 0; k < kNumChannels; ++k) {
+    channels.push_back(std::string(kChannelNames[k]) + " [" +
+                       ChannelDisplayUnit(k) + "]");
+  }
+  for (size_t i = 0; i < estimate.initial_states.size(); ++i) {
+    const LogInitialState& s = estimate.initial_states[i];
+    Json tare = nullptr, dahl = nullptr;
+    if (s.tare) {
+      tare = Json::array();
+      for (int k = 0; k < kNumChannels; ++k) {
+        tare.push_back(Number(ChannelDisplayValue(k, s.tare->mean(k))));
+      }
+    }
+    if (!s.dahl_forces.empty()) {
+      dahl = Json::array();
+      for (double f : s.dahl_forces) dahl.push_back(Number(f));
+    }
+    logs.push_back(
+        {{"log", i < estimate.logs.size() ? estimate.logs[i]
+                                          : "log " + std::to_string(i + 1)},
+         {"dahl_forces", !s.dahl_forces.empty()},
+         {"first_row_pose", s.from_first_row_pose},
+         {"tare_mean", tare},
+         {"dahl_force_N", dahl}});
+  }
+  *out = {{"iteration", iterations.back().index},
+          {"channels", channels},
+          {"bushings", kBushingChassisNames},
+          {"logs", logs}};
+  return Status::Ok();
+}
+
 // The campaign's figures: every experiment against the final estimate, the
 // estimates per iteration, the criterion surfaces and the kriging surrogate.
 Status CampaignJson(const KcrigConfig& config, const fs::path& root,
@@ -478,6 +522,8 @@ Status CampaignJson(const KcrigConfig& config, const fs::path& root,
   summary->campaign = true;
   (*data)["criterion"] = CriterionName(criterion);
   (*data)["estimates"] = EstimatesJson(iterations);
+  KCRIG_RETURN_IF_ERROR(
+      InitialStatesJson(root, iterations, &(*data)["initial_states"]));
   Json experiments = Json::array();
   for (const CampaignIteration& it : iterations) {
     const fs::path log =

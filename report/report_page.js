@@ -304,9 +304,36 @@
                                      title: {text: e.units[p]}};
     });
     figure(s2, traces, layout, 380);
+    if (data.initial_states) initialStates(s2, data.initial_states);
   }
 
   });
+
+  // Where the final fit's model started each log: a rig remembers its last
+  // run (a bushing's friction, a structure still creeping).
+  function initialStates(s, st) {
+    s.appendChild(el('h3', {}, 'Initial state of each log (iteration ' +
+                             st.iteration + '\u2019s fit)'));
+    note(s, 'The tare\u2019s mean pose, and where the model started: at ' +
+         'rest under the first force, from the Dahl (friction) forces the ' +
+         'rig kept from its run before, fitted to that tare, and/or from ' +
+         'the tare\u2019s first-row pose (a structure still creeping).');
+    var table = el('table');
+    row(table, ['log', 'start'].concat(st.channels, st.bushings.map(
+        function (b) { return 'Dahl ' + b + ' [N]'; })), true);
+    st.logs.forEach(function (log) {
+      var start = [];
+      if (log.dahl_forces) start.push('Dahl forces');
+      if (log.first_row_pose) start.push('first-row pose');
+      var tare = log.tare_mean || st.channels.map(function () { return null; });
+      var dahl = log.dahl_force_N ||
+                 st.bushings.map(function () { return null; });
+      row(table, [log.log, start.length ? start.join(' + ') : 'equilibrium']
+          .concat(tare.map(function (v) { return v === null ? '\u2014' : fmt(v, 3); }),
+                  dahl.map(function (v) { return v === null ? '\u2014' : fmt(v, 3); })));
+    });
+    s.appendChild(table);
+  }
 
   guarded('surfaces', function () { if (data.surfaces) {
     var s3 = section('surfaces', 'Criterion surfaces over (phi, z_a)');

@@ -32,7 +32,7 @@ MAY_INCLUDE = {
     "designer": ["base", "rt_core/model", "records", "estimator",
                  "diagnosis"],
     "validation": ["base", "rt_core/model", "records", "estimator",
-                   "diagnosis", "emulator"],
+                   "diagnosis", "emulator", "hil"],
     "report": ["base", "rt_core/model", "records", "estimator", "diagnosis",
                "kc_sheet", "designer"],
     "console": ["base", "rt_core/model", "rt_core/runtime", "io_drivers",

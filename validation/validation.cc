@@ -1,15 +1,26 @@
 #include "validation/validation.h"
 
+#include <stdlib.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <limits>
 #include <map>
+#include <memory>
+#include <system_error>
 
 #include "diagnosis/diagnosis_io.h"
 #include "diagnosis/effect_model.h"
-#include "emulator/simulated_run.h"
+#include "emulator/plant_config.h"
+#include "emulator/sil_rig.h"
+#include "hil/rig_config.h"
+#include "hil/rig_session.h"
 #include "nlohmann/json.hpp"
+#include "records/run_log.h"
 
 namespace kcrig {
 namespace {
@@ -21,32 +32,109 @@ constexpr double kSizeBins[] = {0, 1, 2, 3, 5, 10, 30};
 // Effects beyond this size are the ones the acceptance figures count.
 constexpr double kLargeEffect = 3;
 
-// Log k of the case (training, then hold-out) as the rig would record it,
-// or without noise; the truth is not in what the diagnosis gets.
-Status SimulateLog(const KcrigConfig& config, const ValidationOptions& options,
-                   const BlindCase& c, int k, bool noise,
-                   Experiment* experiment) {
+// The rig a case runs on: plant.yaml's rig (its actuator, load cell,
+// sensors' resolution, the rest between runs and its memory) with the
+// case's truth in place of plant.yaml's (true parameters and effects, no
+// sensor offset), the case's noise seed, stepped at options.plant_step.
+Status CasePlant(const KcrigConfig& config, const ValidationOptions& options,
+                 const BlindCase& c, bool noise, PlantConfig* plant) {
+  KCRIG_RETURN_IF_ERROR(LoadPlantConfig(config.directory, config.model, plant));
+  plant->model = BlindCasePlant(c, config.model);
+  plant->effects = c.effects;
+  plant->sensor_offset.setZero();
+  plant->noise = noise;
+  plant->seed = c.noise_seed;
+  plant->step = options.plant_step;
+  return Status::Ok();
+}
+
+// A folder of one case's logs in the temporary folder, removed with this.
+class CaseFolder {
+ public:
+  CaseFolder() = default;
+  ~CaseFolder() {
+    std::error_code ignored;
+    if (!path_.empty()) std::filesystem::remove_all(path_, ignored);
+  }
+  CaseFolder(const CaseFolder&) = delete;
+  CaseFolder& operator=(const CaseFolder&) = delete;
+
+  Status Create() {
+    std::error_code error;
+    const auto temp = std::filesystem::temp_directory_path(error);
+    if (error) {
+      return Status::Error("no temporary folder (" + error.message() + ")");
+    }
+    std::string path = (temp / "kcrig_validate_XXXXXX").string();
+    if (mkdtemp(path.data()) == nullptr) {
+      return Status::Error("cannot create a folder in " + temp.string() + " (" +
+                           std::strerror(errno) + ")");
+    }
+    path_ = path;
+    return Status::Ok();
+  }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+// rig.yaml's limits, the error detector's opened: it protects a rig from
+// a model far from it, and a blind case is such a rig on purpose (a large
+// effect would trip it, as on a real rig until the detector is widened).
+// The force, rate and travel limits and the watchdog stay as configured.
+Status CaseRigConfig(const KcrigConfig& config, RigConfig* rig_config) {
+  KCRIG_RETURN_IF_ERROR(LoadRigConfig(config.directory, rig_config));
+  rig_config->safety.error_position_max =
+      std::numeric_limits<double>::infinity();
+  rig_config->safety.error_angle_max = std::numeric_limits<double>::infinity();
+  return Status::Ok();
+}
+
+// The case's first `logs` designs (training, then hold-out) run back to
+// back on the case's SIL rig, as the rig records them: its phases, its
+// actuator and load cell, its memory from run to run. The truth is not in
+// what the diagnosis gets (the log's reader never reads it).
+Status RecordLogs(const KcrigConfig& config, const ValidationOptions& options,
+                  const BlindCase& c, bool noise, int logs,
+                  std::vector<Experiment>* experiments) {
+  PlantConfig plant;
+  KCRIG_RETURN_IF_ERROR(CasePlant(config, options, c, noise, &plant));
+  RigConfig rig_config;
+  KCRIG_RETURN_IF_ERROR(CaseRigConfig(config, &rig_config));
+  SilRig sil(config, plant);
+  KCRIG_RETURN_IF_ERROR(sil.Start());
+  const RunMetadata truth = sil.Truth();
+  CaseFolder folder;
+  KCRIG_RETURN_IF_ERROR(folder.Create());
   const int trained = static_cast<int>(c.training.size());
-  const BlindDesign& design =
-      k < trained ? c.training[k] : c.holdout[k - trained];
-  SimulatedRunOptions run;
-  run.rate = config.experiment.rate;
-  run.step = options.plant_step;
-  run.noise = noise;
-  run.seed = c.noise_seed + k;
-  run.effects = c.effects;
-  run.geometry = GeometryFingerprint(config.model);
-  RunLog log;
-  Status status = SimulateRun(BlindCasePlant(c, config.model),
-                              design.Ramp(config.experiment.fmax),
-                              config.experiment, run, &log);
-  if (!status.ok()) return status;
-  log.metadata.synthetic = false;
-  log.metadata.truth_parameters.clear();
-  log.metadata.truth_effects.clear();
-  return MakeExperiment(
-      "case " + std::to_string(c.index) + " log " + std::to_string(k), log,
-      config.experiment.step, experiment);
+  experiments->resize(logs);
+  for (int k = 0; k < logs; ++k) {
+    const std::string name =
+        "case " + std::to_string(c.index) + " log " + std::to_string(k);
+    RigSessionOptions run;
+    run.excitation = (k < trained ? c.training[k] : c.holdout[k - trained])
+                         .Ramp(config.experiment.fmax);
+    run.log_dir = folder.path() + "/log_" + std::to_string(k);
+    run.clock = sil.clock();
+    run.truth = &truth;
+    std::error_code error;
+    std::filesystem::create_directory(run.log_dir, error);
+    if (error) return Status::Error(run.log_dir + ": " + error.message());
+    const std::unique_ptr<RigInterface> link = sil.Connect({});
+    KCRIG_RETURN_IF_ERROR(link->Configure());
+    RigSessionResult result;
+    KCRIG_RETURN_IF_ERROR(
+        RunRigSession(config, rig_config, link.get(), run, &result));
+    if (!result.completed) {
+      return Status::Error(name + " on the SIL rig " + result.trip_message);
+    }
+    RunLog log;
+    KCRIG_RETURN_IF_ERROR(ReadRunLog(run.log_dir + "/run.csv", &log));
+    KCRIG_RETURN_IF_ERROR(
+        MakeExperiment(name, log, config.experiment.step, &(*experiments)[k]));
+  }
+  return Status::Ok();
 }
 
 // The effect's size in noise units (0 for a clean case).
@@ -54,11 +142,10 @@ Status EffectSize(const KcrigConfig& config, const ValidationOptions& options,
                   const BlindCase& c, double* size) {
   *size = 0;
   if (c.truth == "none") return Status::Ok();
-  std::vector<Experiment> clean(c.training.size());
-  for (int k = 0; k < static_cast<int>(clean.size()); ++k) {
-    const Status status = SimulateLog(config, options, c, k, false, &clean[k]);
-    if (!status.ok()) return status;
-  }
+  std::vector<Experiment> clean;
+  KCRIG_RETURN_IF_ERROR(RecordLogs(config, options, c, /*noise=*/false,
+                                   static_cast<int>(c.training.size()),
+                                   &clean));
   return NominalFitSigmaHat(config, clean, size);
 }
 
@@ -315,6 +402,27 @@ Status NominalFitSigmaHat(const KcrigConfig& config,
   return Status::Ok();
 }
 
+Status CheckBlindTestPlanOnRig(const KcrigConfig& config,
+                               const std::string& file,
+                               const BlindTestPlan& plan) {
+  RigConfig rig_config;
+  KCRIG_RETURN_IF_ERROR(LoadRigConfig(config.directory, &rig_config));
+  const std::pair<const char*, const std::vector<BlindDesign>*> lists[] = {
+      {"training", &plan.training}, {"holdout", &plan.holdout}};
+  for (const auto& [key, ramps] : lists) {
+    for (size_t i = 0; i < ramps->size(); ++i) {
+      RigSessionOptions run;
+      run.excitation = (*ramps)[i].Ramp(config.experiment.fmax);
+      const Status status = ValidateRunRequest(rig_config, run);
+      if (!status.ok()) {
+        return Status::Error(file + ": " + key + "[" + std::to_string(i) +
+                             "]: " + status.message());
+      }
+    }
+  }
+  return Status::Ok();
+}
+
 Status RunValidationCase(const KcrigConfig& config,
                          const ValidationOptions& options, int index,
                          std::string* outcome) {
@@ -322,14 +430,14 @@ Status RunValidationCase(const KcrigConfig& config,
   Status status = DrawBlindCase(index, options.seed, config.model,
                                 options.classes, options.plan, &c);
   if (!status.ok()) return status;
-  std::vector<Experiment> training(c.training.size()),
-      holdout(c.holdout.size());
-  for (size_t k = 0; k < training.size() + holdout.size(); ++k) {
-    Experiment* log =
-        k < training.size() ? &training[k] : &holdout[k - training.size()];
-    status = SimulateLog(config, options, c, static_cast<int>(k), true, log);
-    if (!status.ok()) return status;
-  }
+  std::vector<Experiment> training;
+  status = RecordLogs(config, options, c, /*noise=*/true,
+                      static_cast<int>(c.training.size() + c.holdout.size()),
+                      &training);
+  if (!status.ok()) return status;
+  const std::vector<Experiment> holdout(training.begin() + c.training.size(),
+                                        training.end());
+  training.resize(c.training.size());
   DiagnosisResult result;
   status = Diagnose(config.model, training, holdout, options.diagnosis,
                     config.experiment.step, &result);

@@ -1,14 +1,15 @@
 // `kcrig validate`: how well does kcrig diagnose *this* configuration? Blind
-// cases (blind_case.h) are simulated on the configured suspension as a
-// continuous rig would record them (the plant stepped finer than the model,
-// the configured sensor noise), diagnosed exactly as `kcrig diagnose` does
+// cases (blind_case.h) are run back to back on the embedded SIL rig with
+// the case's truth as its plant (stepped finer than the model, as a rig is
+// continuous; the configured sensor noise; the rig's phases, actuator, load
+// cell and memory from run to run), diagnosed exactly as `kcrig diagnose` does
 // on logs whose truth is stripped, and only then compared with their truth:
 // the confusion matrix, the detection rate against the effect's size in
 // noise units (a power curve per class), the false-alarm rate, the gap
 // closed, and the confident wrong answers.
 //
 // The size of an effect "in the residual" is the RMS, in noise units, of
-// the nominal model's fitted residual on the same training logs simulated
+// the nominal model's fitted residual on the same training logs run
 // without noise (never shown to the diagnosis).
 #ifndef KCRIG_VALIDATION_VALIDATION_H_
 #define KCRIG_VALIDATION_VALIDATION_H_
@@ -39,8 +40,15 @@ struct ValidationOptions {
   DiagnosisOptions diagnosis;
 };
 
-// Simulates, diagnoses and scores case `index`; `outcome` is its JSON
-// object (the case's truth, designs, size, and the diagnosis' verdict,
+// The ramps of a plan read from `file` as the rig runs them: within
+// rig.yaml's force and force-rate limits; otherwise one line naming the
+// file and the ramp (training[i] or holdout[i]).
+Status CheckBlindTestPlanOnRig(const KcrigConfig& config,
+                               const std::string& file,
+                               const BlindTestPlan& plan);
+
+// Runs case `index` on the SIL rig, diagnoses and scores it; `outcome` is
+// its JSON object (the case's truth, designs, size, and the diagnosis' verdict,
 // model, confidence, components, ambiguity, gap closed and, for a wrong
 // parameter, whether its true value lies in the 95 % interval).
 Status RunValidationCase(const KcrigConfig& config,

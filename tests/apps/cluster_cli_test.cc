@@ -457,6 +457,7 @@ TEST_F(ClusterCliTest, APlanGivesEveryCaseItsRamps) {
   }
 }
 
+// A plan's ramp the rig refuses (too fast) is refused before any case.
 TEST_F(ClusterCliTest, ABadPlanIsOneLineNamingFileLineAndKey) {
   const std::string plan = Path("plan.yaml");
   const std::string out = Path("v.json");
@@ -472,7 +473,13 @@ TEST_F(ClusterCliTest, ABadPlanIsOneLineNamingFileLineAndKey) {
        "training: missing key"},
       {"training:\n  - {phi_deg: 80, z_a: 0, duration: 1, hold: 0, return: "
        "1}\nramps: 3\n",
-       "ramps: unknown key"}};
+       "ramps: unknown key"},
+      // 8 kN in 0.2 s: faster than rig.yaml's safety.force_rate_max.
+      {"training:\n  - {phi_deg: 80, z_a: 0, duration: 1, hold: 0, return: "
+       "1}\nholdout:\n  - {phi_deg: 80, z_a: 0, duration: 0.2, hold: 0, "
+       "return: 1}\n",
+       "plan.yaml: holdout[0]: the run would change the force at 40000 N/s, "
+       "beyond safety.force_rate_max"}};
   for (const auto& [text, expected] : cases) {
     WriteFile(plan, text);
     const CliResult run =

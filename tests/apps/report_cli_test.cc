@@ -141,6 +141,22 @@ TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
     EXPECT_LT(estimates["log10_diag_inv_jtj"][1][p].get<double>(),
               estimates["log10_diag_inv_jtj"][0][p].get<double>());
   }
+  // Where the final fit's model started each log: at rest under the first
+  // force (the nominal model has no memory), the tare's mean in mm and deg.
+  const Json& states = data["initial_states"];
+  EXPECT_EQ(states["iteration"], 1);
+  ASSERT_EQ(states["logs"].size(), 2u) << states;
+  for (const Json& log : states["logs"]) {
+    EXPECT_NE(log["log"].get<std::string>().find("run.csv"), std::string::npos);
+    EXPECT_EQ(log["dahl_forces"], false);
+    EXPECT_EQ(log["first_row_pose"], false);
+    EXPECT_TRUE(log["dahl_force_N"].is_null());
+    ASSERT_EQ(log["tare_mean"].size(), 6u) << log;
+    // At zero force the wheel centre rests within a tenth of a millimetre.
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_LT(std::abs(log["tare_mean"][k].get<double>()), 0.1) << log;
+    }
+  }
   ASSERT_EQ(data["surfaces"].size(), 2u);
   for (const Json& s : data["surfaces"]) {
     ASSERT_EQ(s["phi_deg"].size(), 4u);

@@ -6,9 +6,12 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
+#include "estimator/estimate_io.h"
 #include "gtest/gtest.h"
 #include "tests/support/synthetic.h"
 #include "tests/support/test_config.h"
@@ -194,6 +197,59 @@ TEST(EstimatorTest, ARigLogsTareGivesItsMeanAndItsFirstRowsPose) {
       (experiment.tare->mean - (first + drift * middle)).cwiseAbs().maxCoeff(),
       1e-12);
   EXPECT_EQ(experiment.memory_rows, 400);
+}
+
+// est.json's rig_initial_state reads back as it was written (mm and deg
+// back to SI, null Dahl forces as NaN); a broken entry is one line naming
+// the field.
+TEST(EstimatorTest, EstJsonsInitialStatesReadBack) {
+  EstimationResult result;
+  result.parameters = {
+      {"c_O1", "N/m", 3.6e6, 3.6e6, 3.7e6, 1e3, 3.69e6, 3.71e6}};
+  result.covariance = result.correlation = result.information =
+      Eigen::MatrixXd::Identity(1, 1);
+  result.singular_values = Eigen::VectorXd::Ones(1);
+  TarePose tare;
+  tare.mean << -53e-6, 1e-6, 2e-6, 1e-4, -2e-4, -3.3e-4;
+  tare.at_start = tare.mean * 2;
+  result.initial_states.resize(3);
+  result.initial_states[0].tare = tare;
+  result.initial_states[1].tare = tare;
+  result.initial_states[1].dahl_forces = {0, -305.5, 0, NAN, 12.25};
+  result.initial_states[2].tare = tare;
+  result.initial_states[2].from_first_row_pose = true;
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "kcrig_est_initial_states.json")
+          .string();
+  const std::string json = EstimationResultToJson(
+      result, {"a/run.csv", "b/run.csv", "c/run.csv"}, {}, {});
+  std::ofstream(path) << json;
+  EstimateFile back;
+  ASSERT_TRUE(ReadEstimateFile(path, &back).ok());
+  EXPECT_EQ(back.logs,
+            std::vector<std::string>({"a/run.csv", "b/run.csv", "c/run.csv"}));
+  ASSERT_EQ(back.initial_states.size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    const LogInitialState& s = back.initial_states[i];
+    ASSERT_TRUE(s.tare.has_value()) << i;
+    EXPECT_LT((s.tare->mean - tare.mean).cwiseAbs().maxCoeff(), 1e-15) << i;
+    EXPECT_EQ(s.from_first_row_pose, i == 2) << i;
+    EXPECT_EQ(s.dahl_forces.size(), i == 1 ? 5u : 0u) << i;
+  }
+  EXPECT_LT((back.initial_states[2].tare->at_start - tare.at_start)
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-15);
+  EXPECT_EQ(back.initial_states[1].dahl_forces[1], -305.5);
+  EXPECT_TRUE(std::isnan(back.initial_states[1].dahl_forces[3]));
+  std::string broken = json;
+  broken.replace(broken.find("\"dahl_forces\""), 13, "\"friction\"");
+  std::ofstream(path) << broken;
+  const Status status = ReadEstimateFile(path, &back);
+  EXPECT_NE(status.message().find(path + ": rig_initial_state[1].start:"),
+            std::string::npos)
+      << status.message();
+  std::filesystem::remove(path);
 }
 
 TEST(EstimatorTest, ParameterSelectionIsChecked) {
