@@ -5,8 +5,9 @@
 // magnitude from small to large, where a bushing effect acts (one bushing
 // or all), the rig's true bushings +-10 % off the
 // configured ones, the designs of two training logs and one hold-out log,
-// the noise — simulated by a plant stepped ten times finer than the model,
-// diagnosed with the truth stripped, and only then scored. The size of an
+// the noise — run back to back on the embedded SIL rig (its phases,
+// actuator, load cell and memory; the plant stepped ten times finer than
+// the model), diagnosed with the truth stripped, and only then scored. The size of an
 // effect "in the residual" is the RMS, in noise units, of the nominal
 // model's residual on the same training logs without noise.
 //
