@@ -77,15 +77,21 @@ Status Prepare(const ValidateArgs& args, const Ranks& ranks,
   if (!args.effects.empty()) options->classes = SplitList(args.effects);
   if (!args.plan.empty()) {
     status = LoadBlindTestPlan(args.plan, &options->plan);
-    if (status.ok()) {
-      status = CheckBlindTestPlanOnRig(*config, args.plan, options->plan);
-    }
     if (!status.ok()) return status;
   }
   BlindCase probe;
   status = DrawBlindCase(0, args.seed, config->model, options->classes,
                          options->plan, &probe);
   if (!status.ok()) return Status::Error("--effects: " + status.message());
+  KCRIG_RETURN_IF_ERROR(LoadValidationRig(*config, args.plan, options));
+  // Every case's ramps within the rig's limits before any case runs.
+  for (int i = 0; i < options->cases; ++i) {
+    BlindCase blind_case;
+    KCRIG_RETURN_IF_ERROR(DrawBlindCase(i, args.seed, config->model,
+                                        options->classes, options->plan,
+                                        &blind_case));
+    KCRIG_RETURN_IF_ERROR(CheckBlindCaseOnRig(*config, *options, blind_case));
+  }
   // One process: both cores on each case; under MPI a core per rank.
   options->diagnosis.num_threads =
       args.threads.value_or(ranks.size() > 1 ? 1 : 2);
@@ -280,7 +286,8 @@ void AddValidateCommand(CLI::App* app, std::function<int()>* run) {
   auto args = std::make_shared<ValidateArgs>();
   CLI::App* cmd = app->add_subcommand(
       "validate",
-      "How well kcrig diagnoses this configuration: blind cases simulated, "
+      "How well kcrig diagnoses this configuration: blind cases run on the "
+      "embedded SIL rig, "
       "diagnosed and scored against their truth (spread over MPI ranks "
       "under mpirun)");
   cmd->add_option("--config", args->config_dir,

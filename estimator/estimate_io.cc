@@ -28,6 +28,27 @@ nlohmann::ordered_json PoseToJson(const Vec6<double>& pose) {
   return out;
 }
 
+// est.json's start kinds: where a log's model started (LogInitialState).
+struct StartKind {
+  const char* name;
+  bool dahl_forces, first_row_pose;
+};
+constexpr StartKind kStartKinds[] = {
+    {"equilibrium", false, false},
+    {"dahl_forces", true, false},
+    {"first_row_pose", false, true},
+    {"dahl_forces_and_first_row_pose", true, true}};
+
+const char* StartKindName(const LogInitialState& s) {
+  for (const StartKind& kind : kStartKinds) {
+    if (kind.dahl_forces == !s.dahl_forces.empty() &&
+        kind.first_row_pose == s.from_first_row_pose) {
+      return kind.name;
+    }
+  }
+  return "";  // unreachable: the table has every pair
+}
+
 // Per log: where its model started, the tare's mean (and the first row's
 // pose where the model started there) in mm and deg, and the Dahl forces
 // of a model with hysteresis (LogInitialState).
@@ -36,12 +57,7 @@ nlohmann::ordered_json InitialStatesToJson(
   nlohmann::ordered_json out = nlohmann::ordered_json::array();
   for (const LogInitialState& s : states) {
     nlohmann::ordered_json log;
-    const bool dahl = !s.dahl_forces.empty();
-    log["start"] = dahl && s.from_first_row_pose
-                       ? "dahl_forces_and_first_row_pose"
-                   : dahl                  ? "dahl_forces"
-                   : s.from_first_row_pose ? "first_row_pose"
-                                           : "equilibrium";
+    log["start"] = StartKindName(s);
     log["tare_mean"] = s.tare ? PoseToJson(s.tare->mean) : nullptr;
     if (s.tare && s.from_first_row_pose) {
       log["start_pose"] = PoseToJson(s.tare->at_start);
@@ -375,43 +391,44 @@ Status ReadPose(const nlohmann::json& pose, const std::string& field,
   return Status::Ok();
 }
 
-// One entry of rig_initial_state (InitialStatesToJson) back.
+// One entry of rig_initial_state (InitialStatesToJson) back. A tare's
+// first-row pose that est.json does not give (the model did not start
+// there) reads as NaN.
 Status ReadInitialState(const nlohmann::json& log, const std::string& field,
                         LogInitialState* state) {
-  static const std::vector<std::string> kStarts = {
-      "equilibrium", "dahl_forces", "first_row_pose",
-      "dahl_forces_and_first_row_pose"};
   const std::string start =
       log.is_object() && log.contains("start") && log["start"].is_string()
           ? log["start"].get<std::string>()
           : "";
-  if (std::find(kStarts.begin(), kStarts.end(), start) == kStarts.end()) {
+  const StartKind* kind =
+      std::find_if(std::begin(kStartKinds), std::end(kStartKinds),
+                   [&start](const StartKind& k) { return start == k.name; });
+  if (kind == std::end(kStartKinds)) {
     return Status::Error(field +
                          ".start: expected equilibrium, dahl_forces, "
                          "first_row_pose or dahl_forces_and_first_row_pose");
   }
-  state->from_first_row_pose = start.find("first_row_pose") != start.npos;
+  state->from_first_row_pose = kind->first_row_pose;
   if (log.contains("tare_mean") && !log["tare_mean"].is_null()) {
     TarePose tare;
     KCRIG_RETURN_IF_ERROR(
         ReadPose(log["tare_mean"], field + ".tare_mean", &tare.mean));
-    if (log.contains("start_pose")) {
-      KCRIG_RETURN_IF_ERROR(
-          ReadPose(log["start_pose"], field + ".start_pose", &tare.at_start));
+    tare.at_start.setConstant(std::numeric_limits<double>::quiet_NaN());
+    if (kind->first_row_pose) {
+      KCRIG_RETURN_IF_ERROR(ReadPose(log.value("start_pose", nlohmann::json()),
+                                     field + ".start_pose", &tare.at_start));
     }
     state->tare = tare;
   }
-  if (start.find("dahl_forces") == start.npos) return Status::Ok();
-  const nlohmann::json* forces =
-      log.contains("dahl_force_N") ? &log["dahl_force_N"] : nullptr;
+  if (!kind->dahl_forces) return Status::Ok();
+  const nlohmann::json forces = log.value("dahl_force_N", nlohmann::json());
   for (const std::string_view name : kBushingChassisNames) {
     const std::string bushing(name);
     const std::string key = field + ".dahl_force_N." + bushing;
-    if (forces == nullptr || !forces->is_object() ||
-        !forces->contains(bushing)) {
+    if (!forces.is_object() || !forces.contains(bushing)) {
       return Status::Error(key + ": missing");
     }
-    const nlohmann::json& f = (*forces)[bushing];
+    const nlohmann::json& f = forces[bushing];
     if (!f.is_number() && !f.is_null()) {
       return Status::Error(key + ": not a number");
     }

@@ -63,7 +63,8 @@ struct EstimateFile {
   double integrator_step = 0;     // [s] the fit's step; 0 when unrecorded
   std::vector<std::string> logs;  // the logs the fit used, as written
   // Per log, where the fit's model started (rig_initial_state); empty when
-  // the file has none.
+  // the file has none. A tare's at_start is NaN where the model did not
+  // start there (est.json gives it only then).
   std::vector<LogInitialState> initial_states;
 };
 

@@ -2,8 +2,9 @@
 // (configure, activate, deactivate / error), real-time set-up, the control
 // loop on the calling thread, a logger thread that drains the loop's ring,
 // and the outputs run.csv + run.json (written together) and timing.json,
-// also after a trip or a signal. Used by `kcrig run`, `kcrig campaign` and
-// `kcrig timing-check`.
+// also after a trip or a signal. Used by `kcrig run`, `kcrig campaign`,
+// `kcrig timing-check` and `kcrig validate` (its blind cases on the SIL
+// rig).
 #ifndef KCRIG_HIL_RIG_SESSION_H_
 #define KCRIG_HIL_RIG_SESSION_H_
 

@@ -496,13 +496,17 @@ Status InitialStatesJson(const fs::path& root,
       dahl = Json::array();
       for (double f : s.dahl_forces) dahl.push_back(Number(f));
     }
-    logs.push_back(
-        {{"log", i < estimate.logs.size() ? estimate.logs[i]
-                                          : "log " + std::to_string(i + 1)},
-         {"dahl_forces", !s.dahl_forces.empty()},
-         {"first_row_pose", s.from_first_row_pose},
-         {"tare_mean", tare},
-         {"dahl_force_N", dahl}});
+    // Named as the time histories name them (iteration_K/run.csv): est.json
+    // has each path as the campaign was given it, from wherever it ran.
+    const fs::path log =
+        i < estimate.logs.size() ? fs::path(estimate.logs[i]) : fs::path();
+    const std::string name =
+        log.empty() ? "log " + std::to_string(i + 1)
+                    : (log.parent_path().filename() / log.filename()).string();
+    logs.push_back({{"log", name},
+                    {"first_row_pose", s.from_first_row_pose},
+                    {"tare_mean", tare},
+                    {"dahl_force_N", dahl}});
   }
   *out = {{"iteration", iterations.back().index},
           {"channels", channels},

@@ -323,14 +323,14 @@
         function (b) { return 'Dahl ' + b + ' [N]'; })), true);
     st.logs.forEach(function (log) {
       var start = [];
-      if (log.dahl_forces) start.push('Dahl forces');
+      if (log.dahl_force_N) start.push('Dahl forces');
       if (log.first_row_pose) start.push('first-row pose');
-      var tare = log.tare_mean || st.channels.map(function () { return null; });
-      var dahl = log.dahl_force_N ||
-                 st.bushings.map(function () { return null; });
+      var none = function () { return null; };
+      var tare = log.tare_mean || st.channels.map(none);
+      var dahl = log.dahl_force_N || st.bushings.map(none);
       row(table, [log.log, start.length ? start.join(' + ') : 'equilibrium']
-          .concat(tare.map(function (v) { return v === null ? '\u2014' : fmt(v, 3); }),
-                  dahl.map(function (v) { return v === null ? '\u2014' : fmt(v, 3); })));
+          .concat(tare.map(function (v) { return fmt(v, 3); }),
+                  dahl.map(function (v) { return fmt(v, 3); })));
     });
     s.appendChild(table);
   }

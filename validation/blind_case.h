@@ -43,8 +43,8 @@ struct BlindDesign {
   std::string Arguments() const;
 };
 
-// Most logs of a case (training and hold-out): each log has a noise seed of
-// its own.
+// Most logs of a case (training and hold-out). Cases' noise seeds are this
+// far apart (the rig's noise stream of a case starts at its seed).
 inline constexpr int kMaxPlanLogs = 64;
 
 // The experiments a user will run: every case's logs take these designs
@@ -75,7 +75,7 @@ struct BlindCase {
   double parameter_value = 0;  // ...and its true value
   // The logs' designs: the training logs, then the hold-out logs.
   std::vector<BlindDesign> training, holdout;
-  std::uint64_t noise_seed = 0;  // of log k (training, then hold-out)
+  std::uint64_t noise_seed = 0;  // of the rig's sensors, over all its logs
   // The truth as `kcrig simulate` options (--effect ... --set ...).
   std::string Arguments() const;
 };

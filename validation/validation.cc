@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <memory>
@@ -15,12 +16,9 @@
 
 #include "diagnosis/diagnosis_io.h"
 #include "diagnosis/effect_model.h"
-#include "emulator/plant_config.h"
 #include "emulator/sil_rig.h"
-#include "hil/rig_config.h"
 #include "hil/rig_session.h"
 #include "nlohmann/json.hpp"
-#include "records/run_log.h"
 
 namespace kcrig {
 namespace {
@@ -32,20 +30,19 @@ constexpr double kSizeBins[] = {0, 1, 2, 3, 5, 10, 30};
 // Effects beyond this size are the ones the acceptance figures count.
 constexpr double kLargeEffect = 3;
 
-// The rig a case runs on: plant.yaml's rig (its actuator, load cell,
-// sensors' resolution, the rest between runs and its memory) with the
-// case's truth in place of plant.yaml's (true parameters and effects, no
-// sensor offset), the case's noise seed, stepped at options.plant_step.
-Status CasePlant(const KcrigConfig& config, const ValidationOptions& options,
-                 const BlindCase& c, bool noise, PlantConfig* plant) {
-  KCRIG_RETURN_IF_ERROR(LoadPlantConfig(config.directory, config.model, plant));
-  plant->model = BlindCasePlant(c, config.model);
-  plant->effects = c.effects;
-  plant->sensor_offset.setZero();
-  plant->noise = noise;
-  plant->seed = c.noise_seed;
-  plant->step = options.plant_step;
-  return Status::Ok();
+// The rig a case runs on: the configured rig (ValidationOptions::plant)
+// with the case's truth in place of plant.yaml's (true parameters and
+// effects, no sensor offset), the case's noise seed.
+PlantConfig CasePlant(const KcrigConfig& config,
+                      const ValidationOptions& options, const BlindCase& c,
+                      bool noise) {
+  PlantConfig plant = options.plant;
+  plant.model = BlindCasePlant(c, config.model);
+  plant.effects = c.effects;
+  plant.sensor_offset.setZero();
+  plant.noise = noise;
+  plant.seed = c.noise_seed;
+  return plant;
 }
 
 // A folder of one case's logs in the temporary folder, removed with this.
@@ -79,60 +76,66 @@ class CaseFolder {
   std::string path_;
 };
 
-// rig.yaml's limits, the error detector's opened: it protects a rig from
-// a model far from it, and a blind case is such a rig on purpose (a large
-// effect would trip it, as on a real rig until the detector is widened).
-// The force, rate and travel limits and the watchdog stay as configured.
-Status CaseRigConfig(const KcrigConfig& config, RigConfig* rig_config) {
-  KCRIG_RETURN_IF_ERROR(LoadRigConfig(config.directory, rig_config));
-  rig_config->safety.error_position_max =
-      std::numeric_limits<double>::infinity();
-  rig_config->safety.error_angle_max = std::numeric_limits<double>::infinity();
+// Log k of the case run on `sil` (the run after its last), into `dir`.
+Status RecordLog(const KcrigConfig& config, const ValidationOptions& options,
+                 const BlindCase& c, int k, const std::string& dir, SilRig* sil,
+                 Experiment* experiment) {
+  const int trained = static_cast<int>(c.training.size());
+  RigSessionOptions run;
+  run.excitation = (k < trained ? c.training[k] : c.holdout[k - trained])
+                       .Ramp(config.experiment.fmax);
+  run.log_dir = dir;
+  run.clock = sil->clock();
+  const std::unique_ptr<RigInterface> link = sil->Connect({});
+  KCRIG_RETURN_IF_ERROR(link->Configure());
+  RigSessionResult result;
+  KCRIG_RETURN_IF_ERROR(
+      RunRigSession(config, options.rig, link.get(), run, &result));
+  if (!result.completed) return Status::Error(result.trip_message);
+  KCRIG_RETURN_IF_ERROR(
+      LoadExperiment(dir + "/run.csv", config, "", experiment));
+  experiment->source =
+      "case " + std::to_string(c.index) + " log " + std::to_string(k);
   return Status::Ok();
 }
 
 // The case's first `logs` designs (training, then hold-out) run back to
 // back on the case's SIL rig, as the rig records them: its phases, its
-// actuator and load cell, its memory from run to run. The truth is not in
-// what the diagnosis gets (the log's reader never reads it).
+// actuator and load cell, its memory from run to run. The rig's sidecar
+// gets no truth, and the logs live only as long as this call.
 Status RecordLogs(const KcrigConfig& config, const ValidationOptions& options,
                   const BlindCase& c, bool noise, int logs,
                   std::vector<Experiment>* experiments) {
-  PlantConfig plant;
-  KCRIG_RETURN_IF_ERROR(CasePlant(config, options, c, noise, &plant));
-  RigConfig rig_config;
-  KCRIG_RETURN_IF_ERROR(CaseRigConfig(config, &rig_config));
-  SilRig sil(config, plant);
+  SilRig sil(config, CasePlant(config, options, c, noise));
   KCRIG_RETURN_IF_ERROR(sil.Start());
-  const RunMetadata truth = sil.Truth();
   CaseFolder folder;
   KCRIG_RETURN_IF_ERROR(folder.Create());
-  const int trained = static_cast<int>(c.training.size());
   experiments->resize(logs);
   for (int k = 0; k < logs; ++k) {
-    const std::string name =
-        "case " + std::to_string(c.index) + " log " + std::to_string(k);
-    RigSessionOptions run;
-    run.excitation = (k < trained ? c.training[k] : c.holdout[k - trained])
-                         .Ramp(config.experiment.fmax);
-    run.log_dir = folder.path() + "/log_" + std::to_string(k);
-    run.clock = sil.clock();
-    run.truth = &truth;
-    std::error_code error;
-    std::filesystem::create_directory(run.log_dir, error);
-    if (error) return Status::Error(run.log_dir + ": " + error.message());
-    const std::unique_ptr<RigInterface> link = sil.Connect({});
-    KCRIG_RETURN_IF_ERROR(link->Configure());
-    RigSessionResult result;
-    KCRIG_RETURN_IF_ERROR(
-        RunRigSession(config, rig_config, link.get(), run, &result));
-    if (!result.completed) {
-      return Status::Error(name + " on the SIL rig " + result.trip_message);
+    const Status status = RecordLog(config, options, c, k,
+                                    folder.path() + "/log_" + std::to_string(k),
+                                    &sil, &(*experiments)[k]);
+    if (!status.ok()) {
+      return Status::Error("log " + std::to_string(k) +
+                           " on the SIL rig: " + status.message());
     }
-    RunLog log;
-    KCRIG_RETURN_IF_ERROR(ReadRunLog(run.log_dir + "/run.csv", &log));
-    KCRIG_RETURN_IF_ERROR(
-        MakeExperiment(name, log, config.experiment.step, &(*experiments)[k]));
+  }
+  return Status::Ok();
+}
+
+// The ramps `designs` as the rig runs them (ValidateRunRequest); an error
+// names `what`[i].
+Status CheckRampsOnRig(const KcrigConfig& config, const RigConfig& rig,
+                       const std::vector<BlindDesign>& designs,
+                       const std::string& what) {
+  for (size_t i = 0; i < designs.size(); ++i) {
+    RigSessionOptions run;
+    run.excitation = designs[i].Ramp(config.experiment.fmax);
+    const Status status = ValidateRunRequest(rig, run);
+    if (!status.ok()) {
+      return Status::Error(what + "[" + std::to_string(i) +
+                           "]: " + status.message());
+    }
   }
   return Status::Ok();
 }
@@ -402,25 +405,30 @@ Status NominalFitSigmaHat(const KcrigConfig& config,
   return Status::Ok();
 }
 
-Status CheckBlindTestPlanOnRig(const KcrigConfig& config,
-                               const std::string& file,
-                               const BlindTestPlan& plan) {
-  RigConfig rig_config;
-  KCRIG_RETURN_IF_ERROR(LoadRigConfig(config.directory, &rig_config));
-  const std::pair<const char*, const std::vector<BlindDesign>*> lists[] = {
-      {"training", &plan.training}, {"holdout", &plan.holdout}};
-  for (const auto& [key, ramps] : lists) {
-    for (size_t i = 0; i < ramps->size(); ++i) {
-      RigSessionOptions run;
-      run.excitation = (*ramps)[i].Ramp(config.experiment.fmax);
-      const Status status = ValidateRunRequest(rig_config, run);
-      if (!status.ok()) {
-        return Status::Error(file + ": " + key + "[" + std::to_string(i) +
-                             "]: " + status.message());
-      }
-    }
-  }
-  return Status::Ok();
+Status LoadValidationRig(const KcrigConfig& config,
+                         const std::string& plan_file,
+                         ValidationOptions* options) {
+  KCRIG_RETURN_IF_ERROR(
+      LoadPlantConfig(config.directory, config.model, &options->plant));
+  options->plant.step = options->plant_step;
+  KCRIG_RETURN_IF_ERROR(LoadRigConfig(config.directory, &options->rig));
+  SafetyLimits& safety = options->rig.safety;
+  safety.error_position_max = std::numeric_limits<double>::infinity();
+  safety.error_angle_max = std::numeric_limits<double>::infinity();
+  if (plan_file.empty()) return Status::Ok();
+  KCRIG_RETURN_IF_ERROR(CheckRampsOnRig(
+      config, options->rig, options->plan.training, plan_file + ": training"));
+  return CheckRampsOnRig(config, options->rig, options->plan.holdout,
+                         plan_file + ": holdout");
+}
+
+Status CheckBlindCaseOnRig(const KcrigConfig& config,
+                           const ValidationOptions& options,
+                           const BlindCase& c) {
+  const std::string what = "case " + std::to_string(c.index) + ": ";
+  KCRIG_RETURN_IF_ERROR(
+      CheckRampsOnRig(config, options.rig, c.training, what + "training"));
+  return CheckRampsOnRig(config, options.rig, c.holdout, what + "holdout");
 }
 
 Status RunValidationCase(const KcrigConfig& config,
@@ -430,14 +438,17 @@ Status RunValidationCase(const KcrigConfig& config,
   Status status = DrawBlindCase(index, options.seed, config.model,
                                 options.classes, options.plan, &c);
   if (!status.ok()) return status;
-  std::vector<Experiment> training;
-  status = RecordLogs(config, options, c, /*noise=*/true,
-                      static_cast<int>(c.training.size() + c.holdout.size()),
-                      &training);
+  std::vector<Experiment> logs;
+  status =
+      RecordLogs(config, options, c, /*noise=*/true,
+                 static_cast<int>(c.training.size() + c.holdout.size()), &logs);
   if (!status.ok()) return status;
-  const std::vector<Experiment> holdout(training.begin() + c.training.size(),
-                                        training.end());
-  training.resize(c.training.size());
+  const auto first_holdout = logs.begin() + c.training.size();
+  const std::vector<Experiment> training(
+      std::make_move_iterator(logs.begin()),
+      std::make_move_iterator(first_holdout));
+  const std::vector<Experiment> holdout(std::make_move_iterator(first_holdout),
+                                        std::make_move_iterator(logs.end()));
   DiagnosisResult result;
   status = Diagnose(config.model, training, holdout, options.diagnosis,
                     config.experiment.step, &result);

@@ -20,7 +20,9 @@
 
 #include "base/status.h"
 #include "diagnosis/diagnosis.h"
+#include "emulator/plant_config.h"
 #include "estimator/experiment.h"
+#include "hil/rig_config.h"
 #include "rt_core/model/model_config.h"
 #include "validation/blind_case.h"
 
@@ -38,14 +40,28 @@ struct ValidationOptions {
   double plant_step = 1e-4;
   // As `kcrig diagnose` runs (its callback can stop a case).
   DiagnosisOptions diagnosis;
+  // The rig the cases run on (LoadValidationRig): plant.yaml's rig
+  // stepped at plant_step, and rig.yaml's loop and limits with the error
+  // detector opened — it guards a rig against a model far from it, which
+  // a blind case is on purpose; the force, rate and travel limits and the
+  // watchdog stay as configured.
+  PlantConfig plant;
+  RigConfig rig;
 };
 
-// The ramps of a plan read from `file` as the rig runs them: within
-// rig.yaml's force and force-rate limits; otherwise one line naming the
-// file and the ramp (training[i] or holdout[i]).
-Status CheckBlindTestPlanOnRig(const KcrigConfig& config,
-                               const std::string& file,
-                               const BlindTestPlan& plan);
+// Loads the rig of `options` from the configuration (plant.yaml, rig.yaml)
+// and checks the plan's ramps (read from `plan_file`; none when empty)
+// against its limits: one line naming the file and the ramp
+// (training[i], holdout[i]).
+Status LoadValidationRig(const KcrigConfig& config,
+                         const std::string& plan_file,
+                         ValidationOptions* options);
+
+// The case's ramps within the rig's limits (force, force rate): one line
+// naming the case and the ramp otherwise.
+Status CheckBlindCaseOnRig(const KcrigConfig& config,
+                           const ValidationOptions& options,
+                           const BlindCase& c);
 
 // Runs case `index` on the SIL rig, diagnoses and scores it; `outcome` is
 // its JSON object (the case's truth, designs, size, and the diagnosis' verdict,

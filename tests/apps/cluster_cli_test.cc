@@ -457,7 +457,6 @@ TEST_F(ClusterCliTest, APlanGivesEveryCaseItsRamps) {
   }
 }
 
-// A plan's ramp the rig refuses (too fast) is refused before any case.
 TEST_F(ClusterCliTest, ABadPlanIsOneLineNamingFileLineAndKey) {
   const std::string plan = Path("plan.yaml");
   const std::string out = Path("v.json");
@@ -474,7 +473,8 @@ TEST_F(ClusterCliTest, ABadPlanIsOneLineNamingFileLineAndKey) {
       {"training:\n  - {phi_deg: 80, z_a: 0, duration: 1, hold: 0, return: "
        "1}\nramps: 3\n",
        "ramps: unknown key"},
-      // 8 kN in 0.2 s: faster than rig.yaml's safety.force_rate_max.
+      // A ramp the rig refuses (8 kN in 0.2 s: faster than rig.yaml's
+      // safety.force_rate_max), refused before any case runs.
       {"training:\n  - {phi_deg: 80, z_a: 0, duration: 1, hold: 0, return: "
        "1}\nholdout:\n  - {phi_deg: 80, z_a: 0, duration: 0.2, hold: 0, "
        "return: 1}\n",
@@ -488,6 +488,7 @@ TEST_F(ClusterCliTest, ABadPlanIsOneLineNamingFileLineAndKey) {
     EXPECT_EQ(CountLines(run.output), 1) << run.output;
     EXPECT_NE(run.output.find(expected), std::string::npos) << run.output;
     EXPECT_FALSE(std::filesystem::exists(out));
+    EXPECT_FALSE(std::filesystem::exists(out + ".checkpoint"));
   }
 }
 

@@ -7,8 +7,8 @@
 // configured ones, the designs of two training logs and one hold-out log,
 // the noise — run back to back on the embedded SIL rig (its phases,
 // actuator, load cell and memory; the plant stepped ten times finer than
-// the model), diagnosed with the truth stripped, and only then scored. The size of an
-// effect "in the residual" is the RMS, in noise units, of the nominal
+// the model), diagnosed with the truth stripped, and only then scored. The size
+// of an effect "in the residual" is the RMS, in noise units, of the nominal
 // model's residual on the same training logs without noise.
 //
 // Acceptance (issues #7, #19): correct verdict for >= 90 % of the effect

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -14,6 +13,7 @@
 #include "estimator/estimate_io.h"
 #include "gtest/gtest.h"
 #include "tests/support/synthetic.h"
+#include "tests/support/temp_dir_test.h"
 #include "tests/support/test_config.h"
 
 namespace kcrig {
@@ -202,7 +202,9 @@ TEST(EstimatorTest, ARigLogsTareGivesItsMeanAndItsFirstRowsPose) {
 // est.json's rig_initial_state reads back as it was written (mm and deg
 // back to SI, null Dahl forces as NaN); a broken entry is one line naming
 // the field.
-TEST(EstimatorTest, EstJsonsInitialStatesReadBack) {
+class EstimateFileTest : public TempDirTest {};
+
+TEST_F(EstimateFileTest, InitialStatesReadBackAsWritten) {
   EstimationResult result;
   result.parameters = {
       {"c_O1", "N/m", 3.6e6, 3.6e6, 3.7e6, 1e3, 3.69e6, 3.71e6}};
@@ -212,36 +214,40 @@ TEST(EstimatorTest, EstJsonsInitialStatesReadBack) {
   TarePose tare;
   tare.mean << -53e-6, 1e-6, 2e-6, 1e-4, -2e-4, -3.3e-4;
   tare.at_start = tare.mean * 2;
-  result.initial_states.resize(3);
-  result.initial_states[0].tare = tare;
-  result.initial_states[1].tare = tare;
+  // The four start kinds: equilibrium, Dahl forces, first-row pose, both.
+  result.initial_states.resize(4);
+  for (LogInitialState& s : result.initial_states) s.tare = tare;
   result.initial_states[1].dahl_forces = {0, -305.5, 0, NAN, 12.25};
-  result.initial_states[2].tare = tare;
   result.initial_states[2].from_first_row_pose = true;
-  const std::string path =
-      (std::filesystem::temp_directory_path() / "kcrig_est_initial_states.json")
-          .string();
-  const std::string json = EstimationResultToJson(
-      result, {"a/run.csv", "b/run.csv", "c/run.csv"}, {}, {});
+  result.initial_states[3].dahl_forces = {1, 2, 3, 4, 5};
+  result.initial_states[3].from_first_row_pose = true;
+  const std::string path = Path("est.json");
+  const std::vector<std::string> logs = {"a/run.csv", "b/run.csv", "c/run.csv",
+                                         "d/run.csv"};
+  const std::string json = EstimationResultToJson(result, logs, {}, {});
   std::ofstream(path) << json;
   EstimateFile back;
   ASSERT_TRUE(ReadEstimateFile(path, &back).ok());
-  EXPECT_EQ(back.logs,
-            std::vector<std::string>({"a/run.csv", "b/run.csv", "c/run.csv"}));
-  ASSERT_EQ(back.initial_states.size(), 3u);
-  for (int i = 0; i < 3; ++i) {
+  EXPECT_EQ(back.logs, logs);
+  ASSERT_EQ(back.initial_states.size(), 4u);
+  for (int i = 0; i < 4; ++i) {
     const LogInitialState& s = back.initial_states[i];
     ASSERT_TRUE(s.tare.has_value()) << i;
     EXPECT_LT((s.tare->mean - tare.mean).cwiseAbs().maxCoeff(), 1e-15) << i;
-    EXPECT_EQ(s.from_first_row_pose, i == 2) << i;
-    EXPECT_EQ(s.dahl_forces.size(), i == 1 ? 5u : 0u) << i;
+    EXPECT_EQ(s.from_first_row_pose, i >= 2) << i;
+    EXPECT_EQ(s.dahl_forces.size(), i % 2 == 1 ? 5u : 0u) << i;
+    // The first-row pose where the model started there, else unknown.
+    if (i >= 2) {
+      EXPECT_LT((s.tare->at_start - tare.at_start).cwiseAbs().maxCoeff(), 1e-15)
+          << i;
+    } else {
+      EXPECT_TRUE(s.tare->at_start.array().isNaN().all()) << i;
+    }
   }
-  EXPECT_LT((back.initial_states[2].tare->at_start - tare.at_start)
-                .cwiseAbs()
-                .maxCoeff(),
-            1e-15);
   EXPECT_EQ(back.initial_states[1].dahl_forces[1], -305.5);
   EXPECT_TRUE(std::isnan(back.initial_states[1].dahl_forces[3]));
+  EXPECT_EQ(back.initial_states[3].dahl_forces,
+            std::vector<double>({1, 2, 3, 4, 5}));
   std::string broken = json;
   broken.replace(broken.find("\"dahl_forces\""), 13, "\"friction\"");
   std::ofstream(path) << broken;
@@ -249,7 +255,6 @@ TEST(EstimatorTest, EstJsonsInitialStatesReadBack) {
   EXPECT_NE(status.message().find(path + ": rig_initial_state[1].start:"),
             std::string::npos)
       << status.message();
-  std::filesystem::remove(path);
 }
 
 TEST(EstimatorTest, ParameterSelectionIsChecked) {
