@@ -83,20 +83,21 @@ Status Prepare(const ValidateArgs& args, const Ranks& ranks,
   status = DrawBlindCase(0, args.seed, config->model, options->classes,
                          options->plan, &probe);
   if (!status.ok()) return Status::Error("--effects: " + status.message());
-  KCRIG_RETURN_IF_ERROR(LoadValidationRig(*config, args.plan, options));
-  // Every case's ramps within the rig's limits before any case runs.
-  for (int i = 0; i < options->cases; ++i) {
-    BlindCase blind_case;
-    KCRIG_RETURN_IF_ERROR(DrawBlindCase(i, args.seed, config->model,
-                                        options->classes, options->plan,
-                                        &blind_case));
-    KCRIG_RETURN_IF_ERROR(CheckBlindCaseOnRig(*config, *options, blind_case));
-  }
   // One process: both cores on each case; under MPI a core per rank.
   options->diagnosis.num_threads =
       args.threads.value_or(ranks.size() > 1 ? 1 : 2);
   if (options->diagnosis.num_threads < 1) {
     return Status::Error("--threads: must be >= 1");
+  }
+  KCRIG_RETURN_IF_ERROR(LoadValidationRig(*config, args.plan, options));
+  // Every drawn case's ramps within the rig's limits before any case runs
+  // (a plan's were checked as it loaded).
+  for (int i = 0; options->plan.training.empty() && i < options->cases; ++i) {
+    BlindCase blind_case;
+    KCRIG_RETURN_IF_ERROR(DrawBlindCase(i, args.seed, config->model,
+                                        options->classes, options->plan,
+                                        &blind_case));
+    KCRIG_RETURN_IF_ERROR(CheckBlindCaseOnRig(*config, *options, blind_case));
   }
   std::vector<std::string> inputs;
   if (!args.plan.empty()) inputs.push_back(args.plan);
@@ -287,9 +288,8 @@ void AddValidateCommand(CLI::App* app, std::function<int()>* run) {
   CLI::App* cmd = app->add_subcommand(
       "validate",
       "How well kcrig diagnoses this configuration: blind cases run on the "
-      "embedded SIL rig, "
-      "diagnosed and scored against their truth (spread over MPI ranks "
-      "under mpirun)");
+      "embedded SIL rig, diagnosed and scored against their truth (spread "
+      "over MPI ranks under mpirun)");
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");
   cmd->add_option("--cases", args->cases, "Blind cases to draw (default 40)");

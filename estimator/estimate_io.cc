@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <limits>
 
 #include "base/json_reader.h"
@@ -28,7 +29,8 @@ nlohmann::ordered_json PoseToJson(const Vec6<double>& pose) {
   return out;
 }
 
-// est.json's start kinds: where a log's model started (LogInitialState).
+// est.json's start kinds: where a log's model started (LogInitialState),
+// at index dahl_forces + 2 first_row_pose.
 struct StartKind {
   const char* name;
   bool dahl_forces, first_row_pose;
@@ -40,13 +42,7 @@ constexpr StartKind kStartKinds[] = {
     {"dahl_forces_and_first_row_pose", true, true}};
 
 const char* StartKindName(const LogInitialState& s) {
-  for (const StartKind& kind : kStartKinds) {
-    if (kind.dahl_forces == !s.dahl_forces.empty() &&
-        kind.first_row_pose == s.from_first_row_pose) {
-      return kind.name;
-    }
-  }
-  return "";  // unreachable: the table has every pair
+  return kStartKinds[!s.dahl_forces.empty() + 2 * s.from_first_row_pose].name;
 }
 
 // Per log: where its model started, the tare's mean (and the first row's

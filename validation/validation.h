@@ -40,11 +40,11 @@ struct ValidationOptions {
   double plant_step = 1e-4;
   // As `kcrig diagnose` runs (its callback can stop a case).
   DiagnosisOptions diagnosis;
-  // The rig the cases run on (LoadValidationRig): plant.yaml's rig
-  // stepped at plant_step, and rig.yaml's loop and limits with the error
-  // detector opened — it guards a rig against a model far from it, which
-  // a blind case is on purpose; the force, rate and travel limits and the
-  // watchdog stay as configured.
+  // The rig the cases run on, which LoadValidationRig must load before a
+  // case runs: plant.yaml's rig stepped at plant_step, and rig.yaml's loop and
+  // limits with the error detector opened — it guards a rig against a model far
+  // from it, which a blind case is on purpose; the force, rate and travel
+  // limits and the watchdog stay as configured.
   PlantConfig plant;
   RigConfig rig;
 };

@@ -199,11 +199,11 @@ TEST(EstimatorTest, ARigLogsTareGivesItsMeanAndItsFirstRowsPose) {
   EXPECT_EQ(experiment.memory_rows, 400);
 }
 
+class EstimateFileTest : public TempDirTest {};
+
 // est.json's rig_initial_state reads back as it was written (mm and deg
 // back to SI, null Dahl forces as NaN); a broken entry is one line naming
 // the field.
-class EstimateFileTest : public TempDirTest {};
-
 TEST_F(EstimateFileTest, InitialStatesReadBackAsWritten) {
   EstimationResult result;
   result.parameters = {
