@@ -79,8 +79,7 @@ class DiagnosisRun {
           "(chi-square and Ljung-Box tests)";
       return Finish();
     }
-    KCRIG_RETURN_IF_ERROR(ScoreNominal());
-    if (!GapReproduced()) return Finish();
+    KCRIG_RETURN_IF_ERROR(ScoreWhereTheGapShows());
     KCRIG_RETURN_IF_ERROR(ProposeModelParameters());
     FitSingles();
     if (progress_.aborted()) return Interrupted("diagnosis");
@@ -90,6 +89,7 @@ class DiagnosisRun {
     if (progress_.aborted()) return Interrupted("diagnosis");
     StateVerdict(chosen, rules_, result_);
     KCRIG_RETURN_IF_ERROR(CharacteriseWhenUnexplained());
+    result_->reason = scoring_note_ + result_->reason;
     if (result_->gap_source == "prediction") {
       result_->reason = "fits the training logs, mispredicts the hold-out (" +
                         result_->prediction.reason +
@@ -321,22 +321,62 @@ class DiagnosisRun {
     return Status::Ok();
   }
 
-  // Whether the data the candidates are scored on show the training logs'
-  // gap; if not, the verdict is `unexplained`: nothing to attribute there.
-  bool GapReproduced() {
-    if (result_->scoring == "information_criterion" ||
-        nominal_gap_ >= rules_.score_noise) {
-      return true;
+  // The candidates are scored on data that show the training logs' gap,
+  // by the training logs' own tests (chi-square and Ljung-Box at the same
+  // significance, or a score beyond the noise floor's spread). Data that do
+  // not neither confirm nor refute it (a hold-out whose excitation does not
+  // exercise the effect): the next data are tried, cross-validation over
+  // the training logs, then their information criteria (which see the
+  // training logs' gap by construction), and the reason says so.
+  Status ScoreWhereTheGapShows() {
+    KCRIG_RETURN_IF_ERROR(ScoreNominal());
+    while (result_->scoring != "information_criterion" && !GapShows()) {
+      char text[240];
+      std::snprintf(text, sizeof(text),
+                    "the %s neither confirm nor refute the training logs' "
+                    "gap (nominal score %.4g, noise floor 1)",
+                    result_->scoring == "holdout" ? "hold-out logs"
+                                                  : "cross-validation folds",
+                    result_->nominal.score);
+      scoring_note_ += (scoring_note_.empty() ? "" : "; ") + std::string(text);
+      result_->scoring = result_->scoring == "holdout" && training_.size() > 1
+                             ? "cross_validation"
+                             : "information_criterion";
+      holdout_.clear();
+      KCRIG_RETURN_IF_ERROR(ScoreNominal());
     }
-    char text[200];
-    std::snprintf(text, sizeof(text),
-                  "the training logs' gap is not reproduced by the %s "
-                  "(nominal score %.4g, noise floor 1): nothing to attribute",
-                  holdout_.empty() ? "cross-validation" : "hold-out logs",
-                  result_->nominal.score);
-    result_->verdict = "unexplained";
-    result_->reason = text;
-    return false;
+    if (!scoring_note_.empty()) {
+      scoring_note_ += "; scored by " +
+                       std::string(result_->scoring == "cross_validation"
+                                       ? "cross-validation over the training "
+                                         "logs"
+                                       : "the training logs' information "
+                                         "criteria") +
+                       "; a hold-out repeating " + LargestGapLog() +
+                       "'s excitation would confirm or refute it: ";
+    }
+    return Status::Ok();
+  }
+
+  bool GapShows() const {
+    return nominal_gap_ >= rules_.score_noise ||
+           !rules_.AtNoise(result_->nominal);
+  }
+
+  // The training log whose nominal residual is largest.
+  std::string LargestGapLog() const {
+    double largest = -1;
+    std::string source;
+    for (size_t l = 0; l < training_.size(); ++l) {
+      double sum = 0;
+      for (const Vec6<double>& r : residuals_[l]) sum += r.squaredNorm();
+      const double mean = sum / std::max<size_t>(1, residuals_[l].size());
+      if (mean > largest) {
+        largest = mean;
+        source = training_[l].source;
+      }
+    }
+    return source;
   }
 
   // Scores models (their `fit` set) on data they were not fitted to: the
@@ -348,7 +388,7 @@ class DiagnosisRun {
   void ScoreModels(const std::vector<const EffectModel*>& models,
                    const std::vector<CandidateScore*>& scores) {
     const int count = static_cast<int>(models.size());
-    const int folds = holdout_.empty() && training_.size() > 1
+    const int folds = result_->scoring == "cross_validation"
                           ? static_cast<int>(training_.size())
                           : 0;
     std::vector<std::vector<Vec6<double>>> fold_residuals;
@@ -963,6 +1003,9 @@ class DiagnosisRun {
   std::vector<std::vector<Vec6<double>>> residuals_;
   int m_ = 0;
   double nominal_gap_ = 0;
+  // Why the candidates are not scored on the first data tried
+  // (ScoreWhereTheGapShows); empty when they are.
+  std::string scoring_note_;
   VerdictRules rules_;
 };
 

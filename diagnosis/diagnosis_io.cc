@@ -54,6 +54,8 @@ Json CandidateJson(const CandidateScore& s) {
     return out;
   }
   out["parameters"] = ParametersJson(s.fit.result);
+  out["residual_correlation"] = Number(s.fit.result.residual_correlation);
+  out["interval_widening"] = Number(s.fit.result.interval_widening);
   out["num_parameters"] = s.num_parameters;
   out["train_chi2"] = Number(s.train_chi2);
   out["bic"] = Number(s.bic);
@@ -446,12 +448,12 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
       std::snprintf(line, sizeof(line), " %s %.4g +- %.2g %s%s", p.name.c_str(),
                     p.value * scale,
                     std::isfinite(p.standard_error)
-                        ? 1.96 * p.standard_error * scale
+                        ? (p.ci95_high - p.value) * scale
                         : NAN,
                     DisplayUnit(p).c_str(), extra);
       add();
     }
-    out += "\n";
+    out += "\n" + IntervalWideningSummary(s.fit.result);
   }
   return out;
 }

@@ -12,6 +12,7 @@
 #include "ceres/jet.h"
 #include "estimator/jacobian_cache.h"
 #include "estimator/least_squares.h"
+#include "estimator/residual_structure.h"
 #include "estimator/sensitivity_plant.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/rig_plant.h"
@@ -1012,8 +1013,11 @@ Status FitAtStep(const EffectModel& model,
   result.adequacy = AssessAdequacy(experiments, weighted, kAllChannels, n,
                                    options.uncertainty.adequacy);
   result.residual_rms = ResidualRms(experiments, weighted);
+  const ResidualStructure structure =
+      MeasureResidualStructure(jacobian, residuals, experiments, 6);
   if (!options.estimate_discretisation) {
     AnalyzeUncertainty(std::move(jacobian), options.uncertainty, &result);
+    WidenForResidualStructure(structure, &result);
     return Status::Ok();
   }
   std::vector<std::vector<Vec6<double>>> error;
@@ -1025,6 +1029,7 @@ Status FitAtStep(const EffectModel& model,
       StackedError(model, error, residuals.size(), &discretisation));
   const Eigen::VectorXd gradient = jacobian.transpose() * discretisation;
   AnalyzeUncertainty(std::move(jacobian), options.uncertainty, &result);
+  WidenForResidualStructure(structure, &result);
   AddDiscretisationBias(gradient, &result);
   return Status::Ok();
 }

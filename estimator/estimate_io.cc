@@ -118,6 +118,18 @@ std::string ChannelScores(const Adequacy& a) {
 
 }  // namespace
 
+std::string IntervalWideningSummary(const EstimationResult& result) {
+  if (!(result.interval_widening > kReportedWidening)) return "";
+  char line[320];
+  std::snprintf(line, sizeof(line),
+                "  intervals widened up to %.1fx: the residual is correlated "
+                "beyond the sensor noise (its block sums vary %.0fx as much "
+                "as white noise's), which intervals from independent samples "
+                "would ignore\n",
+                result.interval_widening, result.residual_correlation);
+  return line;
+}
+
 double DisplayScale(const ParameterEstimate& p) {
   return p.unit == "N/m" ? 1e-3 : 1.0;
 }
@@ -224,6 +236,8 @@ std::string EstimationResultToJson(
   doc["rig_initial_state"] = InitialStatesToJson(result.initial_states);
   doc["cost"] = result.cost;
   doc["sigma_hat"] = result.sigma_hat;
+  doc["residual_correlation"] = Number(result.residual_correlation);
+  doc["interval_widening"] = Number(result.interval_widening);
   doc["iterations"] = result.iterations;
   doc["integrator_step_s"] = result.integrator_step > 0
                                  ? Number(result.integrator_step)
@@ -277,6 +291,7 @@ std::string EstimationSummary(const EstimationResult& result,
            "), which start from the rig's memory of its last run\n";
   }
   out += DahlForcesSummary(result.initial_states);
+  out += IntervalWideningSummary(result);
   std::snprintf(line, sizeof(line), "  %-10s %14s %12s %-6s  %s\n", "parameter",
                 "estimate", "+- 95 %", "", "log10 diag((J^T J)^-1)");
   out += line;

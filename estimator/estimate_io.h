@@ -32,6 +32,13 @@ std::string EstimationResultToJson(
     const std::vector<ParameterProfile>& profiles,
     const HoldoutPrediction& holdout);
 
+// Intervals widened by less than this are not worth a line.
+constexpr double kReportedWidening = 1.1;
+
+// One line when WidenForResidualStructure widened the intervals by more
+// than kReportedWidening (how much, and why); "" otherwise.
+std::string IntervalWideningSummary(const EstimationResult& result);
+
 // A short human summary: estimates with 95 % intervals (N/mm for
 // stiffnesses) and log10 diag((J^T J)^-1) as a text bar chart (paper Fig. 4),
 // then the adequacy of the fit to `logs` and of the hold-out's prediction.

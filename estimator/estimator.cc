@@ -12,6 +12,7 @@
 #include "Eigen/QR"
 #include "Eigen/SVD"
 #include "estimator/internal/fit_problem.h"
+#include "estimator/residual_structure.h"
 #include "estimator/trajectory_residual.h"
 
 namespace kcrig {
@@ -331,7 +332,11 @@ Status Estimate(const SuspensionParameters<double>& nominal,
     p.at_bound = problem.AtBound(i, scaled[i]);
   }
   const Eigen::VectorXd gradient = jacobian.transpose() * discretisation;
+  const ResidualStructure structure =
+      MeasureResidualStructure(jacobian, residuals, experiments,
+                               static_cast<int>(options.channels.size()));
   AnalyzeUncertainty(std::move(jacobian), options, result);
+  WidenForResidualStructure(structure, result);
   AddDiscretisationBias(gradient, result);
   result->integrator_step = integrator_step;
   result->seconds =

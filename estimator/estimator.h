@@ -128,6 +128,11 @@ struct EstimationResult {
   std::vector<LogInitialState> initial_states;
   double cost = 0;       // 0.5 * sum of squared weighted residuals
   double sigma_hat = 0;  // sqrt(2 cost / (m - n)); ~1 when sigmas are right
+  // The residual's correlation (ResidualStructure::correlation: 1 for white
+  // noise) and by how much the widest interval was widened for it
+  // (WidenForResidualStructure; 1: the classical intervals hold).
+  double residual_correlation = 1;
+  double interval_widening = 1;
   // Whether the model explains the fitted logs down to the sensor noise.
   // When not, the intervals (which assume a correct model) are not to be
   // trusted.

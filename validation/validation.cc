@@ -192,6 +192,9 @@ Json StiffnessCoverage(const BlindCase& c, const Json& diag, bool correct) {
   }
   if (!fitted.is_object()) return nullptr;
   int inside = 0, total = 0;
+  // Per stiffness, its error in half-widths of its interval (|z| > 1:
+  // outside), to see how far the misses are.
+  Json errors = Json::object();
   for (const auto& [name, value] : c.sets) {
     if (name.rfind("c_", 0) != 0) continue;
     for (const Json& p : fitted.value("parameters", Json::array())) {
@@ -199,11 +202,16 @@ Json StiffnessCoverage(const BlindCase& c, const Json& diag, bool correct) {
       if (p["name"] != name || !ci[0].is_number() || !ci[1].is_number()) {
         continue;
       }
+      const double low = ci[0], high = ci[1];
       ++total;
-      inside += ci[0].get<double>() <= value && value <= ci[1].get<double>();
+      inside += low <= value && value <= high;
+      errors[name] = (value - (low + high) / 2) / ((high - low) / 2);
     }
   }
-  return {{"inside", inside}, {"total", total}};
+  return {{"inside", inside},
+          {"total", total},
+          {"widening", Field(fitted, "interval_widening", nullptr)},
+          {"errors_in_halfwidths", errors}};
 }
 
 // The diagnosis (diag.json's fields) against the case's truth.

@@ -145,6 +145,8 @@ void Visit(A& a, EstimationResult& r) {
   a(r.initial_states);
   a(r.cost);
   a(r.sigma_hat);
+  a(r.residual_correlation);
+  a(r.interval_widening);
   Visit(a, r.adequacy);
   a(r.iterations);
   a(r.seconds);

@@ -77,6 +77,31 @@ TEST_F(DiagnosisTest, AGapOnlyInTheHoldoutsPredictionIsFoundAndAttributed) {
       << r.reason;
 }
 
+// A hold-out whose ramp is too small to show the training logs' gap
+// neither confirms nor refutes it: the candidates are scored by
+// cross-validation over the training logs instead of the gap being
+// dropped as "nothing to attribute", and the reason says so and names the
+// log whose excitation a confirming hold-out would repeat.
+TEST_F(DiagnosisTest, AHoldoutThatCannotSeeTheGapLeavesItToCrossValidation) {
+  const char* effect = "rig_compliance:k=1e7";
+  const Experiment small_holdout =
+      PlantExperiment(config_, config_.model, effect,
+                      {50 * kDegree, -0.3, 10, 0.5, 0.1, 0.5}, 3);
+  DiagnosisResult r;
+  const Status status = Diagnose(
+      config_.model, {Log(effect, 80, -0.4, 1), Log(effect, 20, -0.1, 2)},
+      {small_holdout}, DiagnosisOptions(), config_.experiment.step, &r);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_TRUE(r.gap);
+  EXPECT_EQ(r.scoring, "cross_validation");
+  EXPECT_EQ(r.verdict, "rig_compliance") << r.reason;
+  EXPECT_NE(r.reason.find("hold-out logs neither confirm nor refute"),
+            std::string::npos)
+      << r.reason;
+  EXPECT_NE(r.reason.find("a hold-out repeating"), std::string::npos)
+      << r.reason;
+}
+
 TEST_F(DiagnosisTest, CrossValidationAndPairsWithoutHoldout) {
   // Two effects at once: no single candidate suffices.
   DiagnosisOptions options;

@@ -1,0 +1,110 @@
+// The intervals widened for a correlated residual (residual_structure.h):
+// a straight-line fit to data with AR(1) noise, whose classical intervals
+// assume independent samples, and to white noise, where they hold.
+#include "estimator/residual_structure.h"
+
+#include <cmath>
+#include <random>
+
+#include "gtest/gtest.h"
+
+namespace kcrig {
+namespace {
+
+constexpr int kSamples = 4000;
+constexpr int kLogs = 3;
+constexpr int kReplicates = 300;
+
+struct Coverage {
+  double classical = 0, widened = 0, mean_widening = 0;
+};
+
+// y = a + b t + e with e AR(1) of coefficient `rho` and unit variance, fitted
+// by least squares (unit weights), over kReplicates noise draws.
+Coverage StraightLineCoverage(double rho) {
+  std::mt19937 random(7);
+  std::normal_distribution<double> normal;
+  const int rows = kSamples * kLogs;
+  Eigen::MatrixXd jacobian(rows, 2);
+  for (int r = 0; r < rows; ++r) {
+    jacobian(r, 0) = 1;
+    jacobian(r, 1) = double(r % kSamples) / kSamples;
+  }
+  std::vector<Experiment> logs(kLogs);
+  for (Experiment& log : logs) log.measured.resize(kSamples);
+  Coverage coverage;
+  for (int k = 0; k < kReplicates; ++k) {
+    Eigen::VectorXd noise(rows);
+    for (int r = 0; r < rows; ++r) {
+      const double innovation = normal(random) * std::sqrt(1 - rho * rho);
+      noise(r) =
+          r % kSamples == 0 ? normal(random) : rho * noise(r - 1) + innovation;
+    }
+    // Truth a = b = 0: the fit is the projection of the noise.
+    const Eigen::VectorXd fit = jacobian.colPivHouseholderQr().solve(noise);
+    const Eigen::VectorXd residuals = noise - jacobian * fit;
+    EstimationResult result;
+    for (int i = 0; i < 2; ++i) {
+      ParameterEstimate p;
+      p.name = i == 0 ? "a" : "b";
+      p.nominal = 1;
+      p.value = fit(i);
+      result.parameters.push_back(p);
+    }
+    result.sigma_hat = std::sqrt(residuals.squaredNorm() / (rows - 2));
+    const ResidualStructure structure =
+        MeasureResidualStructure(jacobian, residuals, logs, 1);
+    AnalyzeUncertainty(jacobian, EstimatorOptions(), &result);
+    std::vector<bool> inside_before;
+    for (const ParameterEstimate& p : result.parameters) {
+      inside_before.push_back(p.ci95_low <= 0 && 0 <= p.ci95_high);
+    }
+    WidenForResidualStructure(structure, &result);
+    for (int i = 0; i < 2; ++i) {
+      const ParameterEstimate& p = result.parameters[i];
+      coverage.classical += inside_before[i];
+      coverage.widened += p.ci95_low <= 0 && 0 <= p.ci95_high;
+    }
+    coverage.mean_widening += result.interval_widening;
+  }
+  coverage.classical /= 2.0 * kReplicates;
+  coverage.widened /= 2.0 * kReplicates;
+  coverage.mean_widening /= kReplicates;
+  return coverage;
+}
+
+TEST(ResidualStructureTest, CorrelatedNoiseGetsIntervalsThatCover) {
+  const Coverage c = StraightLineCoverage(0.9);
+  EXPECT_LT(c.classical, 0.6) << "the classical intervals should fail here";
+  EXPECT_GE(c.widened, 0.90);
+  EXPECT_LE(c.widened, 0.99);
+  EXPECT_GT(c.mean_widening, 3);  // sqrt((1 + rho) / (1 - rho)) = 4.4
+}
+
+TEST(ResidualStructureTest, WhiteNoiseKeepsItsClassicalIntervals) {
+  const Coverage c = StraightLineCoverage(0);
+  EXPECT_GE(c.widened, 0.93);
+  EXPECT_LE(c.widened, 0.985);
+  EXPECT_LT(c.mean_widening, 1.1);
+}
+
+TEST(ResidualStructureTest, TooFewBlocksWidenNothing) {
+  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Ones(40, 1);
+  Eigen::VectorXd residuals = Eigen::VectorXd::LinSpaced(40, -1, 1);
+  std::vector<Experiment> logs(1);
+  logs[0].measured.resize(40);
+  EstimationResult result;
+  result.parameters.push_back({});
+  result.parameters[0].nominal = 1;
+  result.sigma_hat = 1;
+  const ResidualStructure structure =
+      MeasureResidualStructure(jacobian, residuals, logs, 1);
+  AnalyzeUncertainty(jacobian, EstimatorOptions(), &result);
+  const double before = result.parameters[0].standard_error;
+  WidenForResidualStructure(structure, &result);
+  EXPECT_EQ(result.parameters[0].standard_error, before);
+  EXPECT_EQ(result.interval_widening, 1);
+}
+
+}  // namespace
+}  // namespace kcrig
