@@ -12,6 +12,9 @@ namespace {
 constexpr int kShortestBlock = 32;
 constexpr int kFewestBlocksPerLog = 10;
 constexpr int kFewestDegreesOfFreedom = 5;
+// Standard deviations of white noise's blocking ratio beyond which the
+// residual counts as correlated.
+constexpr double kCorrelatedBeyond = 3;
 
 // Where each log's rows start, and its samples; one entry past the end.
 struct LogRows {
@@ -116,6 +119,10 @@ ResidualStructure MeasureResidualStructure(
   const BlockingPoint block = ChooseBlock(residuals, rows, num_channels);
   structure.block_samples = block.length;
   structure.correlation = block.ratio;
+  // White noise's ratio is 1 with a relative spread sqrt(2 / sums).
+  const double sums = double(block.blocks) * num_channels;
+  structure.correlated =
+      sums > 0 && block.ratio > 1 + kCorrelatedBeyond * std::sqrt(2 / sums);
   structure.meat = Eigen::MatrixXd::Zero(n, n);
   // Every row in a block: a log's trailing part joins its last block.
   for (size_t l = 0; l < rows.samples.size(); ++l) {
@@ -149,8 +156,8 @@ void WidenForResidualStructure(const ResidualStructure& structure,
   const int n = static_cast<int>(result->parameters.size());
   // Too few blocks for the rank leave the sandwich no degrees of freedom.
   const int dof = structure.num_blocks - result->rank;
-  if (dof < kFewestDegreesOfFreedom || structure.meat.rows() != n ||
-      result->rank == 0) {
+  if (!structure.correlated || dof < kFewestDegreesOfFreedom ||
+      structure.meat.rows() != n || result->rank == 0) {
     return;
   }
   const Eigen::MatrixXd inverse =

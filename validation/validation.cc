@@ -334,6 +334,58 @@ Json Figures(const std::vector<Json>& cases) {
   return out;
 }
 
+// The diagnosis competitions' figures (DX: detection, false alarms,
+// isolation accuracy, localisation F1) over the effects beyond 3x the
+// noise, and how far "high" confidence can be acted on.
+Json DxMetrics(const std::vector<Json>& cases) {
+  Tally detected, isolated, high_when_correct, high_right;
+  int true_positive = 0, false_positive = 0, false_negative = 0;
+  for (const Json& c : cases) {
+    const bool high = c["confidence"] == "high";
+    if (high) {
+      ++high_right.total;
+      high_right.hits += Flag(c, "correct");
+    }
+    if (c["truth"] == "none" || c["size_sigma"].get<double>() <= kLargeEffect) {
+      continue;
+    }
+    ++detected.total;
+    detected.hits += c["verdict"] != "none";
+    ++isolated.total;
+    const bool correct = Flag(c, "correct");
+    isolated.hits += correct && !(c["component_correct"].is_boolean() &&
+                                  !c["component_correct"].get<bool>());
+    if (correct) {
+      ++high_when_correct.total;
+      high_when_correct.hits += high;
+    }
+    const Json& truth = c["truth_components"];
+    if (truth.empty()) continue;
+    for (const Json& placed : c["components"]) {
+      const bool hit =
+          std::find(truth.begin(), truth.end(), placed) != truth.end();
+      true_positive += hit;
+      false_positive += !hit;
+    }
+    for (const Json& acting : truth) {
+      const Json& placed = c["components"];
+      false_negative +=
+          std::find(placed.begin(), placed.end(), acting) == placed.end();
+    }
+  }
+  const int f1_denominator =
+      2 * true_positive + false_positive + false_negative;
+  Json out;
+  out["detection"] = detected.ToJson("detected");
+  out["isolation_accuracy"] = isolated.ToJson("isolated");
+  out["localisation_f1"] = f1_denominator > 0
+                               ? Json(2.0 * true_positive / f1_denominator)
+                               : Json(nullptr);
+  out["high_confidence_when_correct"] = high_when_correct.ToJson("high");
+  out["high_confidence_right"] = high_right.ToJson("right");
+  return out;
+}
+
 Json Confusion(const std::vector<Json>& cases) {
   Json out = Json::object();
   for (const std::string& truth : BlindCaseClasses()) {
@@ -487,6 +539,7 @@ std::string ValidationToJson(const KcrigConfig& config,
                     : Json({{"training", Designs(options.plan.training)},
                             {"holdout", Designs(options.plan.holdout)}});
   doc["figures"] = Figures(cases);
+  doc["figures"]["dx"] = DxMetrics(cases);
   doc["confusion_rows"] = BlindCaseClasses();
   doc["confusion_columns"] = ConfusionColumns();
   doc["confusion"] = Confusion(cases);
@@ -574,6 +627,22 @@ std::string ValidationSummary(const std::string& validation_json) {
       "\nstiffness 95 % intervals covering the rig's true value (correct "
       "verdicts; a coverage study): " +
       tally(f["stiffness_in_95_interval_when_correct"], "inside") + "\n";
+  if (!f.contains("dx")) return out;
+  const Json& dx = f["dx"];
+  char f1[32] = "n/a";
+  if (dx["localisation_f1"].is_number()) {
+    std::snprintf(f1, sizeof(f1), "%.2f", dx["localisation_f1"].get<double>());
+  }
+  out += "DX metrics (effects > 3x noise): detection " +
+         tally(dx["detection"], "detected") + ", false alarms " +
+         std::to_string(f["clean"]["total"].get<int>() -
+                        f["clean"]["none"].get<int>()) +
+         "/" + f["clean"]["total"].dump() + ", isolation accuracy " +
+         tally(dx["isolation_accuracy"], "isolated") + ", localisation F1 " +
+         f1 + "; high confidence on " +
+         tally(dx["high_confidence_when_correct"], "high") +
+         " correct verdicts, right when high " +
+         tally(dx["high_confidence_right"], "right") + "\n";
   return out;
 }
 

@@ -170,6 +170,7 @@ def run_case(index, kind, arguments, kcrig, config, work):
     closed = (diag.get("quantification") or {}).get("gap_closed")
     return {"index": index, "kind": kind, "arguments": arguments,
             "truth_in_interval": truth_in_interval(arguments, diag),
+            "stiffness_errors": stiffness_errors(config, diag),
             "size_sigma": size, "verdict": diag["verdict"],
             "model": diag.get("model", ""), "confidence": diag["confidence"],
             "components": diag.get("components", []), "gap_closed": closed,
@@ -192,6 +193,26 @@ def truth_in_interval(arguments, diag):
                 low, high = p["ci95"]
                 return low <= float(value) <= high
     return None
+
+
+def stiffness_errors(config, diag):
+    """Per bushing stiffness of the verdict's model: its error in
+    half-widths of its 95 % interval (|e| <= 1: the interval covers the
+    rig's stiffness, the configured one: the generator never changes it)."""
+    import yaml
+    doc = yaml.safe_load((config / "model.yaml").read_text())
+    errors = {}
+    for candidate in diag.get("candidates", []):
+        if candidate["model"] != diag.get("model"):
+            continue
+        for p in candidate["parameters"]:
+            bushing = p["name"][2:] if p["name"].startswith("c_") else None
+            low, high = p["ci95"]
+            if bushing not in BUSHINGS or low is None or high is None:
+                continue
+            truth = float(doc["bushings"][bushing]["stiffness"])
+            errors[p["name"]] = (truth - (low + high) / 2) / ((high - low) / 2)
+    return errors
 
 
 def effect_size(kcrig, config, case):
@@ -309,6 +330,18 @@ def summarise(results, components):
                verdict_class(r) == KINDS[r["kind"]]]
     print("correct verdicts closing >= 80 % of the held-out gap: " +
           rate([(r["gap_closed"] or 0) >= 0.8 for r in correct], 1.0))
+    errors = [e for r in correct for e in r["stiffness_errors"].values()]
+    print("correct verdicts: stiffness 95 % intervals covering the rig's "
+          "(goal 90-98 %): " + rate([abs(e) <= 1 for e in errors], 0.9) +
+          (f"; largest error {max(abs(e) for e in errors):.1f} half-widths"
+           if errors else ""))
+    large_correct = [r for r in large if verdict_class(r) == KINDS[r["kind"]]]
+    print("correct verdicts on effects >= 3x noise with high confidence: " +
+          rate([r["confidence"] == "high" for r in large_correct], 0.7))
+    high = [r for r in results if "error" not in r and
+            r["confidence"] == "high" and r["kind"] != "clean"]
+    print("high confidence right: " +
+          rate([verdict_class(r) == KINDS[r["kind"]] for r in high], 0.97))
 
 
 def main():

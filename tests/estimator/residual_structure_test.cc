@@ -85,7 +85,7 @@ TEST(ResidualStructureTest, WhiteNoiseKeepsItsClassicalIntervals) {
   const Coverage c = StraightLineCoverage(0);
   EXPECT_GE(c.widened, 0.93);
   EXPECT_LE(c.widened, 0.985);
-  EXPECT_LT(c.mean_widening, 1.1);
+  EXPECT_LT(c.mean_widening, 1.02);
 }
 
 TEST(ResidualStructureTest, TooFewBlocksWidenNothing) {
