@@ -137,9 +137,17 @@ int RunDiagnose(const DiagnoseArgs& args) {
   if (!status.ok()) return fail(status);
   std::string design_json;
   DiscriminatingDesign design;
-  if (!result.ambiguous_a.empty()) {
+  // Two candidates the data cannot tell apart, or a verdict of low
+  // confidence and its rival: the experiment that tells them apart.
+  DiagnosisResult pair = result;
+  if (pair.ambiguous_a.empty() && result.confidence == "low" &&
+      !result.rival.empty()) {
+    pair.ambiguous_a = result.model;
+    pair.ambiguous_b = result.rival;
+  }
+  if (!pair.ambiguous_a.empty()) {
     // The diagnosis stands without it: a failed design is a warning.
-    status = DesignForAmbiguity(config, options, result, &design);
+    status = DesignForAmbiguity(config, options, pair, &design);
     if (status.ok()) {
       design_json = DiscriminatingDesignToJson(design);
     } else {

@@ -69,6 +69,15 @@ struct DiagnosisOptions {
   // best single one in the same sense.
   double min_gap_margin = 0.2;
   double min_bic_difference = 10;
+  // Confidence: "high" when the verdict leaves only noise, or when it
+  // closes at least high_confidence_gap_closed of the gap and the best
+  // candidate of every other class (its rival: another effect, another
+  // freed parameter) leaves at least high_confidence_separation times its
+  // remaining gap (not less than five standard deviations of a score at
+  // the noise floor): an effect of another form than the candidate's
+  // leaves structure, but no other fault comes near.
+  double high_confidence_gap_closed = 0.9;
+  double high_confidence_separation = 10;
   // Pairs of effects are tried, from the best `pair_pool` single ones (at
   // most one freed model parameter among them), when the best one leaves
   // structure beyond the noise.
@@ -268,6 +277,11 @@ struct DiagnosisResult {
   std::vector<std::string> components;
   std::string confidence;
   std::string reason;
+  // The best candidate of another class than the verdict's, and how many
+  // times the verdict's remaining gap it leaves (the measure of
+  // confidence; "" and 0 without a verdict or a rival).
+  std::string rival;
+  double rival_separation = 0;
   // Two candidates the data cannot tell apart (both empty otherwise): the
   // caller may design an experiment that discriminates them.
   std::string ambiguous_a, ambiguous_b;

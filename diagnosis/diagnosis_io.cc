@@ -171,6 +171,10 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
   doc["model"] = r.model;
   doc["components"] = r.components;
   doc["confidence"] = r.confidence;
+  doc["rival"] = r.rival.empty()
+                     ? Json(nullptr)
+                     : Json({{"model", r.rival},
+                             {"separation", Number(r.rival_separation)}});
   Json leads = Json::array();
   for (const ParameterLead& lead : r.parameter_leads) {
     leads.push_back({{"parameter", lead.name},

@@ -33,6 +33,24 @@ bool VerdictRules::AtNoise(const CandidateScore& s) const {
   return p >= significance && s.ljung_box_p >= significance;
 }
 
+double VerdictRules::Separation(const CandidateScore& chosen,
+                                const CandidateScore& rival) const {
+  return (rival.score - 1) / std::max(chosen.score - 1, score_noise);
+}
+
+std::vector<std::string> FaultClasses(const std::string& model) {
+  std::vector<std::string> classes;
+  size_t start = 0;
+  while (start <= model.size()) {
+    const size_t end = std::min(model.find('+', start), model.size());
+    const std::string part = model.substr(start, end - start);
+    const std::string effect = part.substr(0, part.find('@'));
+    classes.push_back(effect == "model_parameter" ? part : effect);
+    start = end + 1;
+  }
+  return classes;
+}
+
 VerdictRules MakeVerdictRules(const DiagnosisOptions& options, bool holdout,
                               int training_residuals, long scored_residuals) {
   VerdictRules rules;
@@ -40,6 +58,8 @@ VerdictRules MakeVerdictRules(const DiagnosisOptions& options, bool holdout,
   rules.min_gap_margin = options.min_gap_margin;
   rules.min_bic_difference = options.min_bic_difference;
   rules.significance = options.significance;
+  rules.high_confidence_gap_closed = options.high_confidence_gap_closed;
+  rules.high_confidence_separation = options.high_confidence_separation;
   rules.score_noise = 5 * std::sqrt(2.0 / scored_residuals);
   rules.holdout = holdout;
   rules.training_residuals = training_residuals;
@@ -124,20 +144,67 @@ std::string DescribeFreedParameters(const CandidateScore& chosen) {
   return text;
 }
 
+namespace {
+
+// The best-scored candidate that names none of `chosen`'s faults.
+void FindRival(const CandidateScore& chosen, const VerdictRules& rules,
+               DiagnosisResult* result) {
+  const std::vector<std::string> own = FaultClasses(chosen.model);
+  for (const CandidateScore& s : result->ranking) {
+    if (!s.ok || !s.scored) continue;
+    bool shares = false;
+    for (const std::string& c : FaultClasses(s.model)) {
+      shares |= std::find(own.begin(), own.end(), c) != own.end();
+    }
+    if (shares) continue;
+    result->rival = s.model;
+    result->rival_separation = rules.Separation(chosen, s);
+    return;
+  }
+}
+
+// Why the confidence is what it is, and for a low one what would raise it.
+std::string ConfidenceText(bool at_noise, bool apart,
+                           const DiagnosisResult& r) {
+  if (at_noise) return "what is left is noise";
+  char text[240];
+  if (apart) {
+    std::snprintf(text, sizeof(text),
+                  "structure is left beyond the noise (the rig's form of the "
+                  "effect is not quite the model's), but the best other "
+                  "fault, %s, leaves %.0fx as much",
+                  r.rival.c_str(), r.rival_separation);
+  } else if (!r.rival.empty()) {
+    std::snprintf(text, sizeof(text),
+                  "some structure is left beyond the noise and %s leaves "
+                  "only %.1fx as much: an experiment that tells them apart "
+                  "would raise the confidence",
+                  r.rival.c_str(), r.rival_separation);
+  } else {
+    return "some structure is left beyond the noise";
+  }
+  return text;
+}
+
+}  // namespace
+
 void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   DiagnosisResult* result) {
-  char text[300];
+  char text[400];
   if (chosen != nullptr) {
     SetVerdictModel(chosen->model, result);
-    result->confidence = rules.AtNoise(*chosen) ? "high" : "low";
+    FindRival(*chosen, rules, result);
+    const bool at_noise = rules.AtNoise(*chosen);
+    const bool apart =
+        chosen->gap_closed >= rules.high_confidence_gap_closed &&
+        result->rival_separation >= rules.high_confidence_separation;
+    result->confidence = at_noise || apart ? "high" : "low";
     std::snprintf(text, sizeof(text),
                   "%s closes %.0f %% of the gap (score %.3g -> %.3g, noise "
-                  "floor 1)%s",
+                  "floor 1); %s",
                   chosen->model.c_str(), 100 * chosen->gap_closed,
                   result->nominal.score, chosen->score,
-                  result->confidence == "high"
-                      ? "; what is left is noise"
-                      : "; some structure is left beyond the noise");
+                  ConfidenceText(at_noise, apart, *result).c_str());
     result->reason = DescribeFreedParameters(*chosen) + text;
     return;
   }

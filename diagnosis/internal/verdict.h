@@ -15,6 +15,8 @@ struct VerdictRules {
   double min_gap_margin = 0.2;
   double min_bic_difference = 10;
   double significance = 1e-3;
+  double high_confidence_gap_closed = 0.9;
+  double high_confidence_separation = 10;
   // Five standard deviations of a score at the noise floor.
   double score_noise = 0;
   // Whether the scores are on hold-out logs (else cross-validation or the
@@ -37,11 +39,19 @@ struct VerdictRules {
   // white residual there (a model that mimics an effect it does not contain
   // can reach the chi-square of the noise and leave a correlated residual).
   bool AtNoise(const CandidateScore& s) const;
+  // How many times `chosen`'s remaining gap (not less than score_noise)
+  // `rival` leaves.
+  double Separation(const CandidateScore& chosen,
+                    const CandidateScore& rival) const;
 };
 
 // The rules of `options` for `nominal` (scored) on `scored_residuals`.
 VerdictRules MakeVerdictRules(const DiagnosisOptions& options, bool holdout,
                               int training_residuals, long scored_residuals);
+
+// The faults a model names: its effects, each freed parameter on its own
+// ("hysteresis@bushing:V1+sensor_offset" -> hysteresis, sensor_offset).
+std::vector<std::string> FaultClasses(const std::string& model);
 
 // Successful fits first, then by score, then by BIC.
 void RankCandidates(std::vector<CandidateScore>* list);

@@ -99,6 +99,48 @@ TEST(VerdictTest, StatesTheChosenModelTheAmbiguityOrUnexplained) {
   EXPECT_NE(none.reason.find("no candidate closes 80 %"), std::string::npos);
 }
 
+TEST(VerdictTest, FaultClassesNameEachEffectAndEachFreedParameter) {
+  EXPECT_EQ(FaultClasses("hysteresis@bushing:V1+sensor_offset@sensor:x"),
+            (std::vector<std::string>{"hysteresis", "sensor_offset"}));
+  EXPECT_EQ(FaultClasses("model_parameter@k_spring+model_parameter@O1.z"),
+            (std::vector<std::string>{"model_parameter@k_spring",
+                                      "model_parameter@O1.z"}));
+  EXPECT_EQ(FaultClasses("actuator_lag"),
+            (std::vector<std::string>{"actuator_lag"}));
+}
+
+// An effect of another form than the candidate's leaves structure: high
+// confidence only when the best other fault leaves ten times as much; a
+// placement or a pair with the verdict's own effect is not a rival.
+TEST(VerdictTest, ConfidenceIsHighWhenNoOtherFaultComesNear) {
+  const VerdictRules rules = HoldoutRules();
+  DiagnosisResult result;
+  result.nominal = Scored("nominal", 12.0, 0, 0);
+  CandidateScore chosen = Scored("bushing_damping@bushing:P", 1.3, 0.97, 0);
+  chosen.ljung_box_p = 1e-100;
+  result.ranking = {chosen, Scored("bushing_damping", 1.5, 0.95, 50),
+                    Scored("hysteresis+bushing_damping", 1.6, 0.94, 60),
+                    Scored("hysteresis@bushing:P", 4.3, 0.7, 900)};
+  StateVerdict(&result.ranking[0], rules, &result);
+  EXPECT_EQ(result.rival, "hysteresis@bushing:P");
+  EXPECT_NEAR(result.rival_separation, 3.3 / 0.3, 1e-9);
+  EXPECT_EQ(result.confidence, "high");
+  EXPECT_NE(result.reason.find("leaves 11x as much"), std::string::npos)
+      << result.reason;
+
+  result.ranking[3].score = 2.0;  // the rival leaves 3.3x: low
+  StateVerdict(&result.ranking[0], rules, &result);
+  EXPECT_EQ(result.confidence, "low");
+  EXPECT_NE(result.reason.find("an experiment that tells them apart"),
+            std::string::npos)
+      << result.reason;
+
+  result.ranking[3].score = 4.3;  // far apart, but too little of the gap
+  result.ranking[0].gap_closed = 0.85;
+  StateVerdict(&result.ranking[0], rules, &result);
+  EXPECT_EQ(result.confidence, "low");
+}
+
 // A freed parameter in words: the value to the digits its interval needs,
 // a hard point's offset with its direction in the rig frame (ISO 8855: x
 // forward, y left, z up), a value on its bound said so; the components.
