@@ -12,9 +12,9 @@ namespace {
 constexpr int kShortestBlock = 32;
 constexpr int kFewestBlocksPerLog = 10;
 constexpr int kFewestDegreesOfFreedom = 5;
-// Standard deviations of white noise's blocking ratio beyond which the
-// residual counts as correlated.
-constexpr double kCorrelatedBeyond = 3;
+// Standard deviations of the sandwich's variance (relative sd
+// sqrt(2 / dof)) by which it must exceed the classical one to replace it.
+constexpr double kWidenBeyond = 2;
 
 // Where each log's rows start, and its samples; one entry past the end.
 struct LogRows {
@@ -119,10 +119,6 @@ ResidualStructure MeasureResidualStructure(
   const BlockingPoint block = ChooseBlock(residuals, rows, num_channels);
   structure.block_samples = block.length;
   structure.correlation = block.ratio;
-  // White noise's ratio is 1 with a relative spread sqrt(2 / sums).
-  const double sums = double(block.blocks) * num_channels;
-  structure.correlated =
-      sums > 0 && block.ratio > 1 + kCorrelatedBeyond * std::sqrt(2 / sums);
   structure.meat = Eigen::MatrixXd::Zero(n, n);
   // Every row in a block: a log's trailing part joins its last block.
   for (size_t l = 0; l < rows.samples.size(); ++l) {
@@ -156,8 +152,8 @@ void WidenForResidualStructure(const ResidualStructure& structure,
   const int n = static_cast<int>(result->parameters.size());
   // Too few blocks for the rank leave the sandwich no degrees of freedom.
   const int dof = structure.num_blocks - result->rank;
-  if (!structure.correlated || dof < kFewestDegreesOfFreedom ||
-      structure.meat.rows() != n || result->rank == 0) {
+  if (dof < kFewestDegreesOfFreedom || structure.meat.rows() != n ||
+      result->rank == 0) {
     return;
   }
   const Eigen::MatrixXd inverse =
@@ -165,13 +161,19 @@ void WidenForResidualStructure(const ResidualStructure& structure,
   const Eigen::MatrixXd sandwich =
       inverse * structure.meat * inverse * (structure.num_blocks / double(dof));
   const double quantile = StudentOverNormal95(dof);
+  // White noise leaves the sandwich within its sampling spread of the
+  // classical variance: the classical intervals stand.
+  const double significant = 1 + kWidenBeyond * std::sqrt(2.0 / dof);
   Eigen::VectorXd widening = Eigen::VectorXd::Ones(n);
   for (int i = 0; i < n; ++i) {
     ParameterEstimate& p = result->parameters[i];
     if (!std::isfinite(p.standard_error) || p.standard_error <= 0) continue;
-    const double robust = std::sqrt(std::max(0.0, sandwich(i, i))) *
-                          std::abs(p.nominal) * quantile;
-    if (robust <= p.standard_error) continue;
+    const double variance =
+        std::max(0.0, sandwich(i, i)) * p.nominal * p.nominal;
+    if (variance <= significant * p.standard_error * p.standard_error) {
+      continue;
+    }
+    const double robust = std::sqrt(variance) * quantile;
     widening(i) = robust / p.standard_error;
     p.standard_error = robust;
     const double half = (p.ci95_high - p.ci95_low) / 2 * widening(i);

@@ -28,11 +28,6 @@ struct ResidualStructure {
   // variance at that length: 1 for white noise, about twice the integrated
   // correlation time [samples] otherwise.
   double correlation = 1;
-  // Whether `correlation` is beyond three standard deviations of white
-  // noise's: only then are the intervals widened (white noise keeps the
-  // classical intervals, which a sandwich from few blocks would only
-  // blur).
-  bool correlated = false;
   // M = sum over blocks b of g_b g_b^T + (g_b g_{b-1}^T + g_{b-1} g_b^T) / 2
   // within a log, g_b = J_b^T r_b, in scaled parameters.
   Eigen::MatrixXd meat;
@@ -45,11 +40,13 @@ ResidualStructure MeasureResidualStructure(
     const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residuals,
     const std::vector<Experiment>& experiments, int num_channels);
 
-// After AnalyzeUncertainty, before AddDiscretisationBias: for a correlated
-// residual, each determined parameter's standard error becomes the larger of
-// the classical one and the sandwich's (its variance times B / (B - k), its
-// quantile Student's with B - k degrees of freedom, for B blocks and rank k),
-// folded into the standard error; its interval with it; the covariance keeps
+// After AnalyzeUncertainty, before AddDiscretisationBias: a determined
+// parameter whose sandwich variance (times B / (B - k), B blocks, rank k)
+// exceeds the classical one by more than two standard deviations of its own
+// sampling spread, sqrt(2 / (B - k)), gets the sandwich's standard error
+// times Student's quantile at B - k degrees of freedom over the normal's,
+// and its interval with it; white noise keeps the classical intervals,
+// which a sandwich from few blocks would only blur. The covariance keeps
 // its correlations. Records the largest widening
 // (EstimationResult::interval_widening) and the correlation.
 void WidenForResidualStructure(const ResidualStructure& structure,

@@ -85,7 +85,9 @@ TEST(ResidualStructureTest, WhiteNoiseKeepsItsClassicalIntervals) {
   const Coverage c = StraightLineCoverage(0);
   EXPECT_GE(c.widened, 0.93);
   EXPECT_LE(c.widened, 0.985);
-  EXPECT_LT(c.mean_widening, 1.02);
+  // Only a sandwich beyond two standard deviations of its own spread
+  // widens: a few draws in a hundred, by a third or so.
+  EXPECT_LT(c.mean_widening, 1.05);
 }
 
 TEST(ResidualStructureTest, TooFewBlocksWidenNothing) {
