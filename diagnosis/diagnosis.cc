@@ -323,39 +323,33 @@ class DiagnosisRun {
 
   // The candidates are scored on data that show the training logs' gap,
   // by the training logs' own tests (chi-square and Ljung-Box at the same
-  // significance, or a score beyond the noise floor's spread). Data that do
-  // not neither confirm nor refute it (a hold-out whose excitation does not
-  // exercise the effect): the next data are tried, cross-validation over
-  // the training logs, then their information criteria (which see the
-  // training logs' gap by construction), and the reason says so.
+  // significance, or a score beyond the noise floor's spread). A hold-out
+  // that does not neither confirms nor refutes it (its excitation may not
+  // exercise the effect): the candidates are then scored by
+  // cross-validation over the training logs (their information criteria
+  // with one log), which see the training logs' gap by construction, and
+  // the reason says so.
   Status ScoreWhereTheGapShows() {
     KCRIG_RETURN_IF_ERROR(ScoreNominal());
-    while (result_->scoring != "information_criterion" && !GapShows()) {
-      char text[240];
-      std::snprintf(text, sizeof(text),
-                    "the %s neither confirm nor refute the training logs' "
-                    "gap (nominal score %.4g, noise floor 1)",
-                    result_->scoring == "holdout" ? "hold-out logs"
-                                                  : "cross-validation folds",
-                    result_->nominal.score);
-      scoring_note_ += (scoring_note_.empty() ? "" : "; ") + std::string(text);
-      result_->scoring = result_->scoring == "holdout" && training_.size() > 1
-                             ? "cross_validation"
-                             : "information_criterion";
-      holdout_.clear();
-      KCRIG_RETURN_IF_ERROR(ScoreNominal());
-    }
-    if (!scoring_note_.empty()) {
-      scoring_note_ += "; scored by " +
-                       std::string(result_->scoring == "cross_validation"
-                                       ? "cross-validation over the training "
-                                         "logs"
-                                       : "the training logs' information "
-                                         "criteria") +
-                       "; a hold-out repeating " + LargestGapLog() +
-                       "'s excitation would confirm or refute it: ";
-    }
-    return Status::Ok();
+    // Cross-validation folds are judged by the training logs' own tests:
+    // they show the gap by construction.
+    if (result_->scoring != "holdout" || GapShows()) return Status::Ok();
+    result_->scoring =
+        training_.size() > 1 ? "cross_validation" : "information_criterion";
+    char text[400];
+    std::snprintf(
+        text, sizeof(text),
+        "the hold-out logs neither confirm nor refute the training logs' gap "
+        "(nominal score %.4g, noise floor 1); scored by %s; a hold-out "
+        "repeating %s's excitation would confirm or refute it: ",
+        result_->nominal.score,
+        result_->scoring == "cross_validation"
+            ? "cross-validation over the training logs"
+            : "the training log's information criteria",
+        LargestGapLog().c_str());
+    scoring_note_ = text;
+    holdout_.clear();
+    return ScoreNominal();
   }
 
   bool GapShows() const {
@@ -370,7 +364,7 @@ class DiagnosisRun {
     for (size_t l = 0; l < training_.size(); ++l) {
       double sum = 0;
       for (const Vec6<double>& r : residuals_[l]) sum += r.squaredNorm();
-      const double mean = sum / std::max<size_t>(1, residuals_[l].size());
+      const double mean = sum / std::max(1, ObservedCount(training_[l]));
       if (mean > largest) {
         largest = mean;
         source = training_[l].source;
@@ -468,6 +462,8 @@ class DiagnosisRun {
       s->score = sum.Score();
       s->heldout_rms = sum.Rms();
     } else {
+      s->heldout = false;
+      s->heldout_rms = Vec6<double>::Zero();
       s->score = s->train_chi2 / std::max(1, m_ - model.num_parameters());
     }
   }

@@ -20,16 +20,19 @@
 namespace kcrig {
 
 struct ResidualStructure {
-  // Samples per block: the longest of 32, 64, ... that leaves every log
-  // ten blocks.
-  int block_samples = 0;
+  // Blocks of each log's data (its memory rows left out), the longest of
+  // 32, 64, ... samples that leaves every log ten blocks and all logs
+  // together the parameters' number and five more (32 when even those are
+  // too many).
   int num_blocks = 0;
   // The variance of a block's residual sum over white noise's of the same
   // variance at that length: 1 for white noise, about twice the integrated
   // correlation time [samples] otherwise.
   double correlation = 1;
   // M = sum over blocks b of g_b g_b^T + (g_b g_{b-1}^T + g_{b-1} g_b^T) / 2
-  // within a log, g_b = J_b^T r_b, in scaled parameters.
+  // within a log, g_b = J_b^T r_b less their mean (a parameter held on its
+  // bound leaves a gradient that is not the residual's structure), in
+  // scaled parameters. Empty when the rows do not match the logs' layout.
   Eigen::MatrixXd meat;
 };
 
@@ -43,12 +46,15 @@ ResidualStructure MeasureResidualStructure(
 // After AnalyzeUncertainty, before AddDiscretisationBias: a determined
 // parameter whose sandwich variance (times B / (B - k), B blocks, rank k)
 // exceeds the classical one by more than two standard deviations of its own
-// sampling spread, sqrt(2 / (B - k)), gets the sandwich's standard error
-// times Student's quantile at B - k degrees of freedom over the normal's,
-// and its interval with it; white noise keeps the classical intervals,
-// which a sandwich from few blocks would only blur. The covariance keeps
-// its correlations. Records the largest widening
-// (EstimationResult::interval_widening) and the correlation.
+// sampling spread, about sqrt(3 / (B - k)), gets the sandwich's standard
+// error times Student's quantile at B - k degrees of freedom over the
+// normal's, and its interval with it; white noise keeps the classical
+// intervals, which a sandwich from few blocks would only blur. Fewer than
+// five degrees of freedom (a short log, many parameters): not checked, the
+// classical intervals stand. The covariance keeps its correlations; the
+// information matrix (the data's, for a design's prior) stays classical.
+// Records the largest widening (EstimationResult::interval_widening) and
+// the correlation.
 void WidenForResidualStructure(const ResidualStructure& structure,
                                EstimationResult* result);
 

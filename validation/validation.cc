@@ -641,7 +641,7 @@ std::string ValidationSummary(const std::string& validation_json) {
          tally(dx["isolation_accuracy"], "isolated") + ", localisation F1 " +
          f1 + "; high confidence on " +
          tally(dx["high_confidence_when_correct"], "high") +
-         " correct verdicts, right when high " +
+         " correct verdicts, right when high (any size) " +
          tally(dx["high_confidence_right"], "right") + "\n";
   return out;
 }

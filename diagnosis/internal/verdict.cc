@@ -35,7 +35,8 @@ bool VerdictRules::AtNoise(const CandidateScore& s) const {
 
 double VerdictRules::Separation(const CandidateScore& chosen,
                                 const CandidateScore& rival) const {
-  return (rival.score - 1) / std::max(chosen.score - 1, score_noise);
+  return std::max(0.0, rival.score - 1) /
+         std::max(chosen.score - 1, score_noise);
 }
 
 std::vector<std::string> FaultClasses(const std::string& model) {
@@ -191,6 +192,8 @@ std::string ConfidenceText(bool at_noise, bool apart,
 void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   DiagnosisResult* result) {
   char text[400];
+  result->rival.clear();
+  result->rival_separation = 0;
   if (chosen != nullptr) {
     SetVerdictModel(chosen->model, result);
     FindRival(*chosen, rules, result);

@@ -90,22 +90,71 @@ TEST(ResidualStructureTest, WhiteNoiseKeepsItsClassicalIntervals) {
   EXPECT_LT(c.mean_widening, 1.05);
 }
 
+// A residual that flips sign every 32 samples beside a constant column
+// would widen the interval (its block sums are all the residual) but for
+// too few blocks: one log of 96 samples gives three, too few for the one
+// parameter's sandwich.
 TEST(ResidualStructureTest, TooFewBlocksWidenNothing) {
-  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Ones(40, 1);
-  Eigen::VectorXd residuals = Eigen::VectorXd::LinSpaced(40, -1, 1);
+  constexpr int kShort = 96;
+  const Eigen::MatrixXd jacobian = Eigen::MatrixXd::Ones(kShort, 1);
+  Eigen::VectorXd residuals(kShort);
+  for (int r = 0; r < kShort; ++r) residuals(r) = (r / 32) % 2 ? -1 : 1;
   std::vector<Experiment> logs(1);
-  logs[0].measured.resize(40);
+  logs[0].measured.resize(kShort);
+  const ResidualStructure structure =
+      MeasureResidualStructure(jacobian, residuals, logs, 1);
+  EXPECT_EQ(structure.num_blocks, 3);
   EstimationResult result;
   result.parameters.push_back({});
   result.parameters[0].nominal = 1;
   result.sigma_hat = 1;
-  const ResidualStructure structure =
-      MeasureResidualStructure(jacobian, residuals, logs, 1);
   AnalyzeUncertainty(jacobian, EstimatorOptions(), &result);
   const double before = result.parameters[0].standard_error;
   WidenForResidualStructure(structure, &result);
   EXPECT_EQ(result.parameters[0].standard_error, before);
   EXPECT_EQ(result.interval_widening, 1);
+}
+
+// Rows laid out sample by sample, channels within (SplitResiduals), with
+// the memory rows of a rig log left out and a parameter of nominal 2:
+// the same widening as one channel without memory, the interval in the
+// parameter's units.
+TEST(ResidualStructureTest, ChannelsMemoryRowsAndScaleAreLaidOutAsTheFit) {
+  std::mt19937 random(3);
+  std::normal_distribution<double> normal;
+  constexpr int kMemory = 500, kData = 4000, kChannels = 2;
+  std::vector<Experiment> logs(1);
+  logs[0].measured.resize(kMemory + kData);
+  logs[0].memory_rows = kMemory;
+  const int rows = (kMemory + kData) * kChannels;
+  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(rows, 1);
+  Eigen::VectorXd residuals = Eigen::VectorXd::Zero(rows);
+  double noise = 0;
+  for (int j = kMemory; j < kMemory + kData; ++j) {
+    noise = 0.95 * noise + std::sqrt(1 - 0.95 * 0.95) * normal(random);
+    jacobian(j * kChannels, 0) = 1;  // channel 0 carries the parameter
+    residuals(j * kChannels) = noise;
+    residuals(j * kChannels + 1) = normal(random);  // channel 1 white
+  }
+  residuals.segment(kMemory * kChannels, kData * kChannels).array() -=
+      residuals.segment(kMemory * kChannels, kData * kChannels).mean();
+  const ResidualStructure structure =
+      MeasureResidualStructure(jacobian, residuals, logs, kChannels);
+  EXPECT_GE(structure.num_blocks, 10);
+  EstimationResult result;
+  result.parameters.push_back({});
+  result.parameters[0].nominal = 2;
+  result.parameters[0].value = 2;
+  result.sigma_hat = 1;
+  AnalyzeUncertainty(jacobian, EstimatorOptions(), &result);
+  const double classical = result.parameters[0].standard_error;
+  EXPECT_NEAR(classical, 2 / std::sqrt(double(kData)), 1e-9);
+  WidenForResidualStructure(structure, &result);
+  // AR(1) at 0.95: the mean's standard error sqrt(39) = 6.2 times wider.
+  EXPECT_GT(result.interval_widening, 3.5);
+  EXPECT_LT(result.interval_widening, 10);
+  EXPECT_NEAR(result.parameters[0].ci95_high - 2,
+              1.959963984540054 * result.parameters[0].standard_error, 1e-9);
 }
 
 }  // namespace
