@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "gtest/gtest.h"
+#include "io_drivers/kc_rig_protocol.h"
 #include "nlohmann/json.hpp"
 #include "records/can_log_decoder.h"
 #include "records/internal/candump_log.h"
@@ -428,8 +429,11 @@ TEST_F(VcanTest, TheRigObeysOneMasterOnCanToo) {
   EXPECT_EQ(CountLines(second.output), 1) << second.output;
   EXPECT_FALSE(std::filesystem::exists(Path("second/run.csv")));
   // Enable with 6 kN in Fz under session 0 (never granted), and a claim for
-  // session 5, 20 times each.
+  // another session than the owner's (a fixed one is the owner's one run in
+  // 127: the run draws its session), 20 times each.
   const int rounds = 20;
+  const int other =
+      ClaimedSession(log_dir + "/can.log.partial") % kMaxCanSession + 1;
   auto rogue = [&](bool claims) {
     const std::string path = Path(claims ? "rogue.log" : "enables.log");
     std::ofstream out(path);
@@ -437,8 +441,10 @@ TEST_F(VcanTest, TheRigObeysOneMasterOnCanToo) {
       out << "(1700000000." << 100000 + 2000 * k
           << ") vcan0 100#00000000E02E0001\n";
       if (claims) {
-        out << "(1700000000." << 101000 + 2000 * k
-            << ") vcan0 102#0501000000000000\n";
+        char claim[32];
+        std::snprintf(claim, sizeof(claim), "102#%02X01000000000000", other);
+        out << "(1700000000." << 101000 + 2000 * k << ") vcan0 " << claim
+            << "\n";
       }
     }
     out.close();
