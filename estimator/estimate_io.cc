@@ -122,11 +122,11 @@ std::string IntervalWideningSummary(const EstimationResult& result) {
   if (!(result.interval_widening > kReportedWidening)) return "";
   char line[320];
   std::snprintf(line, sizeof(line),
-                "  intervals widened up to %.1fx: the residual is correlated "
-                "beyond the sensor noise (its block sums vary %.0fx as much "
-                "as white noise's), which intervals from independent samples "
-                "would ignore\n",
-                result.interval_widening, result.residual_correlation);
+                "  intervals widened up to %.1fx: the fit's gradient varies "
+                "more over blocks of each log than independent samples at "
+                "the sensor noise allow (a residual correlated in time or "
+                "uneven across channels)\n",
+                result.interval_widening);
   return line;
 }
 
