@@ -139,15 +139,15 @@ int RunDiagnose(const DiagnoseArgs& args) {
   DiscriminatingDesign design;
   // Two candidates the data cannot tell apart, or a verdict of low
   // confidence and its rival: the experiment that tells them apart.
-  DiagnosisResult pair = result;
-  if (pair.ambiguous_a.empty() && result.confidence == "low" &&
-      !result.rival.empty()) {
-    pair.ambiguous_a = result.model;
-    pair.ambiguous_b = result.rival;
+  std::string model_a = result.ambiguous_a, model_b = result.ambiguous_b;
+  if (model_a.empty() && result.confidence == "low" && !result.rival.empty()) {
+    model_a = result.model;
+    model_b = result.rival;
   }
-  if (!pair.ambiguous_a.empty()) {
+  if (!model_a.empty()) {
     // The diagnosis stands without it: a failed design is a warning.
-    status = DesignForAmbiguity(config, options, pair, &design);
+    status =
+        DesignToTellApart(config, options, result, model_a, model_b, &design);
     if (status.ok()) {
       design_json = DiscriminatingDesignToJson(design);
     } else {

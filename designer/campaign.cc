@@ -462,7 +462,8 @@ class CampaignRun {
     DiagnosisOptions options = options_.diagnosis;
     options.estimator.lower_scale = estimator_.lower_scale;
     options.estimator.upper_scale = estimator_.upper_scale;
-    KCRIG_RETURN_IF_ERROR(DesignForAmbiguity(config_, options, d, &design));
+    KCRIG_RETURN_IF_ERROR(DesignToTellApart(config_, options, d, d.ambiguous_a,
+                                            d.ambiguous_b, &design));
     special_next_ = design.excitation;
     next_ = {design.excitation.phi, design.excitation.z_a};
     it->action = "discriminate";

@@ -109,13 +109,14 @@ std::string DiscriminatingDesignToJson(const DiscriminatingDesign& design) {
   return doc.dump();
 }
 
-Status DesignForAmbiguity(const KcrigConfig& config,
-                          const DiagnosisOptions& options,
-                          const DiagnosisResult& result,
-                          DiscriminatingDesign* design) {
+Status DesignToTellApart(const KcrigConfig& config,
+                         const DiagnosisOptions& options,
+                         const DiagnosisResult& result,
+                         const std::string& model_a, const std::string& model_b,
+                         DiscriminatingDesign* design) {
   EffectModel models[2];
   std::vector<double> values[2];
-  const std::string names[2] = {result.ambiguous_a, result.ambiguous_b};
+  const std::string names[2] = {model_a, model_b};
   for (int i = 0; i < 2; ++i) {
     Status status = EffectModel::CreateNamed(
         config.model, names[i], options.estimator.lower_scale,

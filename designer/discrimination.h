@@ -52,13 +52,15 @@ Status DesignDiscriminatingExperiment(const EffectModel& a,
                                       const DiscriminationOptions& options,
                                       DiscriminatingDesign* design);
 
-// The two candidates a diagnosis could not tell apart (result.ambiguous_a
-// and _b), as models at their fitted values, and the experiment that
+// Two candidates of a diagnosis (`result.ranking`'s models `model_a` and
+// `model_b`: an ambiguous pair, or a verdict of low confidence and its
+// rival), as models at their fitted values, and the experiment that
 // discriminates them.
-Status DesignForAmbiguity(const KcrigConfig& config,
-                          const DiagnosisOptions& options,
-                          const DiagnosisResult& result,
-                          DiscriminatingDesign* design);
+Status DesignToTellApart(const KcrigConfig& config,
+                         const DiagnosisOptions& options,
+                         const DiagnosisResult& result,
+                         const std::string& model_a, const std::string& model_b,
+                         DiscriminatingDesign* design);
 
 // The design as a JSON object for diag.json (angles in deg, with the
 // `kcrig run` / `kcrig simulate` options that perform it).
