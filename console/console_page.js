@@ -248,6 +248,10 @@
     text("safety", s.safety);
     text("owner", s.owner);
     body.dataset.phase = s.phase;
+    // Every phase the page showed, in order: a slow reader sees them all.
+    const shown = (body.dataset.phasesShown || "").split(" ").filter(Boolean);
+    if (shown[shown.length - 1] !== s.phase) shown.push(s.phase);
+    body.dataset.phasesShown = shown.join(" ");
     body.dataset.t = String(s.t_s);
     body.dataset.safety = s.safety;
     const m = s.margins;

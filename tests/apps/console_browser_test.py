@@ -176,7 +176,7 @@ class ConsoleTest(unittest.TestCase):
         # run still goes.
         seen_iteration_at_run = None
         shot = False
-        end = time.monotonic() + 90
+        end = time.monotonic() + 300  # a loaded machine estimates slowly
         while time.monotonic() < end:
             phases.add(data(d, "phase"))
             if data(d, "iterations") == "1" and seen_iteration_at_run is None:
@@ -198,7 +198,11 @@ class ConsoleTest(unittest.TestCase):
         self.assertIsNotNone(seen_iteration_at_run, "iteration 0 never shown")
         self.assertIsNone(seen_iteration_at_run[2],
                           "iteration 0 shown only after the campaign ended")
-        self.assertTrue({"lead_in", "ramp", "ramp_down"} <= phases, phases)
+        # The page's own record: a poll under load can miss a short phase.
+        shown = (data(d, "phasesShown") or "").split()
+        self.assertTrue({"lead_in", "ramp", "ramp_down"} <= set(shown),
+                        (shown, phases))
+        self.assertTrue(phases - {None} <= set(shown), (shown, phases))
         self.assertEqual(data(d, "iterations"), "2")
         table = d.find_element(By.ID, "iterations").text
         self.assertIn("c_O1", table)
