@@ -612,13 +612,21 @@ class DiagnosisRun {
       return Status::Error("diagnose: screening the model parameters: " +
                            status.message());
     }
+    // BIC's price per freed parameter: a point frees three.
+    const double price = std::log(static_cast<double>(m_));
+    auto gain = [price](const ParameterLead& lead) {
+      return lead.chi2_drop - price * lead.freed;
+    };
+    std::stable_sort(leads.begin(), leads.end(),
+                     [&](const ParameterLead& a, const ParameterLead& b) {
+                       return gain(a) > gain(b);
+                     });
     result_->parameter_leads.assign(
         leads.begin(), leads.begin() + std::min<size_t>(5, leads.size()));
-    const double price =
-        std::log(static_cast<double>(m_)) + options_.min_bic_difference;
     int added = 0;
     for (const ParameterLead& lead : leads) {
-      if (added == options_.model_parameter_pool || lead.chi2_drop < price) {
+      if (added == options_.model_parameter_pool ||
+          gain(lead) < options_.min_bic_difference) {
         break;
       }
       const std::string name = FreedModelName(lead.name);

@@ -101,10 +101,10 @@ struct DiagnosisOptions {
   // with no verdict, the best other candidate) leaves only noise: a
   // placement could only tie.
   bool place_components = true;
-  // Wrong "known" parameters: the model parameters (FreeableModelParameters)
-  // whose freeing removes the most of the nominal fit's training
-  // chi-square to first order (ScreenModelParameters), at most this many
-  // and each more than the BIC's price of a parameter plus
+  // Wrong "known" parameters: the model parameters (FreeableModelParameters;
+  // a hard point whole) whose freeing removes the most of the nominal fit's
+  // training chi-square to first order (ScreenModelParameters) beyond the
+  // BIC's price of what they free, at most this many and each by more than
   // min_bic_difference, join the candidates as model_parameter@<name>.
   // 0: none.
   int model_parameter_pool = 3;
@@ -226,6 +226,23 @@ struct CandidateScore {
   std::string error;
 };
 
+// A hard point the verdict's model frees whole (model_parameter@O1): how
+// far it sits from its configured place, and the uncertainty of that move.
+// The truth lies in the 95 % region dT C^-1 d <= kHardPointRegion95 (d the
+// true move less `displacement`, C `covariance`) with 95 % probability; a
+// coordinate the data do not determine leaves it unbounded (`bounded`).
+struct HardPointMove {
+  std::string point;                                     // "O1"
+  Eigen::Vector3d configured = Eigen::Vector3d::Zero();  // [m] x y z
+  Eigen::Vector3d displacement =
+      Eigen::Vector3d::Zero();  // [m] fitted - configured
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // [m^2]
+  bool bounded = false;
+  bool at_bound = false;  // a coordinate stopped on its range's bound
+};
+// The chi-square quantile of three degrees of freedom at 95 %.
+inline constexpr double kHardPointRegion95 = 7.814727903251178;
+
 struct DiagnosisResult {
   // Gap test on the nominal fit.
   double chi2 = 0;
@@ -256,7 +273,8 @@ struct DiagnosisResult {
   std::vector<StiffnessDrift> drift;  // with two or more training logs
   bool drift_detected = false;
   // The model parameters the screening found most promising (at most five,
-  // largest chi-square drop first; empty when it did not run).
+  // the largest chi-square drop beyond BIC's price of what each frees
+  // first; empty when it did not run).
   std::vector<ParameterLead> parameter_leads;
   // How candidates were scored: "holdout", "cross_validation" or
   // "information_criterion".
@@ -275,6 +293,8 @@ struct DiagnosisResult {
   // parameter's component.
   std::string model;
   std::vector<std::string> components;
+  // The hard points the verdict's model moves (none when it frees none).
+  std::vector<HardPointMove> hard_points;
   std::string confidence;
   std::string reason;
   // The best candidate of another class than the verdict's, and how many

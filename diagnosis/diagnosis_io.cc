@@ -23,6 +23,31 @@ Json PerChannel(const Vec6<double>& v) {
   return out;
 }
 
+// Each moved hard point: its move [m] and the move's covariance [m^2]
+// (the 95 % region: dT C^-1 d <= region_chi2_95); null covariance where a
+// coordinate is not determined.
+Json HardPointsToJson(const std::vector<HardPointMove>& moves) {
+  Json out = Json::array();
+  for (const HardPointMove& m : moves) {
+    Json covariance = Json::array();
+    for (int j = 0; j < 3; ++j) {
+      Json row = Json::array();
+      for (int k = 0; k < 3; ++k) row.push_back(Number(m.covariance(j, k)));
+      covariance.push_back(row);
+    }
+    out.push_back(
+        {{"point", m.point},
+         {"configured_m", {m.configured(0), m.configured(1), m.configured(2)}},
+         {"displacement_m",
+          {m.displacement(0), m.displacement(1), m.displacement(2)}},
+         {"distance_m", m.displacement.norm()},
+         {"covariance_m2", m.bounded ? covariance : Json(nullptr)},
+         {"at_bound", m.at_bound},
+         {"region_chi2_95", kHardPointRegion95}});
+  }
+  return out;
+}
+
 Json SliceJson(const GapSlice& s) {
   return {{"name", s.name},
           {"samples", s.samples},
@@ -179,7 +204,8 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
   for (const ParameterLead& lead : r.parameter_leads) {
     leads.push_back({{"parameter", lead.name},
                      {"component", ComponentOfParameter(lead.name)},
-                     {"chi2_drop", Number(lead.chi2_drop)}});
+                     {"chi2_drop", Number(lead.chi2_drop)},
+                     {"freed", lead.freed}});
   }
   doc["parameter_screening"] = leads;
   doc["reason"] = r.reason;
@@ -286,6 +312,7 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
         {"score_after", Number(chosen->score)},
         {"gap_closed", Number(chosen->gap_closed)},
         {"effect_parameters", effect},
+        {"hard_points", HardPointsToJson(r.hard_points)},
         {"stiffness", stiffness}};
   }
   if (!r.discrepancy.validated_on.empty()) {
@@ -420,11 +447,10 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
     where += (where.empty() ? " in " : " and ") + c;
   }
   if (r.model == r.verdict) where.clear();  // everywhere: nothing to place
-  std::snprintf(line, sizeof(line), "verdict: %s%s%s%s — %s\n",
-                r.verdict.c_str(), where.c_str(),
-                r.confidence.empty() ? "" : ", confidence ",
-                r.confidence.c_str(), r.reason.c_str());
-  add();
+  // The reason is as long as what it names: no fixed buffer.
+  out += "verdict: " + r.verdict + where +
+         (r.confidence.empty() ? "" : ", confidence " + r.confidence) + " — " +
+         r.reason + "\n";
   for (const CandidateScore& s : r.ranking) {
     if (s.model != r.model) continue;
     out += s.heldout ? "  held-out rms before -> after:"

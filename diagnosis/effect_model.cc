@@ -27,6 +27,16 @@ namespace {
 // the rig: nothing to scale).
 std::vector<EffectParameter> FreedParameter(
     const std::string& name, const SuspensionParameters<double>& nominal) {
+  if (IsHardPoint(name)) {
+    // A point moved in space: all three coordinates.
+    std::vector<EffectParameter> point;
+    for (const char* axis : {".x", ".y", ".z"}) {
+      for (const EffectParameter& p : FreedParameter(name + axis, nominal)) {
+        point.push_back(p);
+      }
+    }
+    return point;
+  }
   SuspensionParameters<double> copy = nominal;
   for (const NamedParameter<double>& p : ListParameters(&copy)) {
     if (p.name != name) continue;
@@ -394,12 +404,15 @@ Status ParsePlacedEffect(const std::string& effect, std::string* name,
       return Status::Error("model_parameter is not placed on components");
     }
     const std::vector<std::string> freeable = FreeableModelParameters();
-    if (std::find(freeable.begin(), freeable.end(), *target) ==
-        freeable.end()) {
+    const bool coordinate = target->find('.') != std::string::npos &&
+                            !ComponentOfParameter(*target).empty();
+    if (!coordinate && std::find(freeable.begin(), freeable.end(), *target) ==
+                           freeable.end()) {
       return Status::Error("'" + *target +
                            "' is not a model parameter a diagnosis frees "
-                           "(k_spring, d_damper, mass, Jxx, Jyy, Jzz or a "
-                           "hard-point coordinate such as O1.z)");
+                           "(k_spring, d_damper, mass, Jxx, Jyy, Jzz, a "
+                           "hard point such as O1 or one of its coordinates "
+                           "such as O1.z)");
     }
     return Status::Ok();
   }
@@ -809,8 +822,13 @@ std::vector<std::string> FreeableModelParameters() {
   std::vector<std::string> names;
   for (const NamedParameter<double>& p : ListParameters(&names_only)) {
     // A bushing's stiffness and damping are the bushings' own candidates.
-    if (ComponentOfParameter(p.name).rfind(kBushingComponent, 0) != 0) {
-      names.push_back(p.name);
+    if (ComponentOfParameter(p.name).rfind(kBushingComponent, 0) == 0) {
+      continue;
+    }
+    // A hard point is freed whole: a point is rarely off along one axis.
+    const std::string name = p.name.substr(0, p.name.find('.'));
+    if (std::find(names.begin(), names.end(), name) == names.end()) {
+      names.push_back(name);
     }
   }
   return names;
@@ -828,6 +846,57 @@ void ApplyFreedParameters(const std::vector<std::string>& names,
   }
 }
 
+namespace {
+
+// ScreenModelParameters for the names one model frees together.
+Status ScreenGroup(const SuspensionParameters<double>& nominal,
+                   const std::vector<double>& stiffness,
+                   const std::vector<std::string>& names,
+                   const std::vector<Experiment>& experiments,
+                   double integrator_step, std::vector<ParameterLead>* leads) {
+  std::vector<std::string> freed;
+  for (const std::string& name : names) freed.push_back(FreedModelName(name));
+  // Stiffness bounds wide enough for any fit the screening is asked at.
+  EffectModel model;
+  KCRIG_RETURN_IF_ERROR(EffectModel::Create(nominal, freed, 1e-6, 1e6, &model));
+  std::vector<double> values = stiffness;
+  for (int i = kNumBushings; i < model.num_parameters(); ++i) {
+    values.push_back(model.parameters()[i].base);
+  }
+  std::vector<double> theta;
+  Eigen::MatrixXd jacobian;
+  Eigen::VectorXd residuals;
+  KCRIG_RETURN_IF_ERROR(WeightedJacobian(model, values, experiments,
+                                         integrator_step, &theta, &jacobian,
+                                         &residuals));
+  // An orthonormal basis of the stiffnesses' columns.
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(
+      jacobian.leftCols<kNumBushings>());
+  const Eigen::MatrixXd basis =
+      qr.householderQ() *
+      Eigen::MatrixXd::Identity(jacobian.rows(), kNumBushings);
+  int column = kNumBushings;
+  for (const std::string& name : names) {
+    const int count = static_cast<int>(FreedParameter(name, nominal).size());
+    Eigen::MatrixXd own = jacobian.middleCols(column, count);
+    column += count;
+    own -= basis * (basis.transpose() * own);
+    // What the name's columns can take of the residual: its projection on
+    // their span (their numerical rank: a point's coordinate the
+    // experiments do not see adds nothing).
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> span(own);
+    span.setThreshold(1e-10);
+    const Eigen::MatrixXd q =
+        span.householderQ() * Eigen::MatrixXd::Identity(own.rows(), count);
+    const double drop =
+        (q.leftCols(span.rank()).transpose() * residuals).squaredNorm();
+    leads->push_back({name, std::isfinite(drop) ? drop : 0, count});
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status ScreenModelParameters(const SuspensionParameters<double>& nominal,
                              const std::vector<double>& stiffness,
                              const std::vector<std::string>& candidates,
@@ -837,51 +906,31 @@ Status ScreenModelParameters(const SuspensionParameters<double>& nominal,
   if (stiffness.size() != kNumBushings) {
     return Status::Error("screening needs the five bushing stiffnesses");
   }
-  std::vector<std::string> names;
-  for (const std::string& name : candidates) {
-    if (!FreedParameter(name, nominal).empty()) names.push_back(name);
-  }
+  // Names packed into models of at most kPerModel freed columns each.
   constexpr int kPerModel = kMaxEffectModelParameters - kNumBushings;
-  const int groups =
-      (static_cast<int>(names.size()) + kPerModel - 1) / kPerModel;
-  std::vector<Status> status(groups, Status::Ok());
-  leads->assign(names.size(), ParameterLead());
-  ParallelFor(groups, num_threads, [&](int g) {
-    const size_t first = static_cast<size_t>(g) * kPerModel;
-    const size_t last = std::min(names.size(), first + kPerModel);
-    std::vector<std::string> freed;
-    for (size_t k = first; k < last; ++k) {
-      freed.push_back(FreedModelName(names[k]));
+  std::vector<std::vector<std::string>> groups;
+  std::vector<int> columns_of_group;
+  for (const std::string& name : candidates) {
+    const int columns = static_cast<int>(FreedParameter(name, nominal).size());
+    if (columns == 0) continue;
+    if (groups.empty() || columns_of_group.back() + columns > kPerModel) {
+      groups.emplace_back();
+      columns_of_group.push_back(0);
     }
-    // Stiffness bounds wide enough for any fit the screening is asked at.
-    EffectModel model;
-    status[g] = EffectModel::Create(nominal, freed, 1e-6, 1e6, &model);
-    if (!status[g].ok()) return;
-    std::vector<double> values = stiffness;
-    for (int i = kNumBushings; i < model.num_parameters(); ++i) {
-      values.push_back(model.parameters()[i].base);
-    }
-    std::vector<double> theta;
-    Eigen::MatrixXd jacobian;
-    Eigen::VectorXd residuals;
-    status[g] = WeightedJacobian(model, values, experiments, integrator_step,
-                                 &theta, &jacobian, &residuals);
-    if (!status[g].ok()) return;
-    // An orthonormal basis of the stiffnesses' columns.
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(
-        jacobian.leftCols<kNumBushings>());
-    const Eigen::MatrixXd basis =
-        qr.householderQ() *
-        Eigen::MatrixXd::Identity(jacobian.rows(), kNumBushings);
-    for (size_t k = first; k < last; ++k) {
-      Eigen::VectorXd column = jacobian.col(kNumBushings + (k - first));
-      column -= basis * (basis.transpose() * column);
-      const double norm2 = column.squaredNorm();
-      (*leads)[k].name = names[k];
-      const double drop = std::pow(column.dot(residuals), 2) / norm2;
-      (*leads)[k].chi2_drop = std::isfinite(drop) ? drop : 0;
-    }
+    groups.back().push_back(name);
+    columns_of_group.back() += columns;
+  }
+  const int num_groups = static_cast<int>(groups.size());
+  std::vector<Status> status(num_groups, Status::Ok());
+  std::vector<std::vector<ParameterLead>> found(num_groups);
+  ParallelFor(num_groups, num_threads, [&](int g) {
+    status[g] = ScreenGroup(nominal, stiffness, groups[g], experiments,
+                            integrator_step, &found[g]);
   });
+  leads->clear();
+  for (int g = 0; g < num_groups; ++g) {
+    leads->insert(leads->end(), found[g].begin(), found[g].end());
+  }
   for (const Status& s : status) KCRIG_RETURN_IF_ERROR(s);
   std::stable_sort(leads->begin(), leads->end(),
                    [](const ParameterLead& a, const ParameterLead& b) {

@@ -28,14 +28,16 @@ namespace kcrig {
 
 // The class of a wrong "known" parameter: a parameter the nominal model
 // holds fixed (FreeableModelParameters) freed and fitted with the
-// stiffnesses, named "model_parameter@k_spring", "model_parameter@O1.z".
+// stiffnesses, named "model_parameter@k_spring", "model_parameter@O1" (the
+// hard point O1: its three coordinates O1.x, O1.y, O1.z) or, asked for by
+// hand, "model_parameter@O1.z" (one coordinate).
 inline constexpr char kModelParameter[] = "model_parameter";
 
-// The parameters model_parameter frees: the strut's spring and damper
-// rates, the carrier's mass and principal inertias and every hard-point
-// coordinate (ListParameters' names; not the bushing stiffnesses, which
-// every candidate fits, nor the bushing damping, which bushing_damping
-// places on the bushings).
+// What the screening frees: the strut's spring and damper rates, the
+// carrier's mass and principal inertias and every hard point, whole
+// (ListParameters' names, a point's coordinates as the point; not the
+// bushing stiffnesses, which every candidate fits, nor the bushing
+// damping, which bushing_damping places on the bushings).
 std::vector<std::string> FreeableModelParameters();
 
 // "model_parameter@k_spring": the candidate that frees `parameter`.
@@ -245,19 +247,22 @@ Status FitEffectModel(const EffectModel& model,
 
 // A model parameter's promise as a candidate: the chi-square that freeing
 // it removes from a fit's training residual, to first order (one
-// Gauss-Newton step with the stiffnesses).
+// Gauss-Newton step with the stiffnesses), for the parameters it frees
+// (three for a hard point).
 struct ParameterLead {
   std::string name;
   double chi2_drop = 0;
+  int freed = 1;
 };
 
-// Screens `candidates` (of FreeableModelParameters; a rate configured zero
-// is left out: it cannot be freed) at a fit of the nominal
+// Screens `candidates` (of FreeableModelParameters, or coordinates; a rate
+// configured zero is left out: it cannot be freed) at a fit of the nominal
 // model, `stiffness` (physical, the five bushings): the exact weighted
 // Jacobian of its residual on `experiments` by the stiffnesses and the
 // names (as many names per trajectory as one model frees, the trajectories
-// on `num_threads` threads); each name's column, made orthogonal to the
-// stiffnesses', is projected on the residual. Largest drop first.
+// on `num_threads` threads); each name's columns, made orthogonal to the
+// stiffnesses', span what it can remove of the residual. Largest drop
+// first.
 Status ScreenModelParameters(const SuspensionParameters<double>& nominal,
                              const std::vector<double>& stiffness,
                              const std::vector<std::string>& candidates,

@@ -18,8 +18,6 @@
 namespace kcrig {
 namespace {
 
-constexpr double kZ95 = 1.959963984540054;  // two-sided 95 % normal quantile
-
 std::string Combination(const Eigen::VectorXd& direction,
                         const std::vector<ParameterEstimate>& parameters) {
   std::ostringstream text;

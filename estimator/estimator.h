@@ -62,6 +62,10 @@ struct EstimatorOptions {
   IterationCallback callback;
 };
 
+// The two-sided 95 % quantile of the normal distribution: a 95 % interval
+// is the value +- kZ95 standard errors.
+inline constexpr double kZ95 = 1.959963984540054;
+
 struct ParameterEstimate {
   std::string name;
   std::string unit;

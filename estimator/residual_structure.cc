@@ -96,7 +96,7 @@ BlockingPoint ChooseBlock(const Eigen::VectorXd& residuals, const LogRows& rows,
 // the normal's (Cornish-Fisher to 1 / dof^2: 1 % low at 5 dof, within
 // 0.1 % from 11).
 double StudentOverNormal95(double dof) {
-  constexpr double z = 1.959963984540054;
+  constexpr double z = kZ95;
   const double z3 = z * z * z, z5 = z3 * z * z;
   const double t =
       z + (z3 + z) / (4 * dof) + (5 * z5 + 16 * z3 + 3 * z) / (96 * dof * dof);

@@ -62,16 +62,22 @@ void DrawWrongParameter(const SuspensionParameters<double>& model, double m,
   static const char* kPoints[] = {"O1", "O2", "V1", "V2", "P",
                                   "N1", "N2", "U1", "U2", "Q"};
   if ((*rng)() % 3 != 0) {
-    const char* point = kPoints[(*rng)() % 10];
-    const char axis = "xyz"[(*rng)() % 3];
-    c->parameter = std::string(point) + "." + axis;
-    const double error = ((*rng)() % 2 ? 1 : -1) * LogUniform(1e-3, 1e-2, m);
-    c->parameter_value = *FindParameter(model, c->parameter) + error;
-  } else {
-    c->parameter = "k_spring";
-    const double error = ((*rng)() % 2 ? 1 : -1) * LogUniform(0.02, 0.3, m);
-    c->parameter_value = model.spring.stiffness * (1 + error);
+    // A point moved 1-10 mm in a direction uniform on the sphere.
+    c->parameter = kPoints[(*rng)() % 10];
+    std::normal_distribution<double> normal;
+    Eigen::Vector3d direction;
+    for (int k = 0; k < 3; ++k) direction(k) = normal(*rng);
+    c->point_move = direction.normalized() * LogUniform(1e-3, 1e-2, m);
+    c->parameter_value = c->point_move.norm();
+    for (int k = 0; k < 3; ++k) {
+      const std::string name = c->parameter + "." + "xyz"[k];
+      c->sets.push_back({name, *FindParameter(model, name) + c->point_move(k)});
+    }
+    return;
   }
+  c->parameter = "k_spring";
+  const double error = ((*rng)() % 2 ? 1 : -1) * LogUniform(0.02, 0.3, m);
+  c->parameter_value = model.spring.stiffness * (1 + error);
   c->sets.push_back({c->parameter, c->parameter_value});
 }
 

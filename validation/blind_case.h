@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "Eigen/Core"
 #include "base/status.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/plant_effects.h"
@@ -71,8 +72,13 @@ struct BlindCase {
   // The plant's parameters that differ from the configuration: the true
   // bushings, and a wrong "known" parameter.
   std::vector<std::pair<std::string, double>> sets;
-  std::string parameter;       // model_parameter: the one that is off...
-  double parameter_value = 0;  // ...and its true value
+  // model_parameter: the one that is off (k_spring, or a hard point such
+  // as O1, moved in 3D)...
+  std::string parameter;
+  // ...and its true value (for a point, the length of its move)...
+  double parameter_value = 0;
+  // ...and a point's move [m], x y z.
+  Eigen::Vector3d point_move = Eigen::Vector3d::Zero();
   // The logs' designs: the training logs, then the hold-out logs.
   std::vector<BlindDesign> training, holdout;
   std::uint64_t noise_seed = 0;  // of the rig's sensors, over all its logs

@@ -14,6 +14,7 @@
 #include <memory>
 #include <system_error>
 
+#include "Eigen/Cholesky"
 #include "diagnosis/diagnosis_io.h"
 #include "diagnosis/effect_model.h"
 #include "emulator/sil_rig.h"
@@ -214,6 +215,30 @@ Json StiffnessCoverage(const BlindCase& c, const Json& diag, bool correct) {
           {"errors_in_halfwidths", errors}};
 }
 
+// Whether the case's moved hard point lies in the 95 % region of the
+// diagnosis' move of it (quantification.hard_points); null without one.
+Json PointMoveInRegion(const BlindCase& c, const Json& quantification) {
+  for (const Json& fitted :
+       Field(quantification, "hard_points", Json::array())) {
+    if (fitted["point"] != c.parameter || fitted["covariance_m2"].is_null()) {
+      continue;
+    }
+    Eigen::Matrix3d covariance;
+    Eigen::Vector3d error;
+    for (int j = 0; j < 3; ++j) {
+      error(j) = c.point_move(j) - fitted["displacement_m"][j].get<double>();
+      for (int k = 0; k < 3; ++k) {
+        covariance(j, k) = fitted["covariance_m2"][j][k].get<double>();
+      }
+    }
+    const Eigen::LDLT<Eigen::Matrix3d> ldlt(covariance);
+    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return nullptr;
+    return error.dot(ldlt.solve(error)) <=
+           fitted["region_chi2_95"].get<double>();
+  }
+  return nullptr;
+}
+
 // The diagnosis (diag.json's fields) against the case's truth.
 Json Score(const BlindCase& c, double size, const Json& diag) {
   const std::string verdict = diag["verdict"];
@@ -253,7 +278,9 @@ Json Score(const BlindCase& c, double size, const Json& diag) {
       verdict == "unexplained" && std::find(ambiguous.begin(), ambiguous.end(),
                                             truth_model) != ambiguous.end();
   out["value_in_interval"] = nullptr;
-  if (!c.parameter.empty() && correct) {
+  if (IsHardPoint(c.parameter) && correct) {
+    out["value_in_interval"] = PointMoveInRegion(c, quantification);
+  } else if (!c.parameter.empty() && correct) {
     for (const Json& p :
          Field(quantification, "effect_parameters", Json::array())) {
       if (p["name"] != "model_parameter." + c.parameter) continue;

@@ -1,6 +1,7 @@
 #include "diagnosis/internal/verdict.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -103,13 +104,103 @@ void SetVerdictModel(const std::string& model, DiagnosisResult* result) {
 
 }  // namespace
 
+std::vector<HardPointMove> HardPointMoves(const CandidateScore& chosen) {
+  std::vector<std::string> effects, targets;
+  std::vector<BushingSet> places;
+  std::vector<HardPointMove> moves;
+  if (!ParseModelName(chosen.model, &effects, &places, &targets).ok()) {
+    return moves;
+  }
+  const EstimationResult& fit = chosen.fit.result;
+  for (size_t e = 0; e < effects.size(); ++e) {
+    if (effects[e] != kModelParameter || !IsHardPoint(targets[e])) continue;
+    std::array<int, 3> at{-1, -1, -1};
+    for (int i = 0; i < static_cast<int>(fit.parameters.size()); ++i) {
+      for (int k = 0; k < 3; ++k) {
+        if (fit.parameters[i].name ==
+            std::string(kModelParameter) + "." + targets[e] + "." + "xyz"[k]) {
+          at[k] = i;
+        }
+      }
+    }
+    if (std::count(at.begin(), at.end(), -1) > 0) continue;
+    HardPointMove move;
+    move.point = targets[e];
+    move.bounded = true;
+    for (int k = 0; k < 3; ++k) {
+      move.at_bound = move.at_bound || fit.parameters[at[k]].at_bound;
+    }
+    // The intervals' own scale (the widening and the discretisation bias
+    // in them) with the fit's correlations.
+    Eigen::Vector3d scale;
+    for (int k = 0; k < 3; ++k) {
+      const ParameterEstimate& p = fit.parameters[at[k]];
+      move.configured(k) = p.initial;
+      move.displacement(k) = p.value - p.initial;
+      scale(k) = (p.ci95_high - p.ci95_low) / 2 / kZ95;
+      move.bounded = move.bounded && std::isfinite(scale(k));
+    }
+    for (int j = 0; j < 3; ++j) {
+      for (int k = 0; k < 3; ++k) {
+        const double rho = fit.correlation.rows() > std::max(at[j], at[k])
+                               ? fit.correlation(at[j], at[k])
+                               : (j == k ? 1.0 : 0.0);
+        move.covariance(j, k) = scale(j) * scale(k) * rho;
+      }
+    }
+    moves.push_back(move);
+  }
+  return moves;
+}
+
+namespace {
+
+// "hard point O1 sits 2.24 mm from its configured place: 1.75 mm further
+// forward, 1.39 mm further left, 0.02 mm lower (95 % region +-0.11, +-0.09,
+// +-0.8 mm along x, y, z); ".
+std::string DescribeHardPointMove(const HardPointMove& move) {
+  static const char* kMore[] = {"further forward", "further left", "higher"};
+  static const char* kLess[] = {"further back", "further right", "lower"};
+  std::string text = "hard point " + move.point;
+  char part[160];
+  std::snprintf(part, sizeof(part), " sits %.2f mm from its configured place: ",
+                1e3 * move.displacement.norm());
+  text += part;
+  for (int k = 0; k < 3; ++k) {
+    const double d = move.displacement(k);
+    std::snprintf(part, sizeof(part), "%.2f mm %s%s", 1e3 * std::abs(d),
+                  d > 0 ? kMore[k] : kLess[k], k < 2 ? ", " : "");
+    text += part;
+  }
+  if (move.at_bound) text += " (at the bound of its range)";
+  if (!move.bounded) return text + " (not every coordinate determined); ";
+  // The 95 % region's extent along each axis.
+  Eigen::Vector3d half;
+  for (int k = 0; k < 3; ++k) {
+    half(k) = 1e3 * std::sqrt(kHardPointRegion95 * move.covariance(k, k));
+  }
+  std::snprintf(part, sizeof(part),
+                " (95 %% region +-%.2g, +-%.2g, +-%.2g mm along x, y, z); ",
+                half(0), half(1), half(2));
+  return text + part;
+}
+
+}  // namespace
+
 std::string DescribeFreedParameters(const CandidateScore& chosen) {
   const std::string prefix = kModelParameter + std::string(".");
   std::string text;
+  const std::vector<HardPointMove> moves = HardPointMoves(chosen);
+  for (const HardPointMove& move : moves) text += DescribeHardPointMove(move);
   char line[240];
   for (const ParameterEstimate& p : chosen.fit.result.parameters) {
     if (p.name.rfind(prefix, 0) != 0) continue;
     const std::string name = p.name.substr(prefix.size());
+    const std::string point = name.substr(0, name.find('.'));
+    if (std::any_of(moves.begin(), moves.end(),
+                    [&](const HardPointMove& m) { return m.point == point; })) {
+      continue;
+    }
     // A freed parameter's fit starts at its configured value.
     const double configured = p.initial;
     const double interval = 1.96 * p.standard_error;
@@ -196,6 +287,7 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
   result->rival_separation = 0;
   if (chosen != nullptr) {
     SetVerdictModel(chosen->model, result);
+    result->hard_points = HardPointMoves(*chosen);
     FindRival(*chosen, rules, result);
     const bool at_noise = rules.AtNoise(*chosen);
     const bool apart =
@@ -214,6 +306,7 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
   result->verdict = "unexplained";
   result->model.clear();
   result->components.clear();
+  result->hard_points.clear();
   const CandidateScore& best = result->ranking.front();
   const CandidateScore* second =
       result->ranking.size() > 1 ? &result->ranking[1] : nullptr;

@@ -63,10 +63,18 @@ void RankCandidates(std::vector<CandidateScore>* list);
 void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   DiagnosisResult* result);
 
+// The hard points `chosen` frees whole (model_parameter@O1), each with the
+// uncertainty of its move.
+std::vector<HardPointMove> HardPointMoves(const CandidateScore& chosen);
+
 // The model parameters `chosen` frees, in words against their configured
 // values: "k_spring is 1.402e+05 +- 3.8e+03 N/m, not the configured
 // 1.1e+05; ", "hard point O1 sits 4.00 +- 0.3 mm higher than configured
-// (O1.z 0.2540 m, not 0.2500); " (+- the 95 % interval); "" for none.
+// (O1.z 0.2540 m, not 0.2500); " (+- the 95 % interval; one coordinate
+// freed), "hard point O1 sits 2.24 mm from its configured place: 1.75 mm
+// further forward, 1.39 mm further left, 0.02 mm lower (95 % region
+// +-0.11, +-0.09, +-0.8 mm along x, y, z); " (a point freed whole); "" for
+// none.
 std::string DescribeFreedParameters(const CandidateScore& chosen);
 
 }  // namespace kcrig

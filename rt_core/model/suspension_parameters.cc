@@ -10,19 +10,24 @@ int BushingStiffnessIndex(std::string_view name) {
   return -1;
 }
 
+bool IsHardPoint(std::string_view name) {
+  bool known = name == "spring_chassis" || name == "spring_carrier";
+  for (int i = 0; i < kNumBushings; ++i) {
+    known = known || name == kBushingChassisNames[i] ||
+            name == kBushingCarrierNames[i];
+  }
+  return known;
+}
+
 std::string ComponentOfParameter(std::string_view name) {
   const size_t dot = name.find('.');
   if (dot != std::string_view::npos) {
-    const std::string_view point = name.substr(0, dot);
     const std::string_view axis = name.substr(dot + 1);
     if (axis != "x" && axis != "y" && axis != "z") return "";
-    bool known = point == "spring_chassis" || point == "spring_carrier";
-    for (int i = 0; i < kNumBushings; ++i) {
-      known = known || point == kBushingChassisNames[i] ||
-              point == kBushingCarrierNames[i];
-    }
-    return known ? "hardpoint:" + std::string(point) : "";
+    name = name.substr(0, dot);
+    return IsHardPoint(name) ? "hardpoint:" + std::string(name) : "";
   }
+  if (IsHardPoint(name)) return "hardpoint:" + std::string(name);
   if (name == "k_spring") return "strut:spring";
   if (name == "d_damper") return "strut:damper";
   if (name == "mass") return "carrier:mass";

@@ -135,9 +135,14 @@ inline constexpr std::string_view kBushingComponent = "bushing:";
 // diagnosis' component vocabulary: "bushing:O1" (c_O1, d_O1),
 // "strut:spring" (k_spring), "strut:damper" (d_damper), "carrier:mass"
 // (mass), "carrier:inertia" (Jxx, Jyy, Jzz), "hardpoint:O1" (O1.x, O1.y,
-// O1.z; likewise the carrier points N1 .. Q and spring_chassis,
-// spring_carrier); "" for a name that is none of these.
+// O1.z, and the point O1 with all three; likewise the carrier points N1 ..
+// Q and spring_chassis, spring_carrier); "" for a name that is none of
+// these.
 std::string ComponentOfParameter(std::string_view name);
+
+// Whether `name` is a hard point (O1 .. P, N1 .. Q, spring_chassis,
+// spring_carrier): its coordinates are NAME.x, NAME.y, NAME.z.
+bool IsHardPoint(std::string_view name);
 
 }  // namespace kcrig
 

@@ -5,10 +5,13 @@ Usage: blind_independent_tier.py KCRIG CONFIG_DIR WORK_DIR CASES SEED [JOBS]
 
 Each case draws one truth from the seed: a clean plant, an effect in a form
 other than kcrig's candidates placed on one component, a wrong "known"
-parameter, or an effect outside every class (dry friction in the strut,
-free play in a link, a stiffness drifting during the log). The generator
-writes two training logs (85 deg / -0.45 m, 20 deg / -0.1 m) and a hold-out
-(50 deg / -0.3 m) with noise; the truth goes to a file kcrig never sees.
+parameter (the spring rate, or a hard point moved in 3D), or an effect
+outside every class (dry friction in the strut, free play in a link, a
+stiffness drifting during the log). It draws its own designs too: two
+training logs and a hold-out, each a ramp of random direction (0-90 deg),
+height (0 to -0.5 m), duration (1-2.5 s), hold (0-0.3 s) and return
+(0.6-1.8 s). The generator writes them with noise; the truth goes to a file
+kcrig never sees.
 `kcrig diagnose` judges the logs; this script compares its verdict with the
 truth and prints the confusion matrix, the component and parameter hits and
 the issue's figures beside their goals.
@@ -30,9 +33,7 @@ import sys
 
 HERE = pathlib.Path(__file__).resolve().parent
 GENERATOR = HERE.parent / "peers" / "independent_rig.py"
-RAMP = ["--duration", "2", "--hold", "0.3", "--return", "1.7"]
-DESIGNS = {"train_a": ("85", "-0.45"), "train_b": ("20", "-0.1"),
-           "holdout": ("50", "-0.3")}
+LOGS = ["train_a", "train_b", "holdout"]
 BUSHINGS = ["O1", "O2", "V1", "V2", "P"]
 HARD_POINTS = ["O1", "O2", "V1", "V2", "P", "N1", "N2", "U1", "U2", "Q"]
 # kind -> the class kcrig should name (None: outside every class).
@@ -99,10 +100,13 @@ def draw(kind, rng):
         factor = 1 + rng.choice([-1, 1]) * rng.uniform(0.05, 0.3)
         return ["--set", f"k_spring={1.1e5 * factor:.6g}"], "k_spring"
     if kind == "hard_point":
-        point, axis = rng.choice(HARD_POINTS), rng.choice("xyz")
-        return ["--set-offset", f"{point}.{axis}",
-                f"{rng.choice([-1, 1]) * rng.uniform(1e-3, 6e-3):.6g}"], \
-            f"{point}.{axis}"
+        # A direction uniform on the sphere, 1-6 mm.
+        point = rng.choice(HARD_POINTS)
+        direction = [rng.gauss(0, 1) for _ in range(3)]
+        norm = math.sqrt(sum(d * d for d in direction))
+        size = rng.uniform(1e-3, 6e-3)
+        return ["--move-point", point,
+                *[f"{size * d / norm:.6g}" for d in direction]], point
     if kind == "friction":
         return ["--effect",
                 f"friction:force={log_uniform(rng, 10, 100):.4g}"], "strut"
@@ -116,18 +120,32 @@ def draw(kind, rng):
     raise ValueError(kind)
 
 
-def hard_point_assignment(config, name, offset):
-    """NAME=VALUE from the configured coordinate and an offset."""
+def draw_design(rng):
+    """One ramp: direction, height, duration, hold and return."""
+    return ["--phi", f"{rng.uniform(0, 90):.4g}",
+            "--z", f"{rng.uniform(-0.5, 0):.4g}",
+            "--duration", f"{rng.uniform(1, 2.5):.4g}",
+            "--hold", f"{rng.uniform(0, 0.3):.4g}",
+            "--return", f"{rng.uniform(0.6, 1.8):.4g}"]
+
+
+def configured_point(config, point):
+    """The configured coordinates of a hard point [m]."""
     import yaml
     doc = yaml.safe_load((config / "model.yaml").read_text())
-    point, axis = name.split(".")
-    k = "xyz".index(axis)
     if point in BUSHINGS:
-        value = doc["bushings"][point]["chassis"][k]
-    else:
-        carrier = dict(zip(["N1", "N2", "U1", "U2", "Q"], BUSHINGS))
-        value = doc["bushings"][carrier[point]]["carrier"][k]
-    return f"{name}={value + offset:.6g}"
+        return doc["bushings"][point]["chassis"]
+    carrier = dict(zip(["N1", "N2", "U1", "U2", "Q"], BUSHINGS))
+    return doc["bushings"][carrier[point]]["carrier"]
+
+
+def point_assignments(config, point, move):
+    """--set NAME=VALUE for each coordinate of a moved point."""
+    arguments = []
+    for axis, value, offset in zip("xyz", configured_point(config, point),
+                                   move):
+        arguments += ["--set", f"{point}.{axis}={value + float(offset):.6g}"]
+    return arguments
 
 
 def run(command):
@@ -135,17 +153,18 @@ def run(command):
     return result.returncode, result.stdout, result.stderr
 
 
-def run_case(index, kind, arguments, kcrig, config, work):
+def run_case(index, kind, arguments, designs, kcrig, config, work):
     case = work / f"case_{index:03d}"
     case.mkdir(parents=True, exist_ok=True)
-    if arguments[:1] == ["--set-offset"]:
-        arguments = ["--set", hard_point_assignment(config, arguments[1],
-                                                    float(arguments[2]))]
+    move = None
+    if arguments[:1] == ["--move-point"]:
+        move = [float(d) for d in arguments[2:5]]
+        arguments = point_assignments(config, arguments[1], move)
     logs = {}
-    for seed_offset, (name, (phi, z)) in enumerate(DESIGNS.items()):
+    for seed_offset, (name, design) in enumerate(zip(LOGS, designs)):
         path = case / f"{name}.csv"
         command = ["/usr/bin/python3", str(GENERATOR), "--config",
-                   str(config), "--phi", phi, "--z", z, *RAMP, *arguments,
+                   str(config), *design, *arguments,
                    "--noise", "--seed", str(1000 * index + seed_offset),
                    "--out", str(path)]
         if name == "holdout":
@@ -169,7 +188,9 @@ def run_case(index, kind, arguments, kcrig, config, work):
         return {"index": index, "kind": kind, "error": "size: estimate failed"}
     closed = (diag.get("quantification") or {}).get("gap_closed")
     return {"index": index, "kind": kind, "arguments": arguments,
-            "truth_in_interval": truth_in_interval(arguments, diag),
+            "designs": designs,
+            "truth_in_interval": (point_in_region(move, diag) if move
+                                  else truth_in_interval(arguments, diag)),
             "stiffness_errors": stiffness_errors(config, diag),
             "size_sigma": size, "verdict": diag["verdict"],
             "model": diag.get("model", ""), "confidence": diag["confidence"],
@@ -193,6 +214,35 @@ def truth_in_interval(arguments, diag):
                 low, high = p["ci95"]
                 return low <= float(value) <= high
     return None
+
+
+def point_in_region(move, diag):
+    """For a moved hard point that the verdict's model moves: whether the
+    true move lies in the 95 % region of the fitted one; None otherwise."""
+    for fitted in (diag.get("quantification") or {}).get("hard_points", []):
+        covariance = fitted["covariance_m2"]
+        if covariance is None:
+            return None
+        d = [t - f for t, f in zip(move, fitted["displacement_m"])]
+        return mahalanobis2(covariance, d) <= fitted["region_chi2_95"]
+    return None
+
+
+def mahalanobis2(c, d):
+    """d^T C^-1 d for a 3x3 covariance (Cramer's rule)."""
+    def det(m):
+        return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+    whole = det(c)
+    if not whole > 0:
+        return math.inf
+    x = []
+    for k in range(3):
+        replaced = [[d[i] if j == k else c[i][j] for j in range(3)]
+                    for i in range(3)]
+        x.append(det(replaced) / whole)
+    return sum(a * b for a, b in zip(d, x))
 
 
 def stiffness_errors(config, diag):
@@ -254,7 +304,7 @@ def component_hit(result, component):
     if component is None:
         return None
     if result["kind"] in ("k_spring", "hard_point"):
-        return f"model_parameter@{component}" in result["model"]
+        return f"model_parameter@{component}" in result["model"].split("+")
     named = result["components"]
     if component == "actuator":
         return bool(named) and all(c.startswith("actuator:") for c in named)
@@ -306,8 +356,15 @@ def summarise(results, components):
                 for r in wrong_parameter], 0.8))
     named = [r for r in wrong_parameter
              if component_hit(r, components[r["index"]])]
-    print("  named, the true value in its 95 % interval: " +
+    print("  named, the true value in its 95 % interval (a point's move "
+          "in its 3D region): " +
           rate([bool(r.get("truth_in_interval")) for r in named], 0.9))
+    points = [r for r in large if r["kind"] == "hard_point"]
+    print("  hard points named: " +
+          rate([bool(component_hit(r, components[r["index"]]))
+                for r in points], 0.8) + "; in the 3D region: " +
+          rate([bool(r.get("truth_in_interval")) for r in points
+                if component_hit(r, components[r["index"]])], 0.9))
     clean = [r for r in results if r["kind"] == "clean" and "error" not in r]
     print("clean: none " + rate([r["verdict"] == "none" for r in clean],
                                 0.95))
@@ -354,12 +411,13 @@ def main():
     draws = []
     for index in range(cases):
         kind = kinds[index % len(kinds)]
-        draws.append((index, kind, *draw(kind, rng)))
-    components = {index: component for index, _, _, component in draws}
+        designs = [draw_design(rng) for _ in LOGS]
+        draws.append((index, kind, *draw(kind, rng), designs))
+    components = {index: component for index, _, _, component, _ in draws}
     with concurrent.futures.ThreadPoolExecutor(jobs) as pool:
-        futures = [pool.submit(run_case, index, kind, arguments, kcrig,
-                               config, work)
-                   for index, kind, arguments, _ in draws]
+        futures = [pool.submit(run_case, index, kind, arguments, designs,
+                               kcrig, config, work)
+                   for index, kind, arguments, _, designs in draws]
         results = [f.result() for f in futures]
     (work / "results.json").write_text(json.dumps(results, indent=2) + "\n")
     print("case kind size/sigma verdict confidence components closed")

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "Eigen/Cholesky"
 #include "diagnosis/diagnosis.h"
 #include "gtest/gtest.h"
 #include "rt_core/model/channels.h"
@@ -183,22 +184,33 @@ TEST_F(WrongParameterTest, TheSpringRateIsNamedWithItsValue) {
   EXPECT_NE(r.reason.find("k_spring is"), std::string::npos) << r.reason;
 }
 
-// A hard point 4 mm higher: named, or honestly ambiguous between the two
-// ends of its link (O1 on the chassis, N1 on the carrier), never another
-// component.
+// A hard point 4 mm higher: freed whole and named, its move inside its
+// 95 % region, or honestly ambiguous between the two ends of its link (O1
+// on the chassis, N1 on the carrier), never another component.
 TEST_F(WrongParameterTest, AHardPointIsNamedOrItsLinkIsAmbiguous) {
   const double configured = *FindParameter(config_.model, "O1.z");
   const DiagnosisResult r = Diagnosed("O1.z", configured + 0.004);
   if (r.verdict == "model_parameter") {
-    EXPECT_EQ(r.model, "model_parameter@O1.z");
+    EXPECT_EQ(r.model, "model_parameter@O1");
     EXPECT_EQ(r.components, std::vector<std::string>{"hardpoint:O1"});
+    ASSERT_EQ(r.hard_points.size(), 1u);
+    const HardPointMove& move = r.hard_points[0];
+    ASSERT_TRUE(move.bounded);
+    const Eigen::Vector3d error =
+        Eigen::Vector3d(0, 0, 0.004) - move.displacement;
+    EXPECT_LE(error.dot(move.covariance.ldlt().solve(error)),
+              kHardPointRegion95)
+        << move.displacement.transpose();
+    EXPECT_NE(r.reason.find("hard point O1 sits"), std::string::npos)
+        << r.reason;
   } else {
     EXPECT_EQ(r.verdict, "unexplained");
+    EXPECT_TRUE(r.hard_points.empty());
     const std::vector<std::string> pair = {r.ambiguous_a, r.ambiguous_b};
-    EXPECT_NE(std::find(pair.begin(), pair.end(), "model_parameter@O1.z"),
+    EXPECT_NE(std::find(pair.begin(), pair.end(), "model_parameter@O1"),
               pair.end())
         << r.reason;
-    EXPECT_NE(std::find(pair.begin(), pair.end(), "model_parameter@N1.z"),
+    EXPECT_NE(std::find(pair.begin(), pair.end(), "model_parameter@N1"),
               pair.end())
         << r.reason;
     // What each alternative says of its hard point.

@@ -343,9 +343,25 @@ TEST_F(EffectModelTest, WrongKnownParametersAreFreedAndRecovered) {
   EXPECT_EQ(ComponentOfParameter("Jyy"), "carrier:inertia");
   EXPECT_EQ(ComponentOfParameter("d_V1"), "bushing:V1");
   EXPECT_EQ(ComponentOfParameter("O1.w"), "");
+  // A hard point is freed whole: the screening's name for it.
+  EXPECT_EQ(ComponentOfParameter("O1"), "hardpoint:O1");
+  EXPECT_TRUE(IsHardPoint("spring_carrier"));
+  EXPECT_FALSE(IsHardPoint("k_spring"));
+  const std::vector<std::string> freeable = FreeableModelParameters();
+  EXPECT_NE(std::find(freeable.begin(), freeable.end(), "O1"), freeable.end());
+  EXPECT_EQ(std::find(freeable.begin(), freeable.end(), "O1.z"),
+            freeable.end());
+  ASSERT_TRUE(EffectModel::CreateNamed(config_.model, "model_parameter@Q", 0.1,
+                                       10, &model)
+                  .ok());
+  ASSERT_EQ(model.num_parameters(), kNumBushings + 3);
+  EXPECT_EQ(model.parameters()[kNumBushings + 2].name, "Q.z");
+  EXPECT_EQ(ModelComponents(model.Name()),
+            std::vector<std::string>{"hardpoint:Q"});
   for (const char* bad :
        {"model_parameter", "model_parameter@", "model_parameter@c_O1",
-        "model_parameter@d_O1", "model_parameter@O1.w",
+        "model_parameter@d_O1", "model_parameter@O1.w", "model_parameter@O3",
+        "model_parameter@O1+model_parameter@O1",
         "model_parameter@k_spring@bushing:V1",
         "model_parameter@k_spring+model_parameter@k_spring"}) {
     const Status status =
@@ -375,6 +391,7 @@ TEST_F(EffectModelTest, WrongKnownParametersAreFreedAndRecovered) {
   for (const ParameterLead& lead : leads) {
     EXPECT_TRUE(std::isfinite(lead.chi2_drop) && lead.chi2_drop >= 0)
         << lead.name;
+    EXPECT_EQ(lead.freed, IsHardPoint(lead.name) ? 3 : 1) << lead.name;
   }
   for (int k = 0; k < 3; ++k) {
     std::printf("  lead %s: chi2 drop %.1f\n", leads[k].name.c_str(),

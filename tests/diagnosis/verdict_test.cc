@@ -187,5 +187,53 @@ TEST(VerdictTest, FreedParametersAreStatedAgainstTheirConfiguredValues) {
             (std::vector<std::string>{"hardpoint:O1", "strut:spring"}));
 }
 
+// A hard point freed whole: one move in words (its length, each axis'
+// direction, the 95 % region's extent), its covariance from the intervals'
+// widths and the fit's correlations; on the verdict's model only.
+TEST(VerdictTest, AHardPointFreedWholeIsStatedAsOneMoveWithItsRegion) {
+  CandidateScore s = Scored("model_parameter@V1", 1.0, 1.0, 0);
+  const double configured[3] = {0.224, 0.351, -0.078};
+  const double move[3] = {0.00175, 0.00139, -0.0002};
+  const double se[3] = {1e-4, 2e-4, 5e-4};
+  for (int k = 0; k < 3; ++k) {
+    ParameterEstimate p;
+    p.name = std::string("model_parameter.V1.") + "xyz"[k];
+    p.unit = "m";
+    p.initial = configured[k];
+    p.value = configured[k] + move[k];
+    p.standard_error = se[k];
+    p.ci95_low = p.value - kZ95 * se[k];
+    p.ci95_high = p.value + kZ95 * se[k];
+    s.fit.result.parameters.push_back(p);
+  }
+  s.fit.result.correlation = Eigen::Matrix3d::Identity();
+  s.fit.result.correlation(0, 1) = s.fit.result.correlation(1, 0) = 0.5;
+  const std::vector<HardPointMove> moves = HardPointMoves(s);
+  ASSERT_EQ(moves.size(), 1u);
+  EXPECT_EQ(moves[0].point, "V1");
+  EXPECT_TRUE(moves[0].bounded);
+  EXPECT_NEAR(moves[0].displacement(1), 0.00139, 1e-12);
+  EXPECT_NEAR(moves[0].covariance(0, 1), 0.5 * 1e-4 * 2e-4, 1e-15);
+  EXPECT_NEAR(moves[0].covariance(2, 2), 25e-8, 1e-15);
+  const std::string text = DescribeFreedParameters(s);
+  EXPECT_NE(text.find("hard point V1 sits 2.24 mm from its configured place: "
+                      "1.75 mm further forward, 1.39 mm further left, 0.20 mm "
+                      "lower (95 % region +-0.28, +-0.56, +-1.4 mm along x, "
+                      "y, z)"),
+            std::string::npos)
+      << text;
+  EXPECT_EQ(text.find("V1.x"), std::string::npos) << text;
+
+  DiagnosisResult result;
+  result.nominal = Scored("nominal", 9.0, 0, 0);
+  result.ranking = {s};
+  StateVerdict(&result.ranking[0], HoldoutRules(), &result);
+  EXPECT_EQ(result.components, std::vector<std::string>{"hardpoint:V1"});
+  ASSERT_EQ(result.hard_points.size(), 1u);
+  result.ranking.push_back(Scored("model_parameter@U1", 1.0, 1.0, 0));
+  StateVerdict(nullptr, HoldoutRules(), &result);
+  EXPECT_TRUE(result.hard_points.empty());
+}
+
 }  // namespace
 }  // namespace kcrig
