@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Blind diagnosis on the independent generator (tests/peers/independent_rig.py).
 
-Usage: blind_independent_tier.py KCRIG CONFIG_DIR WORK_DIR CASES SEED [JOBS]
+Usage: blind_independent_tier.py KCRIG CONFIG_DIR WORK_DIR CASES SEED [JOBS
+       [KINDS]]   (KINDS: comma-separated, e.g. hard_point; default: all)
 
 Each case draws one truth from the seed: a clean plant, an effect in a form
 other than kcrig's candidates placed on one component, a wrong "known"
@@ -407,7 +408,11 @@ def main():
     cases, seed = int(sys.argv[4]), int(sys.argv[5])
     jobs = int(sys.argv[6]) if len(sys.argv) > 6 else 2
     rng = random.Random(seed)
-    kinds = list(KINDS)
+    kinds = sys.argv[7].split(",") if len(sys.argv) > 7 else list(KINDS)
+    unknown = [k for k in kinds if k not in KINDS]
+    if unknown:
+        sys.exit(f"blind_independent_tier: unknown kinds {unknown}; "
+                 f"known: {', '.join(KINDS)}")
     draws = []
     for index in range(cases):
         kind = kinds[index % len(kinds)]
