@@ -40,15 +40,26 @@ double VerdictRules::Separation(const CandidateScore& chosen,
          std::max(chosen.score - 1, score_noise);
 }
 
+namespace {
+
+// A model's parts: "a@x+b" -> a@x, b.
+std::vector<std::string> ModelParts(const std::string& model) {
+  std::vector<std::string> parts;
+  for (size_t begin = 0; begin <= model.size();) {
+    const size_t end = std::min(model.find('+', begin), model.size());
+    parts.push_back(model.substr(begin, end - begin));
+    begin = end + 1;
+  }
+  return parts;
+}
+
+}  // namespace
+
 std::vector<std::string> FaultClasses(const std::string& model) {
   std::vector<std::string> classes;
-  size_t start = 0;
-  while (start <= model.size()) {
-    const size_t end = std::min(model.find('+', start), model.size());
-    const std::string part = model.substr(start, end - start);
+  for (const std::string& part : ModelParts(model)) {
     const std::string effect = part.substr(0, part.find('@'));
     classes.push_back(effect == "model_parameter" ? part : effect);
-    start = end + 1;
   }
   return classes;
 }
@@ -255,6 +266,17 @@ void FindRival(const CandidateScore& chosen, const VerdictRules& rules,
   }
 }
 
+// Whether `model`'s effects include all of `other`'s and more
+// ("a+b" over "a").
+bool Extends(const std::string& model, const std::string& other) {
+  const std::vector<std::string> own = ModelParts(model);
+  const std::vector<std::string> theirs = ModelParts(other);
+  return own.size() > theirs.size() &&
+         std::all_of(theirs.begin(), theirs.end(), [&](const std::string& t) {
+           return std::find(own.begin(), own.end(), t) != own.end();
+         });
+}
+
 // Why the confidence is what it is, and for a low one what would raise it.
 std::string ConfidenceText(bool at_noise, bool apart,
                            const DiagnosisResult& r) {
@@ -279,6 +301,24 @@ std::string ConfidenceText(bool at_noise, bool apart,
 }
 
 }  // namespace
+
+std::vector<const CandidateScore*> Contenders(
+    const std::vector<CandidateScore>& ranking, const VerdictRules& rules) {
+  std::vector<const CandidateScore*> contenders;
+  for (const CandidateScore& s : ranking) {
+    const bool redundant =
+        std::any_of(ranking.begin(), ranking.end(), [&](const auto& smaller) {
+          return smaller.ok && Extends(s.model, smaller.model) &&
+                 !rules.ClearlyBetter(s, smaller);
+        });
+    if (!redundant) contenders.push_back(&s);
+  }
+  // Never empty: a ranking of one stays itself.
+  if (contenders.empty() && !ranking.empty()) {
+    contenders.push_back(&ranking.front());
+  }
+  return contenders;
+}
 
 void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   DiagnosisResult* result) {
@@ -307,9 +347,11 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
   result->model.clear();
   result->components.clear();
   result->hard_points.clear();
-  const CandidateScore& best = result->ranking.front();
+  const std::vector<const CandidateScore*> contenders =
+      Contenders(result->ranking, rules);
+  const CandidateScore& best = *contenders.front();
   const CandidateScore* second =
-      result->ranking.size() > 1 ? &result->ranking[1] : nullptr;
+      contenders.size() > 1 ? contenders[1] : nullptr;
   std::string alternatives;
   if (best.gap_closed >= rules.min_gap_closed && second != nullptr &&
       second->gap_closed >= rules.min_gap_closed) {

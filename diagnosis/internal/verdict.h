@@ -56,10 +56,18 @@ std::vector<std::string> FaultClasses(const std::string& model);
 // Successful fits first, then by score, then by BIC.
 void RankCandidates(std::vector<CandidateScore>* list);
 
+// The ranking (in its order) without the models that add an effect to
+// another candidate and are not clearly better than it: two models that
+// differ by an effect the data do not need are one explanation, the
+// smaller.
+std::vector<const CandidateScore*> Contenders(
+    const std::vector<CandidateScore>& ranking, const VerdictRules& rules);
+
 // Sets verdict, confidence, reason and the ambiguous pair of `result` from
-// the chosen candidate (nullptr: none qualified) and the ranking; the
-// reason says what the chosen candidate's freed parameters, or each of an
-// ambiguous pair's, would mean (DescribeFreedParameters).
+// the chosen candidate (nullptr: none qualified) and the ranking's
+// contenders (Contenders); the reason says what the chosen candidate's freed
+// parameters, or each of an ambiguous pair's, would mean
+// (DescribeFreedParameters).
 void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
                   DiagnosisResult* result);
 

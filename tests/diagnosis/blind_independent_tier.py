@@ -101,11 +101,11 @@ def draw(kind, rng):
         factor = 1 + rng.choice([-1, 1]) * rng.uniform(0.05, 0.3)
         return ["--set", f"k_spring={1.1e5 * factor:.6g}"], "k_spring"
     if kind == "hard_point":
-        # A direction uniform on the sphere, 1-6 mm.
+        # A direction uniform on the sphere, 1-10 mm (log-uniform).
         point = rng.choice(HARD_POINTS)
         direction = [rng.gauss(0, 1) for _ in range(3)]
         norm = math.sqrt(sum(d * d for d in direction))
-        size = rng.uniform(1e-3, 6e-3)
+        size = log_uniform(rng, 1e-3, 1e-2)
         return ["--move-point", point,
                 *[f"{size * d / norm:.6g}" for d in direction]], point
     if kind == "friction":
@@ -361,7 +361,7 @@ def summarise(results, components):
           "in its 3D region): " +
           rate([bool(r.get("truth_in_interval")) for r in named], 0.9))
     points = [r for r in large if r["kind"] == "hard_point"]
-    print("  hard points named: " +
+    print("  hard points >= 3x noise named: " +
           rate([bool(component_hit(r, components[r["index"]]))
                 for r in points], 0.8) + "; in the 3D region: " +
           rate([bool(r.get("truth_in_interval")) for r in points

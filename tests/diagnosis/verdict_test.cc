@@ -187,6 +187,32 @@ TEST(VerdictTest, FreedParametersAreStatedAgainstTheirConfiguredValues) {
             (std::vector<std::string>{"hardpoint:O1", "strut:spring"}));
 }
 
+// A model that adds an effect the data do not need is the smaller model:
+// the ambiguity is between explanations, not between a model and itself
+// with an extra term; a pair clearly better than its part stays.
+TEST(VerdictTest, AModelWithAnEffectTheDataDoNotNeedIsNoRival) {
+  DiagnosisResult result;
+  result.nominal = Scored("nominal", 9.0, 0, 0);
+  result.ranking = {
+      Scored("model_parameter@U1+sensor_offset", 1.0244, 0.997, 10),
+      Scored("model_parameter@U1", 1.0244, 0.997, 0),
+      Scored("model_parameter@U1+actuator_lag", 1.0261, 0.996, 12),
+      Scored("model_parameter@V1", 1.0574, 0.992, 5),
+      Scored("hysteresis+sensor_offset", 1.001, 0.999, -500),
+      Scored("hysteresis", 1.9, 0.89, 0)};
+  const std::vector<const CandidateScore*> contenders =
+      Contenders(result.ranking, HoldoutRules());
+  std::vector<std::string> names;
+  for (const CandidateScore* s : contenders) names.push_back(s->model);
+  EXPECT_EQ(names, (std::vector<std::string>{
+                       "model_parameter@U1", "model_parameter@V1",
+                       "hysteresis+sensor_offset", "hysteresis"}));
+  result.ranking.erase(result.ranking.begin() + 4, result.ranking.end());
+  StateVerdict(nullptr, HoldoutRules(), &result);
+  EXPECT_EQ(result.ambiguous_a, "model_parameter@U1") << result.reason;
+  EXPECT_EQ(result.ambiguous_b, "model_parameter@V1") << result.reason;
+}
+
 // A hard point freed whole: one move in words (its length, each axis'
 // direction, the 95 % region's extent), its covariance from the intervals'
 // widths and the fit's correlations; on the verdict's model only.
