@@ -197,6 +197,7 @@ def run_case(index, kind, arguments, designs, kcrig, config, work):
             "model": diag.get("model", ""), "confidence": diag["confidence"],
             "components": diag.get("components", []), "gap_closed": closed,
             "reason": diag.get("reason", ""),
+            "ambiguous": diag.get("ambiguous") or [],
             "discrepancy": diag.get("discrepancy")}
 
 
@@ -366,6 +367,11 @@ def summarise(results, components):
                 for r in points], 0.8) + "; in the 3D region: " +
           rate([bool(r.get("truth_in_interval")) for r in points
                 if component_hit(r, components[r["index"]])], 0.9))
+    print("  hard points >= 3x noise named or one of an ambiguous pair "
+          "(most often the other end of its link): " +
+          rate([bool(component_hit(r, components[r["index"]])) or
+                f"model_parameter@{components[r['index']]}" in
+                r.get("ambiguous", []) for r in points], 0.8))
     clean = [r for r in results if r["kind"] == "clean" and "error" not in r]
     print("clean: none " + rate([r["verdict"] == "none" for r in clean],
                                 0.95))
