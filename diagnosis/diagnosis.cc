@@ -563,6 +563,7 @@ class DiagnosisRun {
         s.error = fit_status[i].message();
         continue;
       }
+      s.at_far_bound = AtFarBound(*models[i], s.fit.result);
       ok_models.push_back(models[i]);
       ok_scores.push_back(&s);
     }
@@ -572,6 +573,25 @@ class DiagnosisRun {
                           ? (result_->nominal.score - s->score) / nominal_gap_
                           : 0;
     }
+  }
+
+  // Whether an effect parameter of `fit` stopped on a bound at least half
+  // its range away from where the fit started it: no effect (or, for a
+  // freed model parameter, its configured value). The effect would need
+  // more than its plausible range: the form is compensating for another.
+  static bool AtFarBound(const EffectModel& model,
+                         const EstimationResult& fit) {
+    for (int i = kNumBushings; i < model.num_parameters() &&
+                               i < static_cast<int>(fit.parameters.size());
+         ++i) {
+      const EffectParameter& p = model.parameters()[i];
+      const ParameterEstimate& e = fit.parameters[i];
+      if (e.at_bound &&
+          std::abs(e.value - p.initial) >= 0.49 * (p.upper - p.lower)) {
+        return true;
+      }
+    }
+    return false;
   }
 
   // Stage 7: with no verdict, what the missing force looks like

@@ -222,6 +222,10 @@ struct CandidateScore {
   double ljung_box_p = 1;
   bool scored = false;
   bool heldout = false;
+  // An effect parameter stopped on the bound of its range away from "no
+  // effect" (a hard point 50 mm off): the form compensates for another
+  // effect; never the verdict.
+  bool at_far_bound = false;
   bool ok = true;  // false: the fit failed (error says why)
   std::string error;
 };

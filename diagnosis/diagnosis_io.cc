@@ -92,6 +92,7 @@ Json CandidateJson(const CandidateScore& s) {
   out["ljung_box_p"] = s.scored ? Number(s.ljung_box_p) : Json(nullptr);
   out["iterations"] = s.fit.result.iterations;
   out["converged"] = s.fit.result.converged;
+  out["at_far_bound"] = s.at_far_bound;
   return out;
 }
 
@@ -110,6 +111,7 @@ Status ReadCandidate(const nlohmann::json& node, const std::string& where,
   s->scored = std::isfinite(s->score);
   s->gap_closed = NumberOrNan(node, "gap_closed");
   s->bic = NumberOrNan(node, "bic");
+  s->at_far_bound = node.value("at_far_bound", false);
   const nlohmann::json& parameters =
       node.value("parameters", nlohmann::json::array());
   for (size_t i = 0; i < parameters.size(); ++i) {

@@ -20,7 +20,7 @@ bool VerdictRules::ClearlyBetter(const CandidateScore& best,
 }
 
 bool VerdictRules::Decides(const std::vector<CandidateScore>& ranked) const {
-  if (ranked.empty() || !ranked[0].ok) return false;
+  if (ranked.empty() || !ranked[0].ok || ranked[0].at_far_bound) return false;
   if (ranked[0].gap_closed < min_gap_closed) return false;
   return ranked.size() < 2 || ClearlyBetter(ranked[0], ranked[1]);
 }
@@ -307,6 +307,7 @@ std::vector<const CandidateScore*> Contenders(
   std::vector<const CandidateScore*> contenders;
   for (const CandidateScore& s : ranking) {
     const bool redundant =
+        s.at_far_bound ||
         std::any_of(ranking.begin(), ranking.end(), [&](const auto& smaller) {
           return smaller.ok && Extends(s.model, smaller.model) &&
                  !rules.ClearlyBetter(s, smaller);

@@ -30,8 +30,8 @@ struct VerdictRules {
   // BIC prefers it by min_bic_difference.
   bool ClearlyBetter(const CandidateScore& best,
                      const CandidateScore& other) const;
-  // Whether ranked[0] closes min_gap_closed of the gap and is clearly
-  // better than ranked[1].
+  // Whether ranked[0] closes min_gap_closed of the gap, did not stop on a
+  // far bound and is clearly better than ranked[1].
   bool Decides(const std::vector<CandidateScore>& ranked) const;
   // Whether a model leaves nothing but noise on the data it was scored on:
   // the hold-out's chi-square, else (a cross-validation fold extrapolates
@@ -57,9 +57,9 @@ std::vector<std::string> FaultClasses(const std::string& model);
 void RankCandidates(std::vector<CandidateScore>* list);
 
 // The ranking (in its order) without the models that add an effect to
-// another candidate and are not clearly better than it: two models that
+// another candidate and are not clearly better than it (two models that
 // differ by an effect the data do not need are one explanation, the
-// smaller.
+// smaller) and without those stopped on a far bound (at_far_bound).
 std::vector<const CandidateScore*> Contenders(
     const std::vector<CandidateScore>& ranking, const VerdictRules& rules);
 

@@ -213,6 +213,23 @@ TEST(VerdictTest, AModelWithAnEffectTheDataDoNotNeedIsNoRival) {
   EXPECT_EQ(result.ambiguous_b, "model_parameter@V1") << result.reason;
 }
 
+// A candidate whose effect needed more than its plausible range (a hard
+// point on its 50 mm bound) compensates for another effect: it never
+// decides and is no contender, however well it scores.
+TEST(VerdictTest, ACandidateOnAFarBoundNeverDecides) {
+  std::vector<CandidateScore> ranked = {
+      Scored("rig_compliance+model_parameter@V2", 1.0, 1.0, 0),
+      Scored("rig_compliance", 6.0, 0.55, 50000)};
+  const VerdictRules rules = HoldoutRules();
+  EXPECT_TRUE(rules.Decides(ranked));
+  ranked[0].at_far_bound = true;
+  EXPECT_FALSE(rules.Decides(ranked));
+  const std::vector<const CandidateScore*> contenders =
+      Contenders(ranked, rules);
+  ASSERT_EQ(contenders.size(), 1u);
+  EXPECT_EQ(contenders[0]->model, "rig_compliance");
+}
+
 // A hard point freed whole: one move in words (its length, each axis'
 // direction, the 95 % region's extent), its covariance from the intervals'
 // widths and the fit's correlations; on the verdict's model only.
