@@ -59,7 +59,9 @@ struct DiagnosisOptions {
   // Largest lag of the residual-force cross-correlation [s].
   double max_lag = 0.1;
   // The best candidate is the verdict only when it closes at least this
-  // fraction of the held-out gap...
+  // fraction of the held-out gap, or leaves only noise there (a hold-out
+  // that shows a gap of a few standard deviations measures the fraction
+  // closed no better than that)...
   double min_gap_closed = 0.8;
   // ...and is clearly better than the runner-up: it closes at least
   // min_gap_margin more of the gap, or the runner-up leaves three times its

@@ -21,7 +21,9 @@ bool VerdictRules::ClearlyBetter(const CandidateScore& best,
 
 bool VerdictRules::Decides(const std::vector<CandidateScore>& ranked) const {
   if (ranked.empty() || !ranked[0].ok || ranked[0].at_far_bound) return false;
-  if (ranked[0].gap_closed < min_gap_closed) return false;
+  if (ranked[0].gap_closed < min_gap_closed && !AtNoise(ranked[0])) {
+    return false;
+  }
   return ranked.size() < 2 || ClearlyBetter(ranked[0], ranked[1]);
 }
 

@@ -30,8 +30,9 @@ struct VerdictRules {
   // BIC prefers it by min_bic_difference.
   bool ClearlyBetter(const CandidateScore& best,
                      const CandidateScore& other) const;
-  // Whether ranked[0] closes min_gap_closed of the gap, did not stop on a
-  // far bound and is clearly better than ranked[1].
+  // Whether ranked[0] closes min_gap_closed of the gap (or leaves only
+  // noise: AtNoise), did not stop on a far bound and is clearly better than
+  // ranked[1].
   bool Decides(const std::vector<CandidateScore>& ranked) const;
   // Whether a model leaves nothing but noise on the data it was scored on:
   // the hold-out's chi-square, else (a cross-validation fold extrapolates

@@ -51,6 +51,13 @@ TEST(VerdictTest, DecidesOnlyWhenEnoughOfTheGapIsClosed) {
   EXPECT_TRUE(rules.Decides({Scored("a", 1.01, 0.95, 0)}));
   EXPECT_FALSE(
       rules.Decides({Scored("a", 1.01, 0.95, 0), Scored("b", 1.02, 0.93, 5)}));
+  // A hold-out that shows the gap only weakly (nominal 1.05 on 12 000
+  // residuals): 72 % closed, but what is left is noise there.
+  EXPECT_TRUE(rules.Decides(
+      {Scored("a", 1.012, 0.72, 0), Scored("b", 1.05, 0.0, 700000)}));
+  // Beyond the noise and short of the fraction: no verdict.
+  EXPECT_FALSE(rules.Decides(
+      {Scored("a", 1.06, 0.72, 0), Scored("b", 1.2, 0.0, 700000)}));
 }
 
 TEST(VerdictTest, AtNoiseNeedsTheChiSquareAndAWhiteResidual) {
