@@ -301,6 +301,9 @@ struct DiagnosisResult {
   std::vector<std::string> components;
   // The hard points the verdict's model moves (none when it frees none).
   std::vector<HardPointMove> hard_points;
+  // The verdict's model leaves only noise on the scored logs
+  // (VerdictRules::AtNoise).
+  bool leaves_noise = false;
   std::string confidence;
   std::string reason;
   // The best candidate of another class than the verdict's, and how many

@@ -313,6 +313,7 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
         {"score_before", Number(r.nominal.score)},
         {"score_after", Number(chosen->score)},
         {"gap_closed", Number(chosen->gap_closed)},
+        {"leaves_noise", r.leaves_noise},
         {"effect_parameters", effect},
         {"hard_points", HardPointsToJson(r.hard_points)},
         {"stiffness", stiffness}};

@@ -337,6 +337,7 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
         chosen->gap_closed >= rules.high_confidence_gap_closed &&
         result->rival_separation >= rules.high_confidence_separation;
     result->confidence = at_noise || apart ? "high" : "low";
+    result->leaves_noise = at_noise;
     std::snprintf(text, sizeof(text),
                   "%s closes %.0f %% of the gap (score %.3g -> %.3g, noise "
                   "floor 1); %s",
@@ -350,6 +351,7 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
   result->model.clear();
   result->components.clear();
   result->hard_points.clear();
+  result->leaves_noise = false;
   const std::vector<const CandidateScore*> contenders =
       Contenders(result->ranking, rules);
   const CandidateScore& best = *contenders.front();

@@ -18,8 +18,9 @@
 // ones; a wrong parameter beyond 3x the noise named (model_parameter@ it),
 // or one of an ambiguous pair, in >= 80 % and never another model with
 // high confidence, its true value inside the 95 % interval in >= 90 % of
-// those named (asserted with ten or more); >= 80 % of the held-out gap
-// closed for the correctly attributed cases. validate prints the confusion
+// those named (asserted with ten or more; a hard point's move inside its
+// 3D region); >= 80 % of the held-out gap closed, or only noise left, for
+// the correctly attributed cases. validate prints the confusion
 // matrix.
 //
 // KCRIG_BLIND_CASES and KCRIG_BLIND_SEED are compile definitions: the CI
