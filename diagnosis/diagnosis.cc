@@ -575,9 +575,10 @@ class DiagnosisRun {
     }
   }
 
-  // Whether an effect parameter of `fit` stopped on a bound at least half
-  // its range away from where the fit started it: no effect (or, for a
-  // freed model parameter, its configured value). The effect would need
+  // Whether an effect parameter of `fit` that measures the effect's size
+  // (not a shape, EffectParameter::shape) stopped on a bound at least half
+  // its range away from its "no effect" value (EffectParameter::initial;
+  // for a freed model parameter, its configured value). The effect would need
   // more than its plausible range: the form is compensating for another.
   static bool AtFarBound(const EffectModel& model,
                          const EstimationResult& fit) {
@@ -586,7 +587,7 @@ class DiagnosisRun {
          ++i) {
       const EffectParameter& p = model.parameters()[i];
       const ParameterEstimate& e = fit.parameters[i];
-      if (e.at_bound &&
+      if (!p.shape && e.at_bound &&
           std::abs(e.value - p.initial) >= 0.49 * (p.upper - p.lower)) {
         return true;
       }

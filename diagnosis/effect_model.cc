@@ -126,7 +126,7 @@ std::vector<EffectParameter> ParametersOf(
     // effects that the others leave in a Coulomb-like minimum (sigma at
     // its upper bound, a third of the force).
     return {{effect, "force", "N", 0, 400, 1, 5000, 50, {300, 1000}},
-            {effect, "sigma", "N/m", 0, 4e7, 1e6, 1e9, 4e7, {4e7, 1e7}}};
+            {effect, "sigma", "N/m", 0, 4e7, 1e6, 1e9, 4e7, {4e7, 1e7}, true}};
   }
   if (effect == "progressive_stiffness") {
     // Symmetric (c3 d^3, c2 |d| d) and asymmetric (a2 d^2) stiffening:
@@ -491,10 +491,17 @@ Status EffectModel::Create(const SuspensionParameters<double>& nominal,
   }
   for (size_t e = 0; e < m.effects_.size(); ++e) {
     for (size_t before = 0; before < e; ++before) {
-      // One form per effect; model parameters differ by what they free.
+      // One form per effect; model parameters differ by what they free (a
+      // point frees its coordinates).
+      auto point_of = [](const std::string& t) {
+        return t.substr(0, t.find('.'));
+      };
       if (m.effects_[before] == m.effects_[e] &&
           (m.effects_[e] != kModelParameter ||
-           m.targets_[before] == m.targets_[e])) {
+           m.targets_[before] == m.targets_[e] ||
+           (IsHardPoint(point_of(m.targets_[e])) &&
+            point_of(m.targets_[before]) == point_of(m.targets_[e]) &&
+            (IsHardPoint(m.targets_[e]) || IsHardPoint(m.targets_[before]))))) {
         return Status::Error("effect '" + effects[e] + "' given twice");
       }
     }

@@ -65,6 +65,10 @@ struct EffectParameter {
   // its configured stiffness). A model has as many starts as its longest
   // list allows; a shorter list repeats its last entry.
   std::vector<double> later_starts;
+  // A shape of the effect, not its size (the Dahl loop's sigma, which a
+  // sharp loop legitimately takes to its bound): exempt from the far-bound
+  // check (CandidateScore::at_far_bound).
+  bool shape = false;
 
   // As fits and est.json name it: "c_O1", "hysteresis.force",
   // "model_parameter.k_spring".

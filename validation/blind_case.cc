@@ -55,8 +55,8 @@ std::string EffectText(const std::string& truth, double m, std::mt19937_64* rng,
 }
 
 // A wrong "known" parameter of magnitude m: two in three cases a chassis or
-// carrier point off by 1 .. 10 mm along one axis, else the spring rate off
-// by 2 .. 30 %.
+// carrier point moved 1 .. 10 mm in a direction uniform on the sphere, else
+// the spring rate off by 2 .. 30 %.
 void DrawWrongParameter(const SuspensionParameters<double>& model, double m,
                         std::mt19937_64* rng, BlindCase* c) {
   static const char* kPoints[] = {"O1", "O2", "V1", "V2", "P",

@@ -12,7 +12,7 @@ namespace kcrig {
 
 bool VerdictRules::ClearlyBetter(const CandidateScore& best,
                                  const CandidateScore& other) const {
-  if (!other.ok) return true;
+  if (!other.ok || other.at_far_bound) return true;
   const bool closes_more =
       best.gap_closed - other.gap_closed >= min_gap_margin ||
       other.score - 1 >= 3 * std::max(best.score - 1, score_noise);
@@ -21,10 +21,12 @@ bool VerdictRules::ClearlyBetter(const CandidateScore& best,
 
 bool VerdictRules::Decides(const std::vector<CandidateScore>& ranked) const {
   if (ranked.empty() || !ranked[0].ok || ranked[0].at_far_bound) return false;
-  if (ranked[0].gap_closed < min_gap_closed && !AtNoise(ranked[0])) {
-    return false;
-  }
+  if (!Explains(ranked[0])) return false;
   return ranked.size() < 2 || ClearlyBetter(ranked[0], ranked[1]);
+}
+
+bool VerdictRules::Explains(const CandidateScore& s) const {
+  return s.gap_closed >= min_gap_closed || (holdout && AtNoise(s));
 }
 
 bool VerdictRules::AtNoise(const CandidateScore& s) const {
@@ -86,6 +88,10 @@ void RankCandidates(std::vector<CandidateScore>* list) {
   std::stable_sort(list->begin(), list->end(),
                    [](const CandidateScore& a, const CandidateScore& b) {
                      if (a.ok != b.ok) return a.ok;
+                     // A fit on a far bound stands in for another effect.
+                     if (a.at_far_bound != b.at_far_bound) {
+                       return !a.at_far_bound;
+                     }
                      if (a.score != b.score) return a.score < b.score;
                      return a.bic < b.bic;
                    });
@@ -256,7 +262,7 @@ void FindRival(const CandidateScore& chosen, const VerdictRules& rules,
                DiagnosisResult* result) {
   const std::vector<std::string> own = FaultClasses(chosen.model);
   for (const CandidateScore& s : result->ranking) {
-    if (!s.ok || !s.scored) continue;
+    if (!s.ok || !s.scored || s.at_far_bound) continue;
     bool shares = false;
     for (const std::string& c : FaultClasses(s.model)) {
       shares |= std::find(own.begin(), own.end(), c) != own.end();
@@ -358,8 +364,7 @@ void StateVerdict(const CandidateScore* chosen, const VerdictRules& rules,
   const CandidateScore* second =
       contenders.size() > 1 ? contenders[1] : nullptr;
   std::string alternatives;
-  if (best.gap_closed >= rules.min_gap_closed && second != nullptr &&
-      second->gap_closed >= rules.min_gap_closed) {
+  if (rules.Explains(best) && second != nullptr && rules.Explains(*second)) {
     result->ambiguous_a = best.model;
     result->ambiguous_b = second->model;
     std::snprintf(text, sizeof(text),

@@ -27,12 +27,16 @@ struct VerdictRules {
 
   // `best` closes min_gap_margin more of the gap than `other`, or leaves a
   // third of the other's remaining gap (not less than score_noise), and the
-  // BIC prefers it by min_bic_difference.
+  // BIC prefers it by min_bic_difference; always against a failed fit or
+  // one on a far bound.
   bool ClearlyBetter(const CandidateScore& best,
                      const CandidateScore& other) const;
-  // Whether ranked[0] closes min_gap_closed of the gap (or leaves only
-  // noise: AtNoise), did not stop on a far bound and is clearly better than
-  // ranked[1].
+  // Whether `s` explains the gap: it closes min_gap_closed of it or, on
+  // hold-out logs (a hold-out that shows the gap weakly measures the
+  // fraction closed no better), leaves only noise there.
+  bool Explains(const CandidateScore& s) const;
+  // Whether ranked[0] explains the gap, did not stop on a far bound and is
+  // clearly better than ranked[1].
   bool Decides(const std::vector<CandidateScore>& ranked) const;
   // Whether a model leaves nothing but noise on the data it was scored on:
   // the hold-out's chi-square, else (a cross-validation fold extrapolates
@@ -54,7 +58,8 @@ VerdictRules MakeVerdictRules(const DiagnosisOptions& options, bool holdout,
 // ("hysteresis@bushing:V1+sensor_offset" -> hysteresis, sensor_offset).
 std::vector<std::string> FaultClasses(const std::string& model);
 
-// Successful fits first, then by score, then by BIC.
+// Successful fits first, those on a far bound after the others, then by
+// score, then by BIC.
 void RankCandidates(std::vector<CandidateScore>* list);
 
 // The ranking (in its order) without the models that add an effect to

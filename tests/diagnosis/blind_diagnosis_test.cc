@@ -1,7 +1,7 @@
 // Blind test of `kcrig diagnose`, through `kcrig validate` (the same
 // generator and scoring a user runs on their configuration): cases drawn
 // from a seed — each of the six library effects, none, or a wrong "known"
-// parameter (a hard point off along one axis, or the spring rate), a
+// parameter (a hard point moved in 3D, or the spring rate), a
 // magnitude from small to large, where a bushing effect acts (one bushing
 // or all), the rig's true bushings +-10 % off the
 // configured ones, the designs of two training logs and one hold-out log,

@@ -159,7 +159,7 @@ def run_case(index, kind, arguments, designs, kcrig, config, work):
     case.mkdir(parents=True, exist_ok=True)
     move = None
     if arguments[:1] == ["--move-point"]:
-        move = [float(d) for d in arguments[2:5]]
+        point, move = arguments[1], [float(d) for d in arguments[2:5]]
         arguments = point_assignments(config, arguments[1], move)
     logs = {}
     for seed_offset, (name, design) in enumerate(zip(LOGS, designs)):
@@ -192,7 +192,7 @@ def run_case(index, kind, arguments, designs, kcrig, config, work):
                                                            False)
     return {"index": index, "kind": kind, "arguments": arguments,
             "designs": designs,
-            "truth_in_interval": (point_in_region(move, diag) if move
+            "truth_in_interval": (point_in_region(point, move, diag) if move
                                   else truth_in_interval(arguments, diag)),
             "stiffness_errors": stiffness_errors(config, diag),
             "size_sigma": size, "verdict": diag["verdict"],
@@ -221,10 +221,12 @@ def truth_in_interval(arguments, diag):
     return None
 
 
-def point_in_region(move, diag):
+def point_in_region(point, move, diag):
     """For a moved hard point that the verdict's model moves: whether the
     true move lies in the 95 % region of the fitted one; None otherwise."""
     for fitted in (diag.get("quantification") or {}).get("hard_points", []):
+        if fitted["point"] != point:
+            continue
         covariance = fitted["covariance_m2"]
         if covariance is None:
             return None

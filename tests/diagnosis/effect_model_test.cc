@@ -362,6 +362,7 @@ TEST_F(EffectModelTest, WrongKnownParametersAreFreedAndRecovered) {
        {"model_parameter", "model_parameter@", "model_parameter@c_O1",
         "model_parameter@d_O1", "model_parameter@O1.w", "model_parameter@O3",
         "model_parameter@O1+model_parameter@O1",
+        "model_parameter@O1+model_parameter@O1.z",
         "model_parameter@k_spring@bushing:V1",
         "model_parameter@k_spring+model_parameter@k_spring"}) {
     const Status status =

@@ -100,6 +100,7 @@ TEST(VerdictTest, StatesTheChosenModelTheAmbiguityOrUnexplained) {
 
   DiagnosisResult none = result;
   none.ranking[0].gap_closed = 0.5;
+  none.ranking[0].score = 5.0;  // half the gap left, beyond the noise
   StateVerdict(nullptr, rules, &none);
   EXPECT_EQ(none.verdict, "unexplained");
   EXPECT_TRUE(none.ambiguous_a.empty());
@@ -235,6 +236,27 @@ TEST(VerdictTest, ACandidateOnAFarBoundNeverDecides) {
       Contenders(ranked, rules);
   ASSERT_EQ(contenders.size(), 1u);
   EXPECT_EQ(contenders[0]->model, "rig_compliance");
+  // It ranks after every fit within its range, and is no runner-up.
+  RankCandidates(&ranked);
+  EXPECT_EQ(ranked[0].model, "rig_compliance");
+  ranked.insert(ranked.begin(),
+                Scored("rig_compliance@fixture:x+fixture:rx", 1.0, 1.0, 0));
+  EXPECT_TRUE(rules.Decides(ranked));
+}
+
+// Leaving only noise explains a gap on hold-out logs; under
+// cross-validation (the training chi-square) it does not replace the
+// fraction closed.
+TEST(VerdictTest, OnlyNoiseLeftExplainsTheGapOnHoldoutLogs) {
+  const CandidateScore s = Scored("a", 1.012, 0.72, 0);
+  EXPECT_TRUE(HoldoutRules().Explains(s));
+  DiagnosisOptions options;
+  const VerdictRules cv = MakeVerdictRules(options, false, 24000, 24000);
+  CandidateScore fitted = s;
+  fitted.num_parameters = 6;
+  fitted.train_chi2 = 24000;
+  EXPECT_TRUE(cv.AtNoise(fitted));
+  EXPECT_FALSE(cv.Explains(fitted));
 }
 
 // A hard point freed whole: one move in words (its length, each axis'
