@@ -16,6 +16,7 @@
 #include "apps/emulate_command.h"
 #include "apps/estimate_command.h"
 #include "apps/export_command.h"
+#include "apps/isolability_command.h"
 #include "apps/kc_command.h"
 #include "apps/report_command.h"
 #include "apps/run_command.h"
@@ -46,6 +47,7 @@ int main(int argc, char** argv) {
   kcrig::AddEstimateCommand(&app, &run);
   kcrig::AddScreenCommand(&app, &run);
   kcrig::AddDiagnoseCommand(&app, &run);
+  kcrig::AddIsolabilityCommand(&app, &run);
   kcrig::AddKcCommand(&app, &run);
   kcrig::AddDesignCommand(&app, &run);
   kcrig::AddCampaignCommand(&app, &run);

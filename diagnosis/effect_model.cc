@@ -755,11 +755,6 @@ Status SimulateEffectModel(const EffectModel& model,
   return Status::Ok();
 }
 
-namespace {
-
-// The weighted residuals of `experiments` stacked, and their exact Jacobian
-// by theta, at `values` (physical; clamped into the box: a value on its
-// bound may round just outside it). `theta` gets the clamped point.
 Status WeightedJacobian(const EffectModel& model,
                         const std::vector<double>& values,
                         const std::vector<Experiment>& experiments,
@@ -796,8 +791,6 @@ Status WeightedJacobian(const EffectModel& model,
   }
   return Status::Ok();
 }
-
-}  // namespace
 
 Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
                     const std::vector<Experiment>& experiments,

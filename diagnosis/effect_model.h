@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "Eigen/Core"
 #include "base/iteration_callback.h"
 #include "base/status.h"
 #include "estimator/adequacy.h"
@@ -302,6 +303,16 @@ Status PredictEffectModel(const EffectModel& model, const EffectFit& fit,
                           const std::vector<Experiment>& experiments,
                           double integrator_step,
                           const AdequacyOptions& options, Adequacy* prediction);
+
+// The weighted residuals of `experiments` stacked (WeightedResiduals'
+// order) and their exact Jacobian by the scaled parameters theta, at
+// `values` (physical; clamped into the box: a value on its bound may round
+// just outside it). `theta` gets the clamped point.
+Status WeightedJacobian(const EffectModel& model,
+                        const std::vector<double>& values,
+                        const std::vector<Experiment>& experiments,
+                        double integrator_step, std::vector<double>* theta,
+                        Eigen::MatrixXd* jacobian, Eigen::VectorXd* residuals);
 
 // One Gauss-Newton step from `values` (a fit to more data) on
 // `experiments`, within the parameter bounds: the standard one-step
