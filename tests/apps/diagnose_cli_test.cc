@@ -187,5 +187,49 @@ TEST_F(DiagnoseCliTest, UnknownCandidateIsRefused) {
       << usage.output;
 }
 
+// `kcrig isolability` before a plan is run, and on logs.
+TEST_F(DiagnoseCliTest, IsolabilityOfAPlanAndOfLogs) {
+  const std::string out = Path("iso.json");
+  const CliResult plan = RunKcrig(
+      "isolability --quiet --design 0,0 --design 90,-0.3,2,0.3,1.5 --out " +
+      out);
+  ASSERT_EQ(plan.exit_code, 0) << plan.output;
+  EXPECT_NE(plan.output.find("2 experiments; 47 candidates"), std::string::npos)
+      << plan.output;
+  // The two ends of a link cannot be told apart by these ramps.
+  EXPECT_NE(plan.output.find("model_parameter@P ~ model_parameter@Q"),
+            std::string::npos)
+      << plan.output;
+  std::ifstream in(out);
+  const nlohmann::json doc = nlohmann::json::parse(in);
+  EXPECT_EQ(doc["candidates"].size(), 47u);
+  EXPECT_EQ(doc["left"].size(), 47u);
+  const CliResult logs = RunKcrig(
+      "isolability --quiet --log " + LogA() +
+      " --candidates hysteresis@bushing:V1,bushing_damping@bushing:V1");
+  ASSERT_EQ(logs.exit_code, 0) << logs.output;
+  EXPECT_NE(logs.output.find("1 experiment; 2 candidates"), std::string::npos)
+      << logs.output;
+}
+
+TEST_F(DiagnoseCliTest, IsolabilityRefusesABadPlanInOneLine) {
+  const std::string out = Path("iso.json");
+  for (const auto& [arguments, expected] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"--design 10", "--design '10': expected PHI_DEG,Z_M"},
+           {"--design 10,abc", "'abc' is not a number"},
+           {"--design 10,5", "outside the design bounds"},
+           {"--design 10,-0.1,0", "the ramp time must be positive"},
+           {"--candidates hysteresis@bushing:X9", "X9"},
+           {"--log " + Path("missing.csv"), "missing.csv"}}) {
+    const CliResult r =
+        RunKcrig("isolability --quiet " + arguments + " --out " + out);
+    EXPECT_EQ(r.exit_code, 1) << arguments << ": " << r.output;
+    EXPECT_EQ(CountLines(r.output), 1) << r.output;
+    EXPECT_NE(r.output.find(expected), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(out)) << arguments;
+  }
+}
+
 }  // namespace
 }  // namespace kcrig
