@@ -14,11 +14,7 @@
 namespace kcrig {
 namespace {
 
-// Columns of a candidate's signature in the stacked Jacobian.
-struct Block {
-  int first = 0;
-  int count = 0;
-};
+using Block = IsolabilityAnalysis::Block;
 
 // Each candidate's model and the columns its effect parameters take after
 // the stiffnesses' kNumBushings.
@@ -199,6 +195,50 @@ std::vector<std::string> IsolabilityCandidates(
   return names;
 }
 
+Status IsolabilityAnalysis::Create(const SuspensionParameters<double>& nominal,
+                                   double integrator_step,
+                                   const IsolabilityOptions& options,
+                                   IsolabilityAnalysis* analysis) {
+  if (!(options.min_share_left > 0 && options.min_share_left < 1)) {
+    return Status::Error("isolability: min_share_left must lie in (0, 1)");
+  }
+  IsolabilityAnalysis out;
+  out.candidates_ = options.candidates.empty() ? IsolabilityCandidates(nominal)
+                                               : options.candidates;
+  out.options_ = options;
+  out.step_ = integrator_step;
+  KCRIG_RETURN_IF_ERROR(
+      CreateModels(nominal, out.candidates_, &out.models_, &out.blocks_));
+  const EstimatorOptions bounds;
+  KCRIG_RETURN_IF_ERROR(EffectModel::Create(nominal, {}, bounds.lower_scale,
+                                            bounds.upper_scale,
+                                            &out.nominal_model_));
+  out.triangle_.resize(0, out.blocks_.back().first + out.blocks_.back().count);
+  *analysis = std::move(out);
+  return Status::Ok();
+}
+
+Status IsolabilityAnalysis::Add(const Experiment& experiment) {
+  ProgressReporter progress(options_.callback);
+  Eigen::MatrixXd columns;
+  KCRIG_RETURN_IF_ERROR(
+      ExperimentColumns(nominal_model_, models_, blocks_, experiment, step_,
+                        options_.num_threads, &progress, &columns));
+  if (progress.aborted()) return Interrupted("isolability");
+  triangle_ = StackTriangle(triangle_, columns);
+  ++num_experiments_;
+  return Status::Ok();
+}
+
+Isolability IsolabilityAnalysis::Matrix() const {
+  Isolability out;
+  out.candidates = candidates_;
+  out.min_share_left = options_.min_share_left;
+  out.visible.assign(candidates_.size(), false);
+  FillMatrix(triangle_, blocks_, &out);
+  return out;
+}
+
 Status ComputeIsolability(const SuspensionParameters<double>& nominal,
                           const std::vector<Experiment>& experiments,
                           double integrator_step,
@@ -208,34 +248,13 @@ Status ComputeIsolability(const SuspensionParameters<double>& nominal,
   if (experiments.empty()) {
     return Status::Error("isolability: no experiment to judge");
   }
-  if (!(options.min_share_left > 0 && options.min_share_left < 1)) {
-    return Status::Error("isolability: min_share_left must lie in (0, 1)");
-  }
-  Isolability out;
-  out.candidates = options.candidates.empty() ? IsolabilityCandidates(nominal)
-                                              : options.candidates;
-  out.min_share_left = options.min_share_left;
-  std::vector<EffectModel> models;
-  std::vector<Block> blocks;
-  KCRIG_RETURN_IF_ERROR(
-      CreateModels(nominal, out.candidates, &models, &blocks));
-  EffectModel nominal_model;
-  const EstimatorOptions bounds;
-  KCRIG_RETURN_IF_ERROR(EffectModel::Create(
-      nominal, {}, bounds.lower_scale, bounds.upper_scale, &nominal_model));
-  ProgressReporter progress(options.callback);
-  Eigen::MatrixXd r(0, blocks.back().first + blocks.back().count);
+  IsolabilityAnalysis analysis;
+  KCRIG_RETURN_IF_ERROR(IsolabilityAnalysis::Create(nominal, integrator_step,
+                                                    options, &analysis));
   for (const Experiment& e : experiments) {
-    Eigen::MatrixXd columns;
-    KCRIG_RETURN_IF_ERROR(
-        ExperimentColumns(nominal_model, models, blocks, e, integrator_step,
-                          options.num_threads, &progress, &columns));
-    if (progress.aborted()) return Interrupted("isolability");
-    r = StackTriangle(r, columns);
+    KCRIG_RETURN_IF_ERROR(analysis.Add(e));
   }
-  out.visible.assign(out.candidates.size(), false);
-  FillMatrix(r, blocks, &out);
-  *isolability = std::move(out);
+  *isolability = analysis.Matrix();
   return Status::Ok();
 }
 

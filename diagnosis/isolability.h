@@ -28,6 +28,7 @@
 #include "Eigen/Core"
 #include "base/iteration_callback.h"
 #include "base/status.h"
+#include "diagnosis/effect_model.h"
 #include "estimator/experiment.h"
 #include "rt_core/model/suspension_parameters.h"
 
@@ -64,6 +65,43 @@ struct Isolability {
   // The smallest min(left(i, j), left(j, i)) over pairs of visible
   // candidates (1 with fewer than two).
   double SmallestSeparation() const;
+};
+
+// The matrix built up one experiment at a time: a plan's logs once, then
+// each trial design of the next experiment on a copy (what `kcrig design
+// --isolate` searches over).
+class IsolabilityAnalysis {
+ public:
+  // Columns of a candidate's signature in the stacked Jacobian.
+  struct Block {
+    int first = 0;
+    int count = 0;
+  };
+
+  // For `options.candidates` on `nominal` at `integrator_step`; errors
+  // name a candidate that cannot be created.
+  static Status Create(const SuspensionParameters<double>& nominal,
+                       double integrator_step,
+                       const IsolabilityOptions& options,
+                       IsolabilityAnalysis* analysis);
+  // Adds one experiment's sensitivities (planned or logged); errors name
+  // it.
+  Status Add(const Experiment& experiment);
+  int num_experiments() const { return num_experiments_; }
+  // The matrix of the experiments added so far.
+  Isolability Matrix() const;
+
+ private:
+  std::vector<std::string> candidates_;
+  IsolabilityOptions options_;
+  double step_ = 0;
+  std::vector<EffectModel> models_;
+  std::vector<Block> blocks_;
+  EffectModel nominal_model_;
+  // The R factor of the stacked weighted Jacobian: the stiffnesses'
+  // columns, then each candidate's (blocks_).
+  Eigen::MatrixXd triangle_;
+  int num_experiments_ = 0;
 };
 
 // Every single-component placement of every placeable effect

@@ -184,6 +184,13 @@ def run_case(index, kind, arguments, designs, kcrig, config, work):
     if code != 0:
         return {"index": index, "kind": kind, "error": error.strip()}
     diag = json.loads((case / "diag.json").read_text())
+    code, _, error = run([kcrig, "isolability", "--config", str(config),
+                          *[a for name in LOGS for a in ("--log",
+                                                         str(logs[name]))],
+                          "--quiet", "--out", str(case / "iso.json")])
+    if code != 0:
+        return {"index": index, "kind": kind, "error": error.strip()}
+    iso = json.loads((case / "iso.json").read_text())
     size = effect_size(kcrig, config, case)
     if size is None:
         return {"index": index, "kind": kind, "error": "size: estimate failed"}
@@ -201,7 +208,8 @@ def run_case(index, kind, arguments, designs, kcrig, config, work):
             "leaves_noise": leaves_noise,
             "reason": diag.get("reason", ""),
             "ambiguous": diag.get("ambiguous") or [],
-            "discrepancy": diag.get("discrepancy")}
+            "discrepancy": diag.get("discrepancy"),
+            "isolability": iso}
 
 
 def truth_in_interval(arguments, diag):
@@ -321,6 +329,49 @@ def component_hit(result, component):
     return named == [component]
 
 
+# kind -> the matrix's candidate for a truth on one component.
+MATRIX_CLASS = {"maxwell": "bushing_damping", "dahl_one": "hysteresis",
+                "bouc_wen": "hysteresis", "stiffening": "progressive_stiffness",
+                "sensor_gain": "sensor_offset", "k_spring": "model_parameter",
+                "hard_point": "model_parameter"}
+
+
+def matrix_candidate(kind, component):
+    """The truth as `kcrig isolability` names it (None: the truth acts on
+    more than one component, or on none, and is no candidate)."""
+    if kind not in MATRIX_CLASS or component is None:
+        return None
+    return f"{MATRIX_CLASS[kind]}@{component}"
+
+
+def isolability_outcome(result, component):
+    """For a truth on one component: the rivals the matrix calls separable
+    from it and those it calls tied, and the rivals the diagnosis confused
+    with it (named instead of it, or left ambiguous with it); None when the
+    truth is no candidate of the matrix."""
+    truth = matrix_candidate(result["kind"], component)
+    iso = result["isolability"]
+    if truth not in iso["candidates"]:
+        return None
+    i = iso["candidates"].index(truth)
+    threshold = iso["min_share_left"]
+    separable, tied = set(), set()
+    for j, name in enumerate(iso["candidates"]):
+        if j == i:
+            continue
+        a, b = iso["left"][i][j], iso["left"][j][i]
+        if a is None or b is None:
+            continue
+        (separable if min(a, b) >= threshold else tied).add(name)
+    named = set(result["ambiguous"]) | {result["model"]}
+    confused = {n for n in named if n and n != truth}
+    if truth in named and not result["ambiguous"] and \
+            result["model"] == truth:
+        confused = set()
+    return {"truth": truth, "separable": separable, "tied": tied,
+            "confused": confused}
+
+
 def rate(hits, goal):
     n = len(hits)
     if n == 0:
@@ -377,6 +428,23 @@ def summarise(results, components):
           rate([bool(component_hit(r, components[r["index"]])) or
                 f"model_parameter@{components[r['index']]}" in
                 r.get("ambiguous", []) for r in points], 0.8))
+    outcomes = [o for o in (isolability_outcome(r, components[r["index"]])
+                            for r in large) if o is not None]
+    print("isolability (effects >= 3x noise on one component): pairs the "
+          "matrix calls separable, told apart: " +
+          rate([rival not in o["confused"] for o in outcomes
+                for rival in o["separable"]], 0.95))
+    confusions = [(o, rival) for o in outcomes for rival in o["confused"]]
+    in_matrix = [(o, rival) for o, rival in confusions
+                 if rival in o["separable"] | o["tied"]]
+    print(f"  confusions: {len(confusions)}, {len(in_matrix)} with a "
+          "candidate of the matrix, of which it predicted as ties: " +
+          rate([rival in o["tied"] for o, rival in in_matrix], 0.95))
+    for o, rival in confusions:
+        print(f"    {o['truth']} confused with {rival}" +
+              ("" if rival in o["separable"] | o["tied"] else
+               " (not a candidate of the matrix)") +
+              (" (predicted)" if rival in o["tied"] else ""))
     clean = [r for r in results if r["kind"] == "clean" and "error" not in r]
     print("clean: none " + rate([r["verdict"] == "none" for r in clean],
                                 0.95))
