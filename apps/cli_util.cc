@@ -211,4 +211,51 @@ Status LoadLogs(const std::vector<std::string>& paths,
   return LoadExperiments(paths, config, dbc_file, experiments);
 }
 
+Status ParsePlannedRamp(const std::string& text, const ExperimentConfig& config,
+                        RampExcitation<double>* ramp) {
+  const std::vector<std::string> items = SplitList(text);
+  const std::string where = "--plan '" + text + "': ";
+  if (items.size() < 2 || items.size() > 5) {
+    return Status::Error(where +
+                         "expected PHI_DEG,Z_M[,TF_S[,HOLD_S[,RETURN_S]]]");
+  }
+  double v[5] = {0, 0, config.duration, 0, 0};
+  for (size_t k = 0; k < items.size(); ++k) {
+    if (!ParseFiniteDouble(items[k], &v[k])) {
+      return Status::Error(where + "'" + items[k] + "' is not a number");
+    }
+  }
+  const double phi = v[0] * kDegree;
+  if (phi < config.phi_bounds.lower - 1e-12 ||
+      phi > config.phi_bounds.upper + 1e-12 ||
+      v[1] < config.z_a_bounds.lower - 1e-12 ||
+      v[1] > config.z_a_bounds.upper + 1e-12) {
+    return Status::Error(where +
+                         "outside the design bounds of experiment.yaml");
+  }
+  if (!(v[2] > 0) || v[3] < 0 || v[4] < 0) {
+    return Status::Error(where +
+                         "the ramp time must be positive, hold and "
+                         "return not negative");
+  }
+  *ramp = {phi, v[1], config.fmax, v[2], v[3], v[4]};
+  return Status::Ok();
+}
+
+Status LoadPlan(const std::vector<std::string>& logs,
+                const std::vector<std::string>& ramps,
+                const KcrigConfig& config, std::vector<Experiment>* plan) {
+  KCRIG_RETURN_IF_ERROR(LoadLogs(logs, config, plan));
+  for (const std::string& text : ramps) {
+    RampExcitation<double> ramp;
+    KCRIG_RETURN_IF_ERROR(ParsePlannedRamp(text, config.experiment, &ramp));
+    plan->push_back(PlannedExperiment(ramp, config.experiment));
+  }
+  if (plan->empty()) {
+    const ExperimentConfig& e = config.experiment;
+    plan->push_back(PlannedExperiment(e.Excitation(e.phi, e.z_a), e));
+  }
+  return Status::Ok();
+}
+
 }  // namespace kcrig

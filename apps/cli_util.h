@@ -68,6 +68,24 @@ Status LoadLogs(const std::vector<std::string>& paths,
                 const KcrigConfig& config,
                 std::vector<Experiment>* experiments);
 
+// --plan's help: a planned ramp of `kcrig isolability` and `kcrig design
+// --isolate`.
+inline constexpr char kPlanHelp[] =
+    "Planned ramp PHI_DEG,Z_M[,TF_S[,HOLD_S[,RETURN_S]]] with the config's "
+    "Fmax (repeatable; none and no --log: the config's experiment)";
+
+// "PHI_DEG,Z_M[,TF_S[,HOLD_S[,RETURN_S]]]" (--plan): a planned ramp with
+// the config's Fmax, within its design bounds; the ramp time defaults to
+// the config's.
+Status ParsePlannedRamp(const std::string& text, const ExperimentConfig& config,
+                        RampExcitation<double>* ramp);
+
+// A plan of experiments: the logs, then the planned ramps; the config's
+// own experiment when neither is given.
+Status LoadPlan(const std::vector<std::string>& logs,
+                const std::vector<std::string>& ramps,
+                const KcrigConfig& config, std::vector<Experiment>* plan);
+
 // Under MPI rank 0 alone reads the inputs (cluster/input_mirror.h): the
 // config folder (as LoadConfig resolves "") and the logs with their
 // sidecars; on the other ranks the paths then name their copies.

@@ -1,5 +1,6 @@
 #include "apps/design_command.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -12,6 +13,7 @@
 #include "cluster/ranks.h"
 #include "designer/design_io.h"
 #include "designer/design_step.h"
+#include "designer/isolating_design.h"
 #include "estimator/estimate_io.h"
 #include "records/run_log.h"
 #include "rt_core/model/channels.h"
@@ -33,6 +35,10 @@ struct DesignArgs {
   bool no_expected_improvement = false;
   bool quiet = false;
   std::string out;
+  // --isolate: the ramp that tells apart the faults the plan cannot.
+  bool isolate = false;
+  std::vector<std::string> logs, plans;
+  std::string candidates;
 };
 
 Status ParseGrid(const std::string& text, OptimizerOptions* options) {
@@ -113,7 +119,75 @@ Status Prepare(const DesignArgs& args, DesignInputs* in) {
   return Status::Ok();
 }
 
+// --isolate (designer/isolating_design.h): the plan's ties and the ramp
+// that resolves the most of them.
+int RunIsolatingDesign(const DesignArgs& args) {
+  const StopSignal stop;
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "kcrig design: %s\n", status.message().c_str());
+    return 1;
+  };
+  if (!args.estimate.empty() || args.augment) {
+    return fail(Status::Error(
+        "--isolate designs from the plan (--log, --plan), not from "
+        "--estimate"));
+  }
+  KcrigConfig config;
+  Status status = LoadConfig(args.config_dir, &config);
+  if (status.ok()) status = CheckOutput("--out", args.out, args.logs);
+  std::vector<Experiment> plan;
+  if (status.ok()) status = LoadPlan(args.logs, args.plans, config, &plan);
+  if (!status.ok()) return fail(status);
+  IsolatingDesignOptions options;
+  options.isolability.candidates = SplitList(args.candidates);
+  if (args.budget) {
+    options.search.evaluations_per_shape = std::max(
+        1, *args.budget / static_cast<int>(options.search.shapes.size()));
+  }
+  IsolatingDesign design;
+  {
+    ProgressLine line(args.quiet);
+    options.isolability.callback =
+        stop.Callback([&line](const IterationSummary& s) {
+          line.Show("kcrig design: " + s.stage, s.fraction);
+        });
+    status = DesignIsolatingExperiment(config, plan, options, &design);
+  }
+  if (stop.received()) return stop.Exit("design");
+  if (!status.ok()) return fail(status);
+  if (!args.out.empty()) {
+    status = WriteFilesAtomically({{args.out, IsolatingDesignToJson(design)}});
+    if (!status.ok()) return fail(status);
+  }
+  std::printf(
+      "kcrig design --isolate: %zu experiment%s in the plan, %zu "
+      "tie%s\n",
+      plan.size(), plan.size() == 1 ? "" : "s", design.ties.size(),
+      design.ties.size() == 1 ? "" : "s");
+  if (design.ties.empty()) {
+    std::printf(
+        "  the plan tells every pair of candidates apart: nothing "
+        "to design\n");
+  } else {
+    const RampExcitation<double>& d = design.excitation;
+    std::printf(
+        "  next experiment: phi %.2f deg, z_a %.3f m, ramp %.2f s, hold "
+        "%.2f s, return %.2f s (kcrig run --phi %.2f --z %.3f --duration "
+        "%.2f --hold %.2f --return %.2f)\n"
+        "  resolves %d of the %zu ties; their mean separation %.0f %% -> "
+        "%.0f %%, smallest %.0f %% -> %.0f %% (%d evaluations)\n",
+        d.phi / kDegree, d.z_a, d.duration, d.hold, d.return_duration,
+        d.phi / kDegree, d.z_a, d.duration, d.hold, d.return_duration,
+        design.resolved, design.ties.size(), 100 * design.mean_before,
+        100 * design.mean_after, 100 * design.smallest_before,
+        100 * design.smallest_after, design.evaluations);
+  }
+  if (!args.out.empty()) std::printf("  wrote %s\n", args.out.c_str());
+  return 0;
+}
+
 int RunDesign(const DesignArgs& args) {
+  if (args.isolate) return RunIsolatingDesign(args);
   const StopSignal stop;
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "kcrig design: %s\n", status.message().c_str());
@@ -229,6 +303,19 @@ void AddDesignCommand(CLI::App* app, std::function<int()>* run) {
                 "Kriging refines only at the surrogate's minimum");
   cmd->add_flag("--quiet", args->quiet, "No progress line");
   cmd->add_option("--out", args->out, "design.json to write");
+  cmd->add_flag("--isolate", args->isolate,
+                "Design the ramp that tells apart the faults the plan "
+                "(--log, --plan) cannot (kcrig isolability), instead of "
+                "the criterion's");
+  cmd->add_option("--log", args->logs,
+                  "With --isolate: a logged experiment of the plan "
+                  "(repeatable)");
+  cmd->add_option("--plan", args->plans,
+                  "With --isolate: " + std::string(kPlanHelp));
+  cmd->add_option("--candidates", args->candidates,
+                  "With --isolate: comma-separated candidates (default: "
+                  "every effect on each component, every freeable model "
+                  "parameter)");
   cmd->callback([args, run] { *run = [args] { return RunDesign(*args); }; });
 }
 

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "designer/internal/shape_search.h"
 #include "nlohmann/json.hpp"
-#include "nlopt.hpp"
 #include "rt_core/model/channels.h"
 #include "rt_core/model/excitation.h"
 
@@ -19,70 +19,35 @@ Status DesignDiscriminatingExperiment(const EffectModel& a,
   *design = DiscriminatingDesign();
   design->model_a = a.Name();
   design->model_b = b.Name();
-  design->divergence = -1;
   Status failure = Status::Ok();
-  for (const DiscriminationOptions::Shape& shape : options.shapes) {
-    auto divergence = [&](double phi, double z_a) {
-      const RampExcitation<double> ramp{
-          phi,      z_a,        experiment.fmax,
-          shape.tf, shape.hold, shape.return_duration};
-      const Experiment e = PlannedExperiment(ramp, experiment);
-      std::vector<Vec6<double>> ya, yb;
-      Status status = SimulateEffectModel(a, values_a, e, experiment.step, &ya);
-      if (status.ok()) {
-        status = SimulateEffectModel(b, values_b, e, experiment.step, &yb);
-      }
-      ++design->evaluations;
-      if (!status.ok()) {
-        failure = status;
-        return 0.0;
-      }
-      double t = 0;
-      for (size_t j = 0; j < ya.size(); ++j) {
-        t += (ya[j] - yb[j]).cwiseQuotient(e.sigma).squaredNorm();
-      }
-      if (t > design->divergence) {
-        design->divergence = t;
-        design->excitation = ramp;
-      }
-      return t;
-    };
-    // BOBYQA in unit coordinates over the design bounds, maximizing.
-    const Interval& phi = experiment.phi_bounds;
-    const Interval& z = experiment.z_a_bounds;
-    nlopt::opt opt(nlopt::LN_BOBYQA, 2);
-    opt.set_lower_bounds({0.0, 0.0});
-    opt.set_upper_bounds({1.0, 1.0});
-    opt.set_maxeval(options.evaluations_per_shape);
-    opt.set_xtol_abs(1e-3);
-    using Objective = decltype(divergence);
-    struct Context {
-      Objective* f;
-      const Interval* phi;
-      const Interval* z;
-    } context{&divergence, &phi, &z};
-    opt.set_max_objective(
-        [](const std::vector<double>& u, std::vector<double>&, void* data) {
-          const Context& c = *static_cast<Context*>(data);
-          return (*c.f)(c.phi->lower + u[0] * (c.phi->upper - c.phi->lower),
-                        c.z->lower + u[1] * (c.z->upper - c.z->lower));
-        },
-        &context);
-    std::vector<double> u = {0.5, 0.5};
-    double best = 0;
-    try {
-      opt.optimize(u, best);
-    } catch (const std::exception&) {
-      // A roundoff-limited or failed BOBYQA still leaves its best point in
-      // `design`; nothing else to do.
+  auto divergence = [&](const RampExcitation<double>& ramp) {
+    const Experiment e = PlannedExperiment(ramp, experiment);
+    std::vector<Vec6<double>> ya, yb;
+    Status status = SimulateEffectModel(a, values_a, e, experiment.step, &ya);
+    if (status.ok()) {
+      status = SimulateEffectModel(b, values_b, e, experiment.step, &yb);
     }
-  }
-  if (design->divergence < 0) {
+    if (!status.ok()) {
+      failure = status;
+      return std::nan("");
+    }
+    double t = 0;
+    for (size_t j = 0; j < ya.size(); ++j) {
+      t += (ya[j] - yb[j]).cwiseQuotient(e.sigma).squaredNorm();
+    }
+    return t;
+  };
+  const ShapeSearchResult found = MaximizeOverShapes(
+      experiment, options.shapes, options.evaluations_per_shape, divergence);
+  design->evaluations = found.evaluations;
+  if (found.value < 0) {
     return failure.ok() ? Status::Error(
                               "discriminating design: no design "
                               "could be evaluated")
                         : failure;
   }
+  design->excitation = found.best;
+  design->divergence = found.value;
   return Status::Ok();
 }
 

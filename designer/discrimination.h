@@ -21,14 +21,16 @@
 
 namespace kcrig {
 
+// A ramp's shape: ramp time tf, hold, return ramp [s].
+struct RampShape {
+  double tf, hold, return_duration;
+};
+
 struct DiscriminationOptions {
   // Ramp shapes tried: ramp time tf, hold, return ramp [s]. Rate-dependent
   // effects differ from rate-independent ones between a fast and a slow
   // ramp and across a hold; the return ramp shows hysteresis loops.
-  struct Shape {
-    double tf, hold, return_duration;
-  };
-  std::vector<Shape> shapes = {
+  std::vector<RampShape> shapes = {
       {4.0, 0.0, 0.0}, {1.0, 0.0, 0.0}, {1.0, 1.0, 1.0}, {4.0, 1.0, 4.0}};
   // Criterion evaluations per shape (each simulates both models).
   int evaluations_per_shape = 24;

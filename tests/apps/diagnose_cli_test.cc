@@ -191,8 +191,7 @@ TEST_F(DiagnoseCliTest, UnknownCandidateIsRefused) {
 TEST_F(DiagnoseCliTest, IsolabilityOfAPlanAndOfLogs) {
   const std::string out = Path("iso.json");
   const CliResult plan = RunKcrig(
-      "isolability --quiet --design 0,0 --design 90,-0.3,2,0.3,1.5 --out " +
-      out);
+      "isolability --quiet --plan 0,0 --plan 90,-0.3,2,0.3,1.5 --out " + out);
   ASSERT_EQ(plan.exit_code, 0) << plan.output;
   EXPECT_NE(plan.output.find("2 experiments; 47 candidates"), std::string::npos)
       << plan.output;
@@ -216,10 +215,10 @@ TEST_F(DiagnoseCliTest, IsolabilityRefusesABadPlanInOneLine) {
   const std::string out = Path("iso.json");
   for (const auto& [arguments, expected] :
        std::vector<std::pair<std::string, std::string>>{
-           {"--design 10", "--design '10': expected PHI_DEG,Z_M"},
-           {"--design 10,abc", "'abc' is not a number"},
-           {"--design 10,5", "outside the design bounds"},
-           {"--design 10,-0.1,0", "the ramp time must be positive"},
+           {"--plan 10", "--plan '10': expected PHI_DEG,Z_M"},
+           {"--plan 10,abc", "'abc' is not a number"},
+           {"--plan 10,5", "outside the design bounds"},
+           {"--plan 10,-0.1,0", "the ramp time must be positive"},
            {"--candidates hysteresis@bushing:X9", "X9"},
            {"--log " + Path("missing.csv"), "missing.csv"}}) {
     const CliResult r =
