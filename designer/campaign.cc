@@ -274,6 +274,7 @@ class CampaignRun {
       if (!done && it.action != "discriminate") {
         KCRIG_RETURN_IF_ERROR(DesignNext(&it));
       }
+      if (options_.isolability) KCRIG_RETURN_IF_ERROR(Isolate(done, &it));
       if (options_.on_iteration) options_.on_iteration(it);
       iterations_->push_back(std::move(it));
       if (done) break;
@@ -546,6 +547,33 @@ class CampaignRun {
     return Status::Ok();
   }
 
+  // The isolability of the logs so far (one analysis, grown a log at a
+  // time) and, unless done, the ties left with the next experiment.
+  Status Isolate(bool done, CampaignIteration* it) {
+    KCRIG_RETURN_IF_ERROR(Stage("iteration " + std::to_string(it->index) +
+                                ": which faults the logs tell apart"));
+    if (isolability_.num_experiments() == 0) {
+      IsolabilityOptions options = options_.isolability_options;
+      options.callback = progress_.Nested();
+      options.num_threads = options_.objective.num_threads;
+      KCRIG_RETURN_IF_ERROR(IsolabilityAnalysis::Create(
+          config_.model, config_.experiment.step, options, &isolability_));
+    }
+    KCRIG_RETURN_IF_ERROR(isolability_.Add(experiments_.back()));
+    it->isolability = isolability_.Matrix();
+    KCRIG_RETURN_IF_ERROR(WriteFilesAtomically(
+        {{(std::filesystem::path(Dir(it->index)) / "isolability.json").string(),
+          IsolabilityToJson(it->isolability) + "\n"}}));
+    if (done) return Status::Ok();
+    IsolabilityAnalysis with_next = isolability_;
+    KCRIG_RETURN_IF_ERROR(with_next.Add(
+        PlannedExperiment(special_next_.value_or(config_.experiment.Excitation(
+                              next_.phi, next_.z_a)),
+                          config_.experiment)));
+    it->ties_with_next = static_cast<int>(with_next.Matrix().Ties().size());
+    return Status::Ok();
+  }
+
   void CheckConsistency(const EstimationResult& previous,
                         CampaignIteration* it) const {
     for (size_t i = 0; i < it->estimate.parameters.size(); ++i) {
@@ -582,6 +610,7 @@ class CampaignRun {
   std::vector<double> current_;  // the nominal fit's stiffnesses
   std::vector<std::string> logs_;
   std::vector<Experiment> experiments_;  // one per log, in order
+  IsolabilityAnalysis isolability_;      // of experiments_
   Design next_;
   std::optional<RampExcitation<double>> special_next_;
   // The adopted effect model ("" none) and its latest fit.
@@ -616,6 +645,26 @@ Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
 namespace {
 
 // One iteration's entry of campaign.json.
+// The isolability's counts for campaign.json (the matrix is the
+// iteration's isolability.json).
+nlohmann::ordered_json IsolabilityCounts(const CampaignIteration& it) {
+  const Isolability& iso = it.isolability;
+  long visible = 0;
+  for (bool v : iso.visible) visible += v ? 1 : 0;
+  const auto ties = iso.Ties();
+  nlohmann::ordered_json pairs = nlohmann::ordered_json::array();
+  for (const auto& [i, j] : ties) {
+    pairs.push_back({iso.candidates[i], iso.candidates[j]});
+  }
+  return {{"candidates", iso.candidates.size()},
+          {"seen", visible},
+          {"pairs", visible * (visible - 1) / 2},
+          {"ties", pairs},
+          {"ties_with_next", it.ties_with_next >= 0
+                                 ? nlohmann::ordered_json(it.ties_with_next)
+                                 : nlohmann::ordered_json()}};
+}
+
 nlohmann::ordered_json IterationEntry(const CampaignIteration& it) {
   // The stiffnesses (the campaign's parameters) apart from an adopted
   // effect's, so that every iteration lists the same `parameters`.
@@ -658,6 +707,9 @@ nlohmann::ordered_json IterationEntry(const CampaignIteration& it) {
                                     {"rejected_adoption", it.rejected_adoption}}
            : nlohmann::ordered_json()},
       {"criterion_of_data", it.criterion_of_data}};
+  if (!it.isolability.candidates.empty()) {
+    entry["isolability"] = IsolabilityCounts(it);
+  }
   if (it.special_excitation) {
     const RampExcitation<double>& e = *it.special_excitation;
     entry["experiment"]["excitation"] = {{"fmax_n", e.fmax},
@@ -714,6 +766,35 @@ Status ReadCampaign(const std::string& out_dir, Criterion* criterion,
 namespace {
 
 // What the diagnosis said and what the campaign did about it.
+// "which faults the logs tell apart: 958 of 990 pairs; ties: a ~ b, ...;
+// with the next experiment 25 ties".
+std::string IsolabilityLine(const CampaignIteration& it) {
+  const Isolability& iso = it.isolability;
+  if (iso.candidates.empty()) return "";
+  const auto ties = iso.Ties();
+  long visible = 0;
+  for (bool v : iso.visible) visible += v ? 1 : 0;
+  const long pairs = visible * (visible - 1) / 2;
+  char line[200];
+  std::snprintf(line, sizeof(line),
+                "  faults the logs tell apart: %ld of %ld pairs (%zu ties",
+                pairs - static_cast<long>(ties.size()), pairs, ties.size());
+  std::string out = line;
+  // The first few by name; the rest are in isolability.json.
+  constexpr size_t kShown = 3;
+  for (size_t k = 0; k < std::min(kShown, ties.size()); ++k) {
+    out += (k == 0 ? ": " : ", ") + iso.candidates[ties[k].first] + " ~ " +
+           iso.candidates[ties[k].second];
+  }
+  if (ties.size() > kShown) out += ", ...";
+  out += ")";
+  if (it.ties_with_next >= 0) {
+    out += "; with the next experiment " + std::to_string(it.ties_with_next) +
+           " ties";
+  }
+  return out + "\n";
+}
+
 std::string DiagnosisAction(const CampaignIteration& it) {
   const DiagnosisResult& d = it.diagnosis;
   std::string out = "  checks failed (" + it.failed_checks +
@@ -789,6 +870,7 @@ std::string CampaignIterationSummary(const CampaignIteration& it,
     out += line;
   }
   if (it.diagnosed) out += DiagnosisAction(it);
+  out += IsolabilityLine(it);
   std::snprintf(line, sizeof(line), "  criterion %s of the data so far: %.6g\n",
                 CriterionName(criterion), it.criterion_of_data);
   out += line;

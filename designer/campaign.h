@@ -22,6 +22,7 @@
 #include "designer/design_io.h"
 #include "designer/optimizers.h"
 #include "diagnosis/diagnosis.h"
+#include "diagnosis/isolability.h"
 #include "estimator/estimator.h"
 #include "rt_core/model/model_config.h"
 
@@ -60,6 +61,11 @@ struct CampaignOptions {
   // parameters to be the five bushing stiffnesses (the diagnosis' model).
   bool close_loop = true;
   DiagnosisOptions diagnosis;
+  // Which faults the logs so far tell apart, each iteration, and with the
+  // next experiment added (diagnosis/isolability.h); its callback and
+  // threads are the campaign's.
+  bool isolability = true;
+  IsolabilityOptions isolability_options;
   // Asked at each stage ("iteration 1: designing (D, kriging)"), after each
   // batch of a design ("<stage> | kriging: 24/100 evaluations, ...") and
   // with the stage again during each estimate; kAbort stops the campaign
@@ -112,6 +118,10 @@ struct CampaignIteration {
   // Why the diagnosis' effect was not adopted: the model with it fails the
   // fit's adequacy too ("" when adopted or none was attributed).
   std::string rejected_adoption;
+  // Which faults the logs so far tell apart (with `isolability`), and how
+  // many ties remain once the next experiment is added (-1: none planned).
+  Isolability isolability;
+  int ties_with_next = -1;
   bool designed = false;         // false on the last iteration
   double criterion_of_data = 0;  // Phi(I_data)
   DesignRun design;              // Phi(I_data + I(v)) from v0 to v*
