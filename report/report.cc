@@ -517,6 +517,45 @@ Status InitialStatesJson(const fs::path& root,
 
 // The campaign's figures: every experiment against the final estimate, the
 // estimates per iteration, the criterion surfaces and the kriging surrogate.
+// The isolability matrix the campaign wrote for its last iteration; null
+// when there is none (a campaign from before it was written).
+Status IsolabilityJson(const fs::path& root,
+                       const std::vector<CampaignIteration>& iterations,
+                       Json* out) {
+  const int last = iterations.back().index;
+  const fs::path file =
+      fs::path(CampaignIterationDir(root.string(), last)) / "isolability.json";
+  *out = nullptr;
+  if (!fs::exists(file)) return Status::Ok();
+  Json doc;
+  KCRIG_RETURN_IF_ERROR(ReadJsonFile(file.string(), &doc));
+  const std::string where = file.string();
+  std::vector<std::string> candidates;
+  double min_share = 0;
+  Json left;
+  KCRIG_RETURN_IF_ERROR(ReadField(doc, "candidates", where, &candidates));
+  KCRIG_RETURN_IF_ERROR(ReadField(doc, "min_share_left", where, &min_share));
+  KCRIG_RETURN_IF_ERROR(ReadField(doc, "left", where, &left));
+  const size_t n = candidates.size();
+  bool square = left.is_array() && left.size() == n;
+  for (size_t i = 0; square && i < n; ++i) {
+    square = left[i].is_array() && left[i].size() == n;
+    for (size_t j = 0; square && j < n; ++j) {
+      square = left[i][j].is_null() || left[i][j].is_number();
+    }
+  }
+  if (!square) {
+    return Status::Error(where +
+                         ".left: expected one row of numbers or null per "
+                         "candidate, one per candidate");
+  }
+  *out = {{"iteration", last},
+          {"candidates", candidates},
+          {"left", left},
+          {"min_share_left", min_share}};
+  return Status::Ok();
+}
+
 Status CampaignJson(const KcrigConfig& config, const fs::path& root,
                     const ReportOptions& options, Json* data,
                     ReportSummary* summary) {
@@ -560,6 +599,9 @@ Status CampaignJson(const KcrigConfig& config, const fs::path& root,
       SurfacesJson(config, root, criterion, iterations, options, &surfaces));
   (*data)["surfaces"] = surfaces;
   (*data)["kriging"] = KrigingJson(config, root, criterion, iterations);
+  KCRIG_RETURN_IF_ERROR(GuardedRead(root.string(), [&] {
+    return IsolabilityJson(root, iterations, &(*data)["isolability"]);
+  }));
   KCRIG_RETURN_IF_ERROR(Progress(options, "K&C sheet", -1));
   Json kc;
   KCRIG_RETURN_IF_ERROR(
@@ -982,6 +1024,7 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
     figures += summary->experiments + 2 +
                static_cast<int>(data["surfaces"].size()) +
                (data["kriging"].is_null() ? 0 : 1) +
+               (data["isolability"].is_null() ? 0 : 1) +
                static_cast<int>(data["kc"]["loops"].size());
   }
   for (const Json& d : diagnoses) {

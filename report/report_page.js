@@ -409,6 +409,39 @@
 
   });
 
+  guarded('isolability', function () { if (data.isolability) {
+    var iso = data.isolability;
+    var s6 = section('isolability', 'Which faults the experiments tell apart');
+    note(s6, 'Iteration ' + iso.iteration + "'s logs: the share of each " +
+         "fault's signature (row) that the rival (column), refitted with " +
+         'the stiffnesses, cannot reproduce. A pair is told apart when ' +
+         'each leaves at least ' + Math.round(100 * iso.min_share_left) +
+         ' % of the other\'s; white: an effect these experiments do not see.');
+    // The diagonal (a fault against itself) blank.
+    var percent = iso.left.map(function (row, i) {
+      return row.map(function (v, j) {
+        return v === null || i === j ? null : 100 * v;
+      });
+    });
+    figure(s6, [{type: 'heatmap', x: iso.candidates, y: iso.candidates,
+                 z: percent, zmin: 0, zmax: 100,
+                 colorscale: [[0, '#b2182b'],
+                              [iso.min_share_left, '#fddbc7'],
+                              [iso.min_share_left + 0.001, '#d1e5f0'],
+                              [1, '#2166ac']],
+                 colorbar: {title: {text: '% left'}},
+                 hovertemplate: 'fault %{y}<br>rival %{x}<br>' +
+                                '%{z:.0f} % of its signature left<extra></extra>'}],
+           {title: {text: 'Isolability: % of the fault\'s signature the ' +
+                          'rival leaves (red: cannot tell apart)'},
+            xaxis: {tickangle: -60, automargin: true, tickfont: {size: 9}},
+            yaxis: {autorange: 'reversed', automargin: true,
+                    tickfont: {size: 9}}},
+           Math.max(420, 16 * iso.candidates.length + 260));
+  }
+
+  });
+
   guarded('diagnosis', function () { if (data.diagnoses && data.diagnoses.length) {
     var s5 = section('diagnosis', 'Sim-to-real gap diagnosis');
     data.diagnoses.forEach(function (d) {

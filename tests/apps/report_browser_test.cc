@@ -53,7 +53,7 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
   CliResult r =
       RunKcrig("campaign --iterations 1 --budget 12 --quiet --out " + dir);
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("report with 9 figures: " + dir + "/report.html"),
+  EXPECT_NE(r.output.find("report with 10 figures: " + dir + "/report.html"),
             std::string::npos)
       << r.output;
   ASSERT_TRUE(fs::exists(dir + "/report.html"));
@@ -90,9 +90,10 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
 
   r = RunKcrig("report --from " + dir + " --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  // 9 campaign figures (2 of them the K&C loops), 3 of the diagnosis, 2 of
-  // the timing, 4 of the validation (with the bushing effect's places).
-  ASSERT_NE(r.output.find("18 figures"), std::string::npos) << r.output;
+  // 10 campaign figures (2 of them the K&C loops, one the isolability), 3
+  // of the diagnosis, 2 of the timing, 4 of the validation (with the
+  // bushing effect's places).
+  ASSERT_NE(r.output.find("19 figures"), std::string::npos) << r.output;
 
   const std::string screenshot =
       std::string(KCRIG_TEST_ARTIFACT_DIR) + "/report_screenshot.png";
@@ -116,9 +117,9 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
   ASSERT_NE(dom.find("id=\"kcrig-status\""), std::string::npos)
       << dom.substr(0, 2000);
   EXPECT_EQ(Attribute(dom, "data-state"), "done");
-  EXPECT_EQ(Attribute(dom, "data-expected"), "18");
-  EXPECT_EQ(Attribute(dom, "data-figures"), "18");
-  EXPECT_EQ(Attribute(dom, "data-rendered"), "18");
+  EXPECT_EQ(Attribute(dom, "data-expected"), "19");
+  EXPECT_EQ(Attribute(dom, "data-figures"), "19");
+  EXPECT_EQ(Attribute(dom, "data-rendered"), "19");
   // The K&C sheet's tables: per run the channels, the standard figures and
   // the compliance matrix.
   EXPECT_NE(dom.find(">K&amp;C sheet</h2>"), std::string::npos);

@@ -77,8 +77,8 @@ TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
                                " --grid 4x3 --quiet --out " + html);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   // 2 experiments, sensitivities, estimates, D and A surfaces, kriging,
-  // the K&C loops of the 2 runs.
-  EXPECT_NE(r.output.find("9 figures (2 experiments, campaign)"),
+  // the isolability matrix, the K&C loops of the 2 runs.
+  EXPECT_NE(r.output.find("10 figures (2 experiments, campaign)"),
             std::string::npos)
       << r.output;
   const std::string text = ReadText(html);
@@ -86,7 +86,11 @@ TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
   EXPECT_NE(text.find("plotly.js v"), std::string::npos);
   EXPECT_EQ(text.find("<script src="), std::string::npos);
   const Json data = PageData(text);
-  EXPECT_EQ(data["expected_figures"], 9);
+  EXPECT_EQ(data["expected_figures"], 10);
+  // The last iteration's isolability, as the campaign wrote it.
+  EXPECT_EQ(data["isolability"]["iteration"], 1);
+  EXPECT_EQ(data["isolability"]["candidates"].size(), 47u);
+  EXPECT_EQ(data["isolability"]["left"].size(), 47u);
   // The K&C sheet of both runs against the final model, with their loops:
   // the rising branch is the 4 s ramp, decimated to at most 1001 points.
   ASSERT_EQ(data["kc"]["sheet"]["runs"].size(), 2u);
@@ -407,6 +411,12 @@ TEST_F(ReportCliTest, BadFoldersAreOneLineErrorsAndWriteNothing) {
   ExpectRefused("--from " + copy, "iteration_1/run.csv", out);
 
   fresh();
+  std::ofstream(copy + "/iteration_1/isolability.json")
+      << "{\"candidates\": [\"a\"], \"min_share_left\": 0.2, "
+         "\"left\": [[0, 1]]}";
+  ExpectRefused("--from " + copy, "iteration_1/isolability.json.left", out);
+
+  fresh();
   std::ofstream(copy + "/diag.json") << "{\"verdict\": 3}";
   ExpectRefused("--from " + copy, "diag.json", out);
 
@@ -448,8 +458,8 @@ TEST(ReportSurfacesTest, AreTheObjectiveTheCampaignSearched) {
                                " --grid 3x2 --quiet --out " + html);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   // 3 experiments, sensitivities, estimates, D and A of 2 designs, kriging,
-  // 3 K&C loops.
-  EXPECT_NE(r.output.find("13 figures (3 experiments, campaign)"),
+  // the isolability matrix, 3 K&C loops.
+  EXPECT_NE(r.output.find("14 figures (3 experiments, campaign)"),
             std::string::npos)
       << r.output;
   const Json data = PageData(ReadText(html));

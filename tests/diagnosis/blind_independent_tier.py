@@ -209,7 +209,51 @@ def run_case(index, kind, arguments, designs, kcrig, config, work):
             "reason": diag.get("reason", ""),
             "ambiguous": diag.get("ambiguous") or [],
             "discrepancy": diag.get("discrepancy"),
-            "isolability": iso}
+            "isolability": iso,
+            "isolating": isolate_tie(index, arguments, diag, logs, kcrig,
+                                     config, case)}
+
+
+def isolate_tie(index, arguments, diag, logs, kcrig, config, case):
+    """For an ambiguous verdict: `kcrig design --isolate` on the pair, the
+    ramp it proposes generated with the same truth, and the diagnosis
+    again with it among the training logs. None without an ambiguous pair
+    of single candidates."""
+    pair = diag.get("ambiguous") or []
+    if len(pair) != 2 or any("+" in name for name in pair):
+        return None
+    code, _, error = run([kcrig, "design", "--isolate", "--config",
+                          str(config),
+                          *[a for name in LOGS for a in ("--log",
+                                                         str(logs[name]))],
+                          "--candidates", ",".join(pair), "--quiet",
+                          "--out", str(case / "isolating.json")])
+    if code != 0:
+        return {"pair": pair, "error": error.strip()}
+    design = json.loads((case / "isolating.json").read_text())
+    if not design["ties"]:
+        return {"pair": pair, "tied_by_matrix": False}
+    ramp = design["run_options"].split()
+    path = case / "isolating.csv"
+    code, _, error = run(["/usr/bin/python3", str(GENERATOR), "--config",
+                          str(config), *ramp, *arguments, "--noise",
+                          "--seed", str(1000 * index + 7), "--out",
+                          str(path)])
+    if code != 0:
+        return {"pair": pair, "error": error.strip()}
+    code, _, error = run([kcrig, "diagnose", "--config", str(config),
+                          "--log", str(logs["train_a"]), "--log",
+                          str(logs["train_b"]), "--log", str(path),
+                          "--holdout", str(logs["holdout"]), "--quiet",
+                          "--out", str(case / "diag_isolated.json")])
+    if code != 0:
+        return {"pair": pair, "error": error.strip()}
+    after = json.loads((case / "diag_isolated.json").read_text())
+    return {"pair": pair, "tied_by_matrix": True,
+            "predicted_resolved": design["resolved"] > 0,
+            "separation_after": design["smallest_separation_after"],
+            "model_after": after.get("model", ""),
+            "ambiguous_after": after.get("ambiguous") or []}
 
 
 def truth_in_interval(arguments, diag):
@@ -445,6 +489,29 @@ def summarise(results, components):
               ("" if rival in o["separable"] | o["tied"] else
                " (not a candidate of the matrix)") +
               (" (predicted)" if rival in o["tied"] else ""))
+    isolating = [(r, r["isolating"]) for r in results
+                 if "error" not in r and r.get("isolating")]
+    for r, i in isolating:
+        truth = matrix_candidate(r["kind"], components[r["index"]])
+        if "error" in i:
+            print(f"  case {r['index']}: design --isolate failed: "
+                  f"{i['error']}")
+            continue
+        i["resolved"] = (truth is not None and i["model_after"] == truth and
+                         not i["ambiguous_after"])
+        print(f"  case {r['index']} ({truth}): tie {' ~ '.join(i['pair'])}" +
+              (f", the isolating ramp's separation "
+               f"{100 * i['separation_after']:.0f} %: "
+               f"{'resolved' if i['resolved'] else 'not resolved'} "
+               f"(verdict after: {i['model_after'] or 'none'}"
+               f"{' ~ ' + ' ~ '.join(i['ambiguous_after']) if i['ambiguous_after'] else ''})"
+               if i.get("tied_by_matrix") else ", not a tie of the matrix"))
+    tied = [i for _, i in isolating if i.get("tied_by_matrix")]
+    print("ties the matrix predicted, resolved by the ramp kcrig design "
+          "--isolate proposes: " + rate([i["resolved"] for i in tied], 0.9))
+    print("  of those it predicted resolvable: " +
+          rate([i["resolved"] for i in tied if i["predicted_resolved"]],
+               0.9))
     clean = [r for r in results if r["kind"] == "clean" and "error" not in r]
     print("clean: none " + rate([r["verdict"] == "none" for r in clean],
                                 0.95))
