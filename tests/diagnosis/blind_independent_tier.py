@@ -472,23 +472,28 @@ def summarise(results, components):
           rate([bool(component_hit(r, components[r["index"]])) or
                 f"model_parameter@{components[r['index']]}" in
                 r.get("ambiguous", []) for r in points], 0.8))
-    outcomes = [o for o in (isolability_outcome(r, components[r["index"]])
-                            for r in large) if o is not None]
-    print("isolability (effects >= 3x noise on one component): pairs the "
-          "matrix calls separable, told apart: " +
-          rate([rival not in o["confused"] for o in outcomes
-                for rival in o["separable"]], 0.95))
-    confusions = [(o, rival) for o in outcomes for rival in o["confused"]]
-    in_matrix = [(o, rival) for o, rival in confusions
-                 if rival in o["separable"] | o["tied"]]
-    print(f"  confusions: {len(confusions)}, {len(in_matrix)} with a "
-          "candidate of the matrix, of which it predicted as ties: " +
-          rate([rival in o["tied"] for o, rival in in_matrix], 0.95))
-    for o, rival in confusions:
-        print(f"    {o['truth']} confused with {rival}" +
-              ("" if rival in o["separable"] | o["tied"] else
-               " (not a candidate of the matrix)") +
-              (" (predicted)" if rival in o["tied"] else ""))
+    detected = [r for r in results if "error" not in r and
+                KINDS[r["kind"]] not in (None, "none") and
+                r["verdict"] != "none"]
+    for label, group in (("effects >= 3x noise", large),
+                         ("every size with a gap found", detected)):
+        outcomes = [o for o in (isolability_outcome(r, components[r["index"]])
+                                for r in group) if o is not None]
+        print(f"isolability ({label}, on one component): pairs the matrix "
+              "calls separable, told apart: " +
+              rate([rival not in o["confused"] for o in outcomes
+                    for rival in o["separable"]], 0.95))
+        confusions = [(o, rival) for o in outcomes for rival in o["confused"]]
+        in_matrix = [(o, rival) for o, rival in confusions
+                     if rival in o["separable"] | o["tied"]]
+        print(f"  confusions: {len(confusions)}, {len(in_matrix)} with a "
+              "candidate of the matrix, of which it predicted as ties: " +
+              rate([rival in o["tied"] for o, rival in in_matrix], 0.95))
+        for o, rival in confusions:
+            print(f"    {o['truth']} confused with {rival}" +
+                  ("" if rival in o["separable"] | o["tied"] else
+                   " (not a candidate of the matrix)") +
+                  (" (predicted)" if rival in o["tied"] else ""))
     isolating = [(r, r["isolating"]) for r in results
                  if "error" not in r and r.get("isolating")]
     for r, i in isolating:
