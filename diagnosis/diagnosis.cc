@@ -58,6 +58,8 @@ class DiagnosisRun {
 
  private:
   using Start = std::vector<double>;
+  // A start computed when its round comes (ScaledStart).
+  static inline const Start kScaledStart = {};
 
   Status RunStages() {
     KCRIG_RETURN_IF_ERROR(CheckInputs());
@@ -477,6 +479,16 @@ class DiagnosisRun {
                          options_.significance;
   }
 
+  // kScaledStart in a model's starts: one Gauss-Newton step from its first
+  // start on the training logs, the effect's size scaled from the residual
+  // to first order (a hysteresis loop several times the starting values'
+  // is reached; a start far from the effect's size can end in a local
+  // minimum or, on a bound, as a fit that compensates for another effect).
+  Status ScaledStart(const EffectModel& model, const Start& first,
+                     Start* start) const {
+    return RefitOneStep(model, first, training_, step_, start);
+  }
+
   // Fits each model from its starts, one round of starts after the other:
   // while no model has brought the training residual down to the noise, a
   // further start is tried for at most `retry_pool` of the models that have
@@ -521,11 +533,16 @@ class DiagnosisRun {
           static_cast<int>(todo.size()),
           [&](int k, EffectFit* fit) {
             const int i = todo[k];
-            const Status status =
-                progress_.aborted()
-                    ? Interrupted("diagnosis")
-                    : FitEffectModel(*models[i], training_, starts[i][round],
-                                     fit_options_, step_, fit);
+            Start start = starts[i][round];
+            Status status =
+                progress_.aborted() ? Interrupted("diagnosis") : Status::Ok();
+            if (status.ok() && start.empty()) {
+              status = ScaledStart(*models[i], starts[i][0], &start);
+            }
+            if (status.ok()) {
+              status = FitEffectModel(*models[i], training_, start,
+                                      fit_options_, step_, fit);
+            }
             const int finished = ++done;
             Progress("candidate fits " + std::to_string(finished) + " (" +
                          models[i]->Name() + ")",
@@ -668,8 +685,9 @@ class DiagnosisRun {
   }
 
   // Stage 4: each single effect from its starts: the nominal fit's
-  // stiffnesses (which the effect has biased) with a small effect, then the
-  // configured stiffnesses with larger ones (two more for hysteresis).
+  // stiffnesses (which the effect has biased) with a small effect, then
+  // that start scaled from the residual (kScaledStart), then the configured
+  // stiffnesses with larger ones (two more for hysteresis).
   void FitSingles() {
     std::vector<const EffectModel*> models;
     std::vector<std::vector<Start>> starts;
@@ -682,7 +700,7 @@ class DiagnosisRun {
         biased.push_back(p < kNumBushings ? result_->nominal.fit.values[p]
                                           : single.parameters()[p].initial);
       }
-      starts.push_back({biased});
+      starts.push_back({biased, kScaledStart});
       for (int k = 1; k < single.num_starts(); ++k) {
         starts.back().push_back(single.LaterStart(k));
       }
@@ -988,7 +1006,8 @@ class DiagnosisRun {
     std::vector<std::vector<Start>> starts;
     for (const EffectModel& m : models) {
       pointers.push_back(&m);
-      starts.push_back({m.StartFrom(global_model, global.fit.values)});
+      starts.push_back(
+          {m.StartFrom(global_model, global.fit.values), kScaledStart});
       // The effect's own later starts: the global fit's values can sit in
       // a local minimum of the placed effect (a Dahl force spread over five
       // bushings is not one bushing's).

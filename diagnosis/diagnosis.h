@@ -116,11 +116,14 @@ struct DiagnosisOptions {
   // more than this many combined standard errors.
   double drift_z = 4;
   // When no candidate's first fit brings the training residual down to
-  // the noise, their later starts (effect_model.h: later_starts) are
-  // tried, one round each, for at most `retry_pool` of the candidates that
-  // have a start for the round, the best fitting first (so a candidate with
-  // more starts than the others, hysteresis, gets them even when it fits
-  // worse: its landscape, not its model, is then the likelier cause).
+  // the noise, further starts are tried, one round each, for at most
+  // `retry_pool` of the candidates that have a start for the round, the
+  // best fitting first: the first start scaled from the residual (one
+  // Gauss-Newton step on the training logs: an effect several times the
+  // starting values' size is reached), then the effects' later starts
+  // (effect_model.h: later_starts). A candidate with more starts than the
+  // others, hysteresis, gets them even when it fits worse: its landscape,
+  // not its model, is then the likelier cause.
   int retry_pool = 2;
   // Candidates are fitted on this many threads, in this process or, with
   // `batches`, spread over a cluster job's ranks (cluster/ranks.h: every
