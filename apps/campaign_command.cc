@@ -44,6 +44,7 @@ struct CampaignArgs {
   bool quiet = false;
   bool no_report = false;
   bool no_diagnose = false;
+  bool isolability = false;
   std::string out = "out/campaign";
 };
 
@@ -214,6 +215,7 @@ Status MakeOptions(const CampaignArgs& args, const KcrigConfig& config,
   options->objective.budget = args.budget;
   options->target_relative_halfwidth = args.target_percent / 100.0;
   options->close_loop = !args.no_diagnose;
+  options->isolability = args.isolability;
   if (WorldRanks().size() > 1) {
     // The designs' batches and the diagnosis' fits spread over the ranks,
     // one thread each.
@@ -491,6 +493,10 @@ void AddCampaignCommand(CLI::App* app, std::function<int()>* run) {
                 "Check the model every iteration but do not diagnose or act "
                 "on a failed check (it is reported; the campaign goes on "
                 "with the nominal model)");
+  cmd->add_flag("--isolability", args->isolability,
+                "Say each iteration which faults the logs tell apart and "
+                "how many ties the next experiment leaves (kcrig "
+                "isolability; about 0.6 s an iteration)");
   cmd->add_flag("--no-report", args->no_report,
                 "Do not write OUT/report.html at the end");
   cmd->add_option("--out", args->out, "Output folder")->capture_default_str();

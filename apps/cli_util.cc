@@ -213,8 +213,16 @@ Status LoadLogs(const std::vector<std::string>& paths,
 
 Status ParsePlannedRamp(const std::string& text, const ExperimentConfig& config,
                         RampExcitation<double>* ramp) {
-  const std::vector<std::string> items = SplitList(text);
-  const std::string where = "--plan '" + text + "': ";
+  // Every field given: an empty one would shift the rest.
+  std::vector<std::string> items(1);
+  for (char c : text) {
+    if (c == ',') {
+      items.emplace_back();
+    } else {
+      items.back() += c;
+    }
+  }
+  const std::string where = "--ramp '" + text + "': ";
   if (items.size() < 2 || items.size() > 5) {
     return Status::Error(where +
                          "expected PHI_DEG,Z_M[,TF_S[,HOLD_S[,RETURN_S]]]");
@@ -226,12 +234,16 @@ Status ParsePlannedRamp(const std::string& text, const ExperimentConfig& config,
     }
   }
   const double phi = v[0] * kDegree;
-  if (phi < config.phi_bounds.lower - 1e-12 ||
-      phi > config.phi_bounds.upper + 1e-12 ||
-      v[1] < config.z_a_bounds.lower - 1e-12 ||
-      v[1] > config.z_a_bounds.upper + 1e-12) {
-    return Status::Error(where +
-                         "outside the design bounds of experiment.yaml");
+  const Interval& p = config.phi_bounds;
+  const Interval& z = config.z_a_bounds;
+  if (phi < p.lower - 1e-12 || phi > p.upper + 1e-12 ||
+      v[1] < z.lower - 1e-12 || v[1] > z.upper + 1e-12) {
+    char bounds[160];
+    std::snprintf(bounds, sizeof(bounds),
+                  "outside the design bounds of experiment.yaml (phi %g..%g "
+                  "deg, z_a %g..%g m)",
+                  p.lower / kDegree, p.upper / kDegree, z.lower, z.upper);
+    return Status::Error(where + bounds);
   }
   if (!(v[2] > 0) || v[3] < 0 || v[4] < 0) {
     return Status::Error(where +
@@ -250,6 +262,7 @@ Status LoadPlan(const std::vector<std::string>& logs,
     RampExcitation<double> ramp;
     KCRIG_RETURN_IF_ERROR(ParsePlannedRamp(text, config.experiment, &ramp));
     plan->push_back(PlannedExperiment(ramp, config.experiment));
+    plan->back().source = "--ramp '" + text + "'";
   }
   if (plan->empty()) {
     const ExperimentConfig& e = config.experiment;

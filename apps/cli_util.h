@@ -68,13 +68,13 @@ Status LoadLogs(const std::vector<std::string>& paths,
                 const KcrigConfig& config,
                 std::vector<Experiment>* experiments);
 
-// --plan's help: a planned ramp of `kcrig isolability` and `kcrig design
+// --ramp's help: a planned ramp of `kcrig isolability` and `kcrig design
 // --isolate`.
-inline constexpr char kPlanHelp[] =
+inline constexpr char kRampHelp[] =
     "Planned ramp PHI_DEG,Z_M[,TF_S[,HOLD_S[,RETURN_S]]] with the config's "
     "Fmax (repeatable; none and no --log: the config's experiment)";
 
-// "PHI_DEG,Z_M[,TF_S[,HOLD_S[,RETURN_S]]]" (--plan): a planned ramp with
+// "PHI_DEG,Z_M[,TF_S[,HOLD_S[,RETURN_S]]]" (--ramp): a planned ramp with
 // the config's Fmax, within its design bounds; the ramp time defaults to
 // the config's.
 Status ParsePlannedRamp(const std::string& text, const ExperimentConfig& config,

@@ -37,8 +37,11 @@ struct DesignArgs {
   std::string out;
   // --isolate: the ramp that tells apart the faults the plan cannot.
   bool isolate = false;
-  std::vector<std::string> logs, plans;
+  std::vector<std::string> logs, ramps;
   std::string candidates;
+  double min_share = 0.2;
+  // Options of the one mode given with the other (names, for the error).
+  std::string criterion_options_given, isolate_options_given;
 };
 
 Status ParseGrid(const std::string& text, OptimizerOptions* options) {
@@ -127,19 +130,25 @@ int RunIsolatingDesign(const DesignArgs& args) {
     std::fprintf(stderr, "kcrig design: %s\n", status.message().c_str());
     return 1;
   };
-  if (!args.estimate.empty() || args.augment) {
+  if (WorldRanks().size() > 1) {
     return fail(Status::Error(
-        "--isolate designs from the plan (--log, --plan), not from "
-        "--estimate"));
+        "--isolate runs in one process: start it without mpirun"));
+  }
+  if (!args.criterion_options_given.empty()) {
+    return fail(Status::Error(
+        "--isolate designs for the ties of the plan (--log, --ramp), not "
+        "for a criterion: drop " +
+        args.criterion_options_given));
   }
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (status.ok()) status = CheckOutput("--out", args.out, args.logs);
   std::vector<Experiment> plan;
-  if (status.ok()) status = LoadPlan(args.logs, args.plans, config, &plan);
+  if (status.ok()) status = LoadPlan(args.logs, args.ramps, config, &plan);
   if (!status.ok()) return fail(status);
   IsolatingDesignOptions options;
   options.isolability.candidates = SplitList(args.candidates);
+  options.isolability.min_share_left = args.min_share;
   if (args.budget) {
     options.search.evaluations_per_shape = std::max(
         1, *args.budget / static_cast<int>(options.search.shapes.size()));
@@ -172,12 +181,12 @@ int RunIsolatingDesign(const DesignArgs& args) {
     const RampExcitation<double>& d = design.excitation;
     std::printf(
         "  next experiment: phi %.2f deg, z_a %.3f m, ramp %.2f s, hold "
-        "%.2f s, return %.2f s (kcrig run --phi %.2f --z %.3f --duration "
-        "%.2f --hold %.2f --return %.2f)\n"
+        "%.2f s, return %.2f s (kcrig run --phi %.2f --z %.3f --fmax %.0f "
+        "--duration %.2f --hold %.2f --return %.2f)\n"
         "  resolves %d of the %zu ties; their mean separation %.0f %% -> "
         "%.0f %%, smallest %.0f %% -> %.0f %% (%d evaluations)\n",
         d.phi / kDegree, d.z_a, d.duration, d.hold, d.return_duration,
-        d.phi / kDegree, d.z_a, d.duration, d.hold, d.return_duration,
+        d.phi / kDegree, d.z_a, d.fmax, d.duration, d.hold, d.return_duration,
         design.resolved, design.ties.size(), 100 * design.mean_before,
         100 * design.mean_after, 100 * design.smallest_before,
         100 * design.smallest_after, design.evaluations);
@@ -193,6 +202,10 @@ int RunDesign(const DesignArgs& args) {
     std::fprintf(stderr, "kcrig design: %s\n", status.message().c_str());
     return 1;
   };
+  if (!args.isolate_options_given.empty()) {
+    return fail(
+        Status::Error(args.isolate_options_given + ": only with --isolate"));
+  }
   // Rank 0 alone reads the inputs; the other ranks their copies.
   InputMirror mirror(WorldRanks());
   DesignArgs read = args;
@@ -305,18 +318,38 @@ void AddDesignCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--out", args->out, "design.json to write");
   cmd->add_flag("--isolate", args->isolate,
                 "Design the ramp that tells apart the faults the plan "
-                "(--log, --plan) cannot (kcrig isolability), instead of "
+                "(--log, --ramp) cannot (kcrig isolability), instead of "
                 "the criterion's");
   cmd->add_option("--log", args->logs,
                   "With --isolate: a logged experiment of the plan "
                   "(repeatable)");
-  cmd->add_option("--plan", args->plans,
-                  "With --isolate: " + std::string(kPlanHelp));
+  cmd->add_option("--ramp", args->ramps,
+                  "With --isolate: " + std::string(kRampHelp));
   cmd->add_option("--candidates", args->candidates,
                   "With --isolate: comma-separated candidates (default: "
                   "every effect on each component, every freeable model "
                   "parameter)");
-  cmd->callback([args, run] { *run = [args] { return RunDesign(*args); }; });
+  cmd->add_option("--min-share", args->min_share,
+                  "With --isolate: share of a fault's signature its rival "
+                  "must leave for the diagnosis to tell them apart")
+      ->check(CLI::Range(0.001, 0.999));
+  cmd->callback([cmd, args, run] {
+    auto given = [cmd](std::initializer_list<const char*> names) {
+      std::string list;
+      for (const char* name : names) {
+        if (cmd->count(name) > 0)
+          list += (list.empty() ? "" : ", ") + std::string(name);
+      }
+      return list;
+    };
+    args->criterion_options_given =
+        given({"--estimate", "--augment", "--criterion", "--optimizer",
+               "--start-phi", "--start-z", "--grid", "--kriging-trend",
+               "--no-expected-improvement"});
+    args->isolate_options_given =
+        given({"--log", "--ramp", "--candidates", "--min-share"});
+    *run = [args] { return RunDesign(*args); };
+  });
 }
 
 }  // namespace kcrig

@@ -17,7 +17,7 @@ namespace {
 struct IsolabilityArgs {
   std::string config_dir;
   std::vector<std::string> logs;
-  std::vector<std::string> plans;
+  std::vector<std::string> ramps;
   std::string candidates;
   double min_share = 0.2;
   int threads = 2;
@@ -35,7 +35,7 @@ int RunIsolability(const IsolabilityArgs& args) {
   Status status = LoadConfig(args.config_dir, &config);
   if (status.ok()) status = CheckOutput("--out", args.out, args.logs);
   std::vector<Experiment> plan;
-  if (status.ok()) status = LoadPlan(args.logs, args.plans, config, &plan);
+  if (status.ok()) status = LoadPlan(args.logs, args.ramps, config, &plan);
   if (!status.ok()) return fail(status);
   IsolabilityOptions options;
   options.candidates = SplitList(args.candidates);
@@ -74,7 +74,7 @@ void AddIsolabilityCommand(CLI::App* app, std::function<int()>* run) {
   cmd->add_option("--config", args->config_dir,
                   "Config directory (default: installed or source config/)");
   cmd->add_option("--log", args->logs, "Logged experiment (repeatable)");
-  cmd->add_option("--plan", args->plans, kPlanHelp);
+  cmd->add_option("--ramp", args->ramps, kRampHelp);
   cmd->add_option("--candidates", args->candidates,
                   "Comma-separated candidates (default: every effect on "
                   "each component, every freeable model parameter)");

@@ -302,6 +302,10 @@ class CampaignRun {
       return Status::Error(Dir(k) + ": cannot create (" + error.message() +
                            ")");
     }
+    // A matrix of an earlier campaign in this folder is not this one's.
+    if (!options_.isolability) {
+      fs::remove(fs::path(Dir(k)) / "isolability.json", error);
+    }
     const std::string csv = (fs::path(Dir(k)) / "run.csv").string();
     char text[160];
     std::snprintf(text, sizeof(text),
@@ -548,29 +552,49 @@ class CampaignRun {
   }
 
   // The isolability of the logs so far (one analysis, grown a log at a
-  // time) and, unless done, the ties left with the next experiment.
+  // time) and, unless done, the ties left with the next experiment. Only a
+  // stop ends the campaign here: a candidate that cannot be evaluated on a
+  // log leaves the iteration's isolability not judged, with its reason.
   Status Isolate(bool done, CampaignIteration* it) {
     KCRIG_RETURN_IF_ERROR(Stage("iteration " + std::to_string(it->index) +
                                 ": which faults the logs tell apart"));
-    if (isolability_.num_experiments() == 0) {
+    Status status = Status::Ok();
+    // Grown by the newest log; (re)built from every log when it has none.
+    size_t first = experiments_.size() - 1;
+    if (!isolability_ready_) {
       IsolabilityOptions options = options_.isolability_options;
       options.callback = progress_.Nested();
       options.num_threads = options_.objective.num_threads;
-      KCRIG_RETURN_IF_ERROR(IsolabilityAnalysis::Create(
-          config_.model, config_.experiment.step, options, &isolability_));
+      status = IsolabilityAnalysis::Create(
+          config_.model, config_.experiment.step, options, &isolability_);
+      first = 0;
     }
-    KCRIG_RETURN_IF_ERROR(isolability_.Add(experiments_.back()));
-    it->isolability = isolability_.Matrix();
-    KCRIG_RETURN_IF_ERROR(WriteFilesAtomically(
-        {{(std::filesystem::path(Dir(it->index)) / "isolability.json").string(),
-          IsolabilityToJson(it->isolability) + "\n"}}));
-    if (done) return Status::Ok();
-    IsolabilityAnalysis with_next = isolability_;
-    KCRIG_RETURN_IF_ERROR(with_next.Add(
-        PlannedExperiment(special_next_.value_or(config_.experiment.Excitation(
-                              next_.phi, next_.z_a)),
-                          config_.experiment)));
-    it->ties_with_next = static_cast<int>(with_next.Matrix().Ties().size());
+    for (size_t k = first; status.ok() && k < experiments_.size(); ++k) {
+      status = isolability_.Add(experiments_[k]);
+    }
+    isolability_ready_ = status.ok();
+    if (status.ok()) {
+      it->isolability = isolability_.Matrix();
+      status = WriteFilesAtomically(
+          {{(std::filesystem::path(Dir(it->index)) / "isolability.json")
+                .string(),
+            IsolabilityToJson(it->isolability) + "\n"}});
+    }
+    if (status.ok() && !done) {
+      IsolabilityAnalysis with_next = isolability_;
+      status = with_next.Add(PlannedExperiment(
+          special_next_.value_or(
+              config_.experiment.Excitation(next_.phi, next_.z_a)),
+          config_.experiment));
+      if (status.ok()) {
+        it->ties_with_next = static_cast<int>(with_next.Matrix().Ties().size());
+      }
+    }
+    if (progress_.aborted()) return Interrupted("campaign");
+    if (!status.ok()) {
+      it->isolability = Isolability();
+      it->isolability_error = status.message();
+    }
     return Status::Ok();
   }
 
@@ -611,6 +635,7 @@ class CampaignRun {
   std::vector<std::string> logs_;
   std::vector<Experiment> experiments_;  // one per log, in order
   IsolabilityAnalysis isolability_;      // of experiments_
+  bool isolability_ready_ = false;
   Design next_;
   std::optional<RampExcitation<double>> special_next_;
   // The adopted effect model ("" none) and its latest fit.
@@ -644,7 +669,6 @@ Status RunCampaign(const KcrigConfig& config, const CampaignOptions& options,
 
 namespace {
 
-// One iteration's entry of campaign.json.
 // The isolability's counts for campaign.json (the matrix is the
 // iteration's isolability.json).
 nlohmann::ordered_json IsolabilityCounts(const CampaignIteration& it) {
@@ -656,7 +680,7 @@ nlohmann::ordered_json IsolabilityCounts(const CampaignIteration& it) {
   for (const auto& [i, j] : ties) {
     pairs.push_back({iso.candidates[i], iso.candidates[j]});
   }
-  return {{"candidates", iso.candidates.size()},
+  return {{"num_candidates", iso.candidates.size()},
           {"seen", visible},
           {"pairs", visible * (visible - 1) / 2},
           {"ties", pairs},
@@ -665,6 +689,7 @@ nlohmann::ordered_json IsolabilityCounts(const CampaignIteration& it) {
                                  : nlohmann::ordered_json()}};
 }
 
+// One iteration's entry of campaign.json.
 nlohmann::ordered_json IterationEntry(const CampaignIteration& it) {
   // The stiffnesses (the campaign's parameters) apart from an adopted
   // effect's, so that every iteration lists the same `parameters`.
@@ -709,6 +734,8 @@ nlohmann::ordered_json IterationEntry(const CampaignIteration& it) {
       {"criterion_of_data", it.criterion_of_data}};
   if (!it.isolability.candidates.empty()) {
     entry["isolability"] = IsolabilityCounts(it);
+  } else if (!it.isolability_error.empty()) {
+    entry["isolability"] = {{"error", it.isolability_error}};
   }
   if (it.special_excitation) {
     const RampExcitation<double>& e = *it.special_excitation;
@@ -765,10 +792,13 @@ Status ReadCampaign(const std::string& out_dir, Criterion* criterion,
 
 namespace {
 
-// What the diagnosis said and what the campaign did about it.
-// "which faults the logs tell apart: 958 of 990 pairs; ties: a ~ b, ...;
-// with the next experiment 25 ties".
+// "faults the logs tell apart: 1033 of 1081 pairs (48 ties: a ~ b, c ~ d,
+// e ~ f, ...); with the next experiment 50 ties", or why it was not judged.
 std::string IsolabilityLine(const CampaignIteration& it) {
+  if (!it.isolability_error.empty()) {
+    return "  faults the logs tell apart: not judged (" + it.isolability_error +
+           ")\n";
+  }
   const Isolability& iso = it.isolability;
   if (iso.candidates.empty()) return "";
   const auto ties = iso.Ties();
@@ -788,13 +818,16 @@ std::string IsolabilityLine(const CampaignIteration& it) {
   }
   if (ties.size() > kShown) out += ", ...";
   out += ")";
+  const long unseen = static_cast<long>(iso.candidates.size()) - visible;
+  if (unseen > 0) out += "; " + std::to_string(unseen) + " not seen";
   if (it.ties_with_next >= 0) {
     out += "; with the next experiment " + std::to_string(it.ties_with_next) +
-           " ties";
+           (it.ties_with_next == 1 ? " tie" : " ties");
   }
   return out + "\n";
 }
 
+// What the diagnosis said and what the campaign did about it.
 std::string DiagnosisAction(const CampaignIteration& it) {
   const DiagnosisResult& d = it.diagnosis;
   std::string out = "  checks failed (" + it.failed_checks +

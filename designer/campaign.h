@@ -63,8 +63,10 @@ struct CampaignOptions {
   DiagnosisOptions diagnosis;
   // Which faults the logs so far tell apart, each iteration, and with the
   // next experiment added (diagnosis/isolability.h); its callback and
-  // threads are the campaign's.
-  bool isolability = true;
+  // threads are the campaign's. Off by default: it costs about as much
+  // again as the rest of an iteration on the embedded rig (two trajectories
+  // with sensitivities per candidate, 47 candidates).
+  bool isolability = false;
   IsolabilityOptions isolability_options;
   // Asked at each stage ("iteration 1: designing (D, kriging)"), after each
   // batch of a design ("<stage> | kriging: 24/100 evaluations, ...") and
@@ -122,9 +124,10 @@ struct CampaignIteration {
   // many ties remain once the next experiment is added (-1: none planned).
   Isolability isolability;
   int ties_with_next = -1;
-  bool designed = false;         // false on the last iteration
-  double criterion_of_data = 0;  // Phi(I_data)
-  DesignRun design;              // Phi(I_data + I(v)) from v0 to v*
+  std::string isolability_error;  // why it was not judged ("" when it was)
+  bool designed = false;          // false on the last iteration
+  double criterion_of_data = 0;   // Phi(I_data)
+  DesignRun design;               // Phi(I_data + I(v)) from v0 to v*
 };
 
 // "ok", or which checks an iteration's estimate fails ("inadequate fit",

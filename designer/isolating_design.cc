@@ -1,6 +1,7 @@
 #include "designer/isolating_design.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 
@@ -62,40 +63,59 @@ Status DesignIsolatingExperiment(const KcrigConfig& config,
                                  IsolatingDesign* design) {
   *design = IsolatingDesign();
   const double step = config.experiment.step;
+  // The caller's callback, watched: a stop ends the search at once.
+  std::atomic<bool> stopped{false};
+  IsolabilityOptions watched = options.isolability;
+  watched.callback = [&stopped, outer = options.isolability.callback](
+                         const IterationSummary& summary) {
+    const CallbackReturn r = outer ? outer(summary) : CallbackReturn::kContinue;
+    if (r == CallbackReturn::kAbort) stopped = true;
+    return r;
+  };
   Isolability whole;
-  KCRIG_RETURN_IF_ERROR(ComputeIsolability(config.model, plan, step,
-                                           options.isolability, &whole));
+  KCRIG_RETURN_IF_ERROR(
+      ComputeIsolability(config.model, plan, step, watched, &whole));
   std::vector<std::pair<int, int>> pairs;
   const IsolabilityOptions tied =
-      TiedCandidates(whole, options.isolability, &pairs, design);
+      TiedCandidates(whole, watched, &pairs, design);
   if (pairs.empty()) return Status::Ok();
   IsolabilityAnalysis base;
   KCRIG_RETURN_IF_ERROR(
       IsolabilityAnalysis::Create(config.model, step, tied, &base));
   for (const Experiment& e : plan) KCRIG_RETURN_IF_ERROR(base.Add(e));
   const TieScore before = ScoreTies(base.Matrix(), pairs);
+  // A trial ramp the models cannot be evaluated on is skipped; a stop
+  // ends the search.
   Status failure = Status::Ok();
   auto with = [&](const RampExcitation<double>& ramp, TieScore* score) {
     IsolabilityAnalysis trial = base;
-    const Status status = trial.Add(PlannedExperiment(ramp, config.experiment));
-    if (!status.ok()) failure = status;
-    if (status.ok()) *score = ScoreTies(trial.Matrix(), pairs);
-    return status.ok();
+    Experiment e = PlannedExperiment(ramp, config.experiment);
+    char name[80];
+    std::snprintf(name, sizeof(name), "trial ramp phi %.1f deg, z_a %.3f m",
+                  ramp.phi / kDegree, ramp.z_a);
+    e.source = name;
+    const Status status = trial.Add(e);
+    if (!status.ok()) {
+      failure = status;
+      return false;
+    }
+    *score = ScoreTies(trial.Matrix(), pairs);
+    return true;
   };
   const ShapeSearchResult found =
       MaximizeOverShapes(config.experiment, options.search.shapes,
                          options.search.evaluations_per_shape,
                          [&](const RampExcitation<double>& ramp) {
                            TieScore score;
-                           // Once stopped (or failed), the search runs out
-                           // without work.
-                           if (!failure.ok() || !with(ramp, &score))
+                           if (stopped || !with(ramp, &score))
                              return std::nan("");
                            return score.mean;
                          });
-  KCRIG_RETURN_IF_ERROR(failure);
+  if (stopped) return Interrupted("isolating design");
   if (found.value < 0) {
-    return Status::Error("isolating design: no design could be evaluated");
+    return failure.ok()
+               ? Status::Error("isolating design: no design could be evaluated")
+               : failure;
   }
   TieScore after;
   if (!with(found.best, &after)) return failure;

@@ -1,6 +1,7 @@
 #include "diagnosis/isolability.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -66,24 +67,31 @@ Status ExperimentColumns(const EffectModel& nominal_model,
   columns->resize(jacobian.rows(), total);
   columns->leftCols<kNumBushings>() = jacobian;
   const int n = static_cast<int>(models.size());
+  const std::vector<Experiment> one = {e};
   std::vector<Status> status(n, Status::Ok());
+  std::atomic<int> done{0};
   ParallelFor(n, num_threads, [&](int i) {
     if (progress->aborted()) return;
     std::vector<double> own_theta;
     Eigen::MatrixXd own;
     Eigen::VectorXd own_residuals;
-    status[i] = WeightedJacobian(models[i], StartOf(models[i]), {e}, step,
+    status[i] = WeightedJacobian(models[i], StartOf(models[i]), one, step,
                                  &own_theta, &own, &own_residuals);
     if (status[i].ok()) {
       columns->middleCols(blocks[i].first, blocks[i].count) =
           own.rightCols(blocks[i].count);
     }
-    progress->Report(
-        {"isolability: " + models[i].Name() + " on " + e.source, -1, i + 1, n});
+    const int finished = ++done;
+    progress->Report({"isolability on " + e.source + ": " +
+                          std::to_string(finished) + "/" + std::to_string(n) +
+                          " candidates",
+                      static_cast<double>(finished) / n, finished, n});
   });
+  // Stopped: the columns of the candidates skipped were never written.
+  if (progress->aborted()) return Interrupted("isolability");
   for (const Status& s : status) KCRIG_RETURN_IF_ERROR(s);
   if (!columns->allFinite()) {
-    return Status::Error("isolability: " + e.source +
+    return Status::Error(e.source +
                          ": a candidate's sensitivities are not finite");
   }
   return Status::Ok();
@@ -128,13 +136,16 @@ void FillMatrix(const Eigen::MatrixXd& r, const std::vector<Block>& blocks,
     // experiment loads gives zero columns).
     out->visible[i] = signature[i].squaredNorm() >
                       1e-12 * std::max(own.squaredNorm(), 1e-300);
-    span[i] = Basis(signature[i]);
+    if (out->visible[i]) span[i] = Basis(signature[i]);
   }
+  // Undefined (NaN) where either is not seen: an unseen rival's residue
+  // spans noise.
   out->left.setConstant(n, n, std::numeric_limits<double>::quiet_NaN());
   for (int i = 0; i < n; ++i) {
     if (!out->visible[i]) continue;
     const double whole = signature[i].squaredNorm();
     for (int j = 0; j < n; ++j) {
+      if (!out->visible[j]) continue;
       out->left(i, j) =
           i == j ? 0.0
                  : ProjectOff(span[j], signature[i]).squaredNorm() / whole;
@@ -293,9 +304,10 @@ std::string IsolabilitySummary(const Isolability& iso) {
   std::snprintf(line, sizeof(line),
                 "%d candidates, %d seen by the experiments; %ld of %ld pairs "
                 "told apart (each leaves >= %.0f %% of the other's "
-                "signature); the ties, with the smaller share left:\n",
+                "signature)%s\n",
                 n, visible, pairs - static_cast<long>(ties.size()), pairs,
-                100 * iso.min_share_left);
+                100 * iso.min_share_left,
+                ties.empty() ? "" : "; the ties, with the smaller share left:");
   std::string text = line;
   // Each pair once, under its first candidate, with its separation.
   for (int i = 0; i < n; ++i) {

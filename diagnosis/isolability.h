@@ -53,7 +53,7 @@ struct Isolability {
   // Whether the experiments see the candidate at all beyond the
   // stiffnesses (an effect on an axis no experiment loads does not show).
   std::vector<bool> visible;
-  // left(i, j) as above; left(i, i) = 0; NaN where i is not visible.
+  // left(i, j) as above; left(i, i) = 0; NaN where i or j is not visible.
   Eigen::MatrixXd left;
   double min_share_left = 0.2;
 
@@ -125,8 +125,8 @@ Status ComputeIsolability(const SuspensionParameters<double>& nominal,
 std::string IsolabilityToJson(const Isolability& isolability);
 
 // For the terminal: how many pairs are separable, the ties (each pair once,
-// one line per candidate: "hysteresis@bushing:V1 ~ bushing_damping@
-// bushing:V1 (2 %), actuator_lag@actuator:y (13 %)", the smaller of the
+// one line per candidate: "bushing_damping@bushing:V2 ~ hysteresis@
+// bushing:V2 (0 %), actuator_lag@actuator:y (13 %)", the smaller of the
 // two shares left) and the candidates the experiments do not see.
 std::string IsolabilitySummary(const Isolability& isolability);
 

@@ -515,10 +515,8 @@ Status InitialStatesJson(const fs::path& root,
   return Status::Ok();
 }
 
-// The campaign's figures: every experiment against the final estimate, the
-// estimates per iteration, the criterion surfaces and the kriging surrogate.
 // The isolability matrix the campaign wrote for its last iteration; null
-// when there is none (a campaign from before it was written).
+// when there is none (a campaign run without --isolability).
 Status IsolabilityJson(const fs::path& root,
                        const std::vector<CampaignIteration>& iterations,
                        Json* out) {
@@ -545,9 +543,12 @@ Status IsolabilityJson(const fs::path& root,
     }
   }
   if (!square) {
-    return Status::Error(where +
-                         ".left: expected one row of numbers or null per "
-                         "candidate, one per candidate");
+    return Status::Error(where + ".left: expected " + std::to_string(n) +
+                         " rows of " + std::to_string(n) +
+                         " numbers or nulls, one per candidate");
+  }
+  if (!(min_share > 0 && min_share < 1)) {
+    return Status::Error(where + ".min_share_left: not in (0, 1)");
   }
   *out = {{"iteration", last},
           {"candidates", candidates},
@@ -556,6 +557,8 @@ Status IsolabilityJson(const fs::path& root,
   return Status::Ok();
 }
 
+// The campaign's figures: every experiment against the final estimate, the
+// estimates per iteration, the criterion surfaces and the kriging surrogate.
 Status CampaignJson(const KcrigConfig& config, const fs::path& root,
                     const ReportOptions& options, Json* data,
                     ReportSummary* summary) {

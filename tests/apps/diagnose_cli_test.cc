@@ -191,7 +191,7 @@ TEST_F(DiagnoseCliTest, UnknownCandidateIsRefused) {
 TEST_F(DiagnoseCliTest, IsolabilityOfAPlanAndOfLogs) {
   const std::string out = Path("iso.json");
   const CliResult plan = RunKcrig(
-      "isolability --quiet --plan 0,0 --plan 90,-0.3,2,0.3,1.5 --out " + out);
+      "isolability --quiet --ramp 0,0 --ramp 90,-0.3,2,0.3,1.5 --out " + out);
   ASSERT_EQ(plan.exit_code, 0) << plan.output;
   EXPECT_NE(plan.output.find("2 experiments; 47 candidates"), std::string::npos)
       << plan.output;
@@ -215,14 +215,59 @@ TEST_F(DiagnoseCliTest, IsolabilityRefusesABadPlanInOneLine) {
   const std::string out = Path("iso.json");
   for (const auto& [arguments, expected] :
        std::vector<std::pair<std::string, std::string>>{
-           {"--plan 10", "--plan '10': expected PHI_DEG,Z_M"},
-           {"--plan 10,abc", "'abc' is not a number"},
-           {"--plan 10,5", "outside the design bounds"},
-           {"--plan 10,-0.1,0", "the ramp time must be positive"},
+           {"--ramp 10", "--ramp '10': expected PHI_DEG,Z_M"},
+           {"--ramp 10,-0.1,,0.3", "'' is not a number"},
+           {"--ramp 10,abc", "'abc' is not a number"},
+           {"--ramp 10,5", "outside the design bounds"},
+           {"--ramp 10,-0.1,0", "the ramp time must be positive"},
            {"--candidates hysteresis@bushing:X9", "X9"},
            {"--log " + Path("missing.csv"), "missing.csv"}}) {
     const CliResult r =
         RunKcrig("isolability --quiet " + arguments + " --out " + out);
+    EXPECT_EQ(r.exit_code, 1) << arguments << ": " << r.output;
+    EXPECT_EQ(CountLines(r.output), 1) << r.output;
+    EXPECT_NE(r.output.find(expected), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(out)) << arguments;
+  }
+}
+
+// `kcrig design --isolate`: the ramp that tells a plan's tied pair apart.
+TEST_F(DiagnoseCliTest, DesignIsolateProposesTheRampThatResolvesATie) {
+  const std::string out = Path("isolating.json");
+  // One ramp up: damping and hysteresis in V1 tie; a ramp at another rate
+  // tells them apart.
+  CliResult r = RunKcrig(
+      "design --isolate --quiet --ramp 0,0 --candidates "
+      "hysteresis@bushing:V1,bushing_damping@bushing:V1 --out " +
+      out);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("1 experiment in the plan, 1 tie"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("resolves 1 of the 1 ties"), std::string::npos)
+      << r.output;
+  std::ifstream in(out);
+  const nlohmann::json doc = nlohmann::json::parse(in);
+  ASSERT_EQ(doc["ties"].size(), 1u);
+  EXPECT_EQ(doc["resolved"], 1);
+  EXPECT_GE(doc["smallest_separation_after"].get<double>(), 0.2);
+  EXPECT_LT(doc["smallest_separation_before"].get<double>(), 0.2);
+  EXPECT_NE(doc["run_options"].get<std::string>().find("--fmax 4000"),
+            std::string::npos);
+  // A plan that already tells them apart: nothing to design.
+  r = RunKcrig(
+      "design --isolate --quiet --ramp 0,0 --ramp 90,-0.3,2,0.3,1.5 "
+      "--ramp 45,-0.15,1,0,1 --candidates "
+      "hysteresis@bushing:V1,bushing_damping@bushing:V1");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("nothing to design"), std::string::npos) << r.output;
+  // The two modes' options are not mixed.
+  fs::remove(out);
+  for (const auto& [arguments, expected] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"--isolate --criterion A", "drop --criterion"},
+           {"--ramp 0,0", "--ramp: only with --isolate"},
+           {"--isolate --ramp 0,,1", "--ramp '0,,1': '' is not a number"}}) {
+    r = RunKcrig("design --quiet " + arguments + " --out " + out);
     EXPECT_EQ(r.exit_code, 1) << arguments << ": " << r.output;
     EXPECT_EQ(CountLines(r.output), 1) << r.output;
     EXPECT_NE(r.output.find(expected), std::string::npos) << r.output;

@@ -50,8 +50,10 @@ class ReportBrowserTest : public TempDirTest {};
 
 TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
   const std::string dir = Path("campaign");
-  CliResult r =
-      RunKcrig("campaign --iterations 1 --budget 12 --quiet --out " + dir);
+  CliResult r = RunKcrig(
+      "campaign --iterations 1 --budget 12 --isolability --quiet "
+      "--out " +
+      dir);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("report with 10 figures: " + dir + "/report.html"),
             std::string::npos)

@@ -54,7 +54,7 @@ class ReportCliTest : public TempDirTest {
       fs::remove_all(*campaign_);
       const CliResult r = RunKcrig(
           "campaign --iterations 1 --budget 12 --quiet --no-report "
-          "--out " +
+          "--isolability --out " +
           *campaign_);
       EXPECT_EQ(r.exit_code, 0) << r.output;
     }
@@ -91,6 +91,16 @@ TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
   EXPECT_EQ(data["isolability"]["iteration"], 1);
   EXPECT_EQ(data["isolability"]["candidates"].size(), 47u);
   EXPECT_EQ(data["isolability"]["left"].size(), 47u);
+  // campaign.json counts what each iteration's logs tell apart, and the
+  // ties the next experiment leaves (none after the last).
+  const Json campaign =
+      Json::parse(std::ifstream(Campaign() + "/campaign.json"));
+  const Json& first = campaign["iterations"][0]["isolability"];
+  EXPECT_EQ(first["candidates"], 47);
+  EXPECT_GT(first["pairs"].get<int>(), 1000);
+  EXPECT_TRUE(first["ties_with_next"].is_number());
+  EXPECT_TRUE(
+      campaign["iterations"][1]["isolability"]["ties_with_next"].is_null());
   // The K&C sheet of both runs against the final model, with their loops:
   // the rising branch is the 4 s ramp, decimated to at most 1001 points.
   ASSERT_EQ(data["kc"]["sheet"]["runs"].size(), 2u);
@@ -458,8 +468,8 @@ TEST(ReportSurfacesTest, AreTheObjectiveTheCampaignSearched) {
                                " --grid 3x2 --quiet --out " + html);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   // 3 experiments, sensitivities, estimates, D and A of 2 designs, kriging,
-  // the isolability matrix, 3 K&C loops.
-  EXPECT_NE(r.output.find("14 figures (3 experiments, campaign)"),
+  // 3 K&C loops (no isolability: not asked for).
+  EXPECT_NE(r.output.find("13 figures (3 experiments, campaign)"),
             std::string::npos)
       << r.output;
   const Json data = PageData(ReadText(html));
