@@ -15,7 +15,12 @@ height (0 to -0.5 m), duration (1-2.5 s), hold (0-0.3 s) and return
 kcrig never sees.
 `kcrig diagnose` judges the logs; this script compares its verdict with the
 truth and prints the confusion matrix, the component and parameter hits and
-the issue's figures beside their goals.
+the issue's figures beside their goals. `kcrig isolability` judges the same
+logs: whether the diagnosis told the truth apart from every rival the
+matrix calls separable, and which confusions the matrix had predicted as
+ties. For an ambiguous verdict, `kcrig design --isolate` designs the ramp
+for the pair; it is generated with the same truth and the case diagnosed
+again with it among the training logs (resolved: the truth named alone).
 
 It fails (exit 1) when kcrig is confidently wrong: a high-confidence verdict
 naming a class that is not the truth's (for an effect outside every class:
@@ -188,9 +193,10 @@ def run_case(index, kind, arguments, designs, kcrig, config, work):
                           *[a for name in LOGS for a in ("--log",
                                                          str(logs[name]))],
                           "--quiet", "--out", str(case / "iso.json")])
-    if code != 0:
-        return {"index": index, "kind": kind, "error": error.strip()}
-    iso = json.loads((case / "iso.json").read_text())
+    # A matrix that cannot be computed is a finding of its own, not a
+    # failed diagnosis.
+    iso = ({"error": error.strip()} if code != 0 else
+           json.loads((case / "iso.json").read_text()))
     size = effect_size(kcrig, config, case)
     if size is None:
         return {"index": index, "kind": kind, "error": "size: estimate failed"}
@@ -389,31 +395,41 @@ def matrix_candidate(kind, component):
 
 
 def isolability_outcome(result, component):
-    """For a truth on one component: the rivals the matrix calls separable
-    from it and those it calls tied, and the rivals the diagnosis confused
-    with it (named instead of it, or left ambiguous with it); None when the
-    truth is no candidate of the matrix."""
+    """For a truth on one component that the logs show: the rivals the
+    matrix calls separable from it and those it calls tied, the rivals the
+    diagnosis confused with it (named instead of it, or left ambiguous with
+    it) and whether it decided at all (a verdict of `none`, or `unexplained`
+    without an ambiguous pair, tells nothing apart and confuses nothing);
+    None when the truth is no candidate of the matrix or not seen."""
     truth = matrix_candidate(result["kind"], component)
     iso = result["isolability"]
-    if truth not in iso["candidates"]:
+    if "error" in iso or truth not in iso["candidates"]:
         return None
     i = iso["candidates"].index(truth)
+    if not iso["visible"][i]:
+        return None
     threshold = iso["min_share_left"]
     separable, tied = set(), set()
     for j, name in enumerate(iso["candidates"]):
-        if j == i:
+        if j == i or not iso["visible"][j]:
             continue
         a, b = iso["left"][i][j], iso["left"][j][i]
-        if a is None or b is None:
-            continue
         (separable if min(a, b) >= threshold else tied).add(name)
     named = set(result["ambiguous"]) | {result["model"]}
-    confused = {n for n in named if n and n != truth}
-    if truth in named and not result["ambiguous"] and \
-            result["model"] == truth:
-        confused = set()
     return {"truth": truth, "separable": separable, "tied": tied,
-            "confused": confused}
+            "confused": {n for n in named if n and n != truth},
+            "decided": bool(result["model"]) or bool(result["ambiguous"])}
+
+
+def resolved(result, component):
+    """Whether the diagnosis with the isolating ramp named the truth alone;
+    None when no isolating ramp ran on a tie the truth is part of."""
+    i = result.get("isolating")
+    truth = matrix_candidate(result["kind"], component)
+    if not i or "error" in i or not i.get("tied_by_matrix") or \
+            truth not in i["pair"]:
+        return None
+    return i["model_after"] == truth and not i["ambiguous_after"]
 
 
 def rate(hits, goal):
@@ -479,10 +495,13 @@ def summarise(results, components):
                          ("every size with a gap found", detected)):
         outcomes = [o for o in (isolability_outcome(r, components[r["index"]])
                                 for r in group) if o is not None]
-        print(f"isolability ({label}, on one component): pairs the matrix "
-              "calls separable, told apart: " +
-              rate([rival not in o["confused"] for o in outcomes
-                    for rival in o["separable"]], 0.95))
+        decided = [o for o in outcomes if o["decided"]]
+        print(f"isolability ({label}, on one component, seen): cases that "
+              "told the truth apart from every rival the matrix calls "
+              "separable: " +
+              rate([not (o["confused"] & o["separable"]) for o in decided],
+                   0.95) + f" ({len(outcomes) - len(decided)} more ended "
+              "none or unexplained without a pair)")
         confusions = [(o, rival) for o in outcomes for rival in o["confused"]]
         in_matrix = [(o, rival) for o, rival in confusions
                      if rival in o["separable"] | o["tied"]]
@@ -494,29 +513,36 @@ def summarise(results, components):
                   ("" if rival in o["separable"] | o["tied"] else
                    " (not a candidate of the matrix)") +
                   (" (predicted)" if rival in o["tied"] else ""))
-    isolating = [(r, r["isolating"]) for r in results
+    isolating = [r for r in results
                  if "error" not in r and r.get("isolating")]
-    for r, i in isolating:
+    for r in isolating:
+        i = r["isolating"]
         truth = matrix_candidate(r["kind"], components[r["index"]])
         if "error" in i:
             print(f"  case {r['index']}: design --isolate failed: "
                   f"{i['error']}")
             continue
-        i["resolved"] = (truth is not None and i["model_after"] == truth and
-                         not i["ambiguous_after"])
-        print(f"  case {r['index']} ({truth}): tie {' ~ '.join(i['pair'])}" +
-              (f", the isolating ramp's separation "
-               f"{100 * i['separation_after']:.0f} %: "
-               f"{'resolved' if i['resolved'] else 'not resolved'} "
-               f"(verdict after: {i['model_after'] or 'none'}"
-               f"{' ~ ' + ' ~ '.join(i['ambiguous_after']) if i['ambiguous_after'] else ''})"
-               if i.get("tied_by_matrix") else ", not a tie of the matrix"))
-    tied = [i for _, i in isolating if i.get("tied_by_matrix")]
-    print("ties the matrix predicted, resolved by the ramp kcrig design "
-          "--isolate proposes: " + rate([i["resolved"] for i in tied], 0.9))
+        after = (f"verdict after: {i['model_after'] or 'none'}" +
+                 (" ~ " + " ~ ".join(i["ambiguous_after"])
+                  if i["ambiguous_after"] else "")
+                 if i.get("tied_by_matrix") else "not a tie of the matrix")
+        print(f"  case {r['index']} (truth {truth}): tie "
+              f"{' ~ '.join(i['pair'])}; " +
+              (f"the isolating ramp's separation "
+               f"{100 * i['separation_after']:.0f} %, "
+               if i.get("tied_by_matrix") else "") + after)
+    outcomes = [(r, resolved(r, components[r["index"]])) for r in isolating]
+    outcomes = [(r, ok) for r, ok in outcomes if ok is not None]
+    print("ties the matrix predicted (the truth one of the pair), resolved "
+          "by the ramp kcrig design --isolate proposes: " +
+          rate([ok for _, ok in outcomes], 0.9))
     print("  of those it predicted resolvable: " +
-          rate([i["resolved"] for i in tied if i["predicted_resolved"]],
-               0.9))
+          rate([ok for r, ok in outcomes
+                if r["isolating"]["predicted_resolved"]], 0.9))
+    failed = [r["index"] for r in results
+              if "error" not in r and "error" in r["isolability"]]
+    if failed:
+        print(f"  kcrig isolability failed on cases {failed}")
     clean = [r for r in results if r["kind"] == "clean" and "error" not in r]
     print("clean: none " + rate([r["verdict"] == "none" for r in clean],
                                 0.95))
