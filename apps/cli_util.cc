@@ -271,4 +271,13 @@ Status LoadPlan(const std::vector<std::string>& logs,
   return Status::Ok();
 }
 
+Status LoadPlanInputs(const std::string& config_dir, const std::string& out,
+                      const std::vector<std::string>& logs,
+                      const std::vector<std::string>& ramps,
+                      KcrigConfig* config, std::vector<Experiment>* plan) {
+  KCRIG_RETURN_IF_ERROR(LoadConfig(config_dir, config));
+  KCRIG_RETURN_IF_ERROR(CheckOutput("--out", out, logs));
+  return LoadPlan(logs, ramps, *config, plan);
+}
+
 }  // namespace kcrig

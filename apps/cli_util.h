@@ -86,6 +86,13 @@ Status LoadPlan(const std::vector<std::string>& logs,
                 const std::vector<std::string>& ramps,
                 const KcrigConfig& config, std::vector<Experiment>* plan);
 
+// A plan's command inputs: the config of `config_dir`, `out` checked
+// (CheckOutput's --out), then LoadPlan.
+Status LoadPlanInputs(const std::string& config_dir, const std::string& out,
+                      const std::vector<std::string>& logs,
+                      const std::vector<std::string>& ramps,
+                      KcrigConfig* config, std::vector<Experiment>* plan);
+
 // Under MPI rank 0 alone reads the inputs (cluster/input_mirror.h): the
 // config folder (as LoadConfig resolves "") and the logs with their
 // sidecars; on the other ranks the paths then name their copies.

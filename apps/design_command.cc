@@ -141,10 +141,9 @@ int RunIsolatingDesign(const DesignArgs& args) {
         args.criterion_options_given));
   }
   KcrigConfig config;
-  Status status = LoadConfig(args.config_dir, &config);
-  if (status.ok()) status = CheckOutput("--out", args.out, args.logs);
   std::vector<Experiment> plan;
-  if (status.ok()) status = LoadPlan(args.logs, args.ramps, config, &plan);
+  Status status = LoadPlanInputs(args.config_dir, args.out, args.logs,
+                                 args.ramps, &config, &plan);
   if (!status.ok()) return fail(status);
   IsolatingDesignOptions options;
   options.isolability.candidates = SplitList(args.candidates);
@@ -181,15 +180,14 @@ int RunIsolatingDesign(const DesignArgs& args) {
     const RampExcitation<double>& d = design.excitation;
     std::printf(
         "  next experiment: phi %.2f deg, z_a %.3f m, ramp %.2f s, hold "
-        "%.2f s, return %.2f s (kcrig run --phi %.2f --z %.3f --fmax %.0f "
-        "--duration %.2f --hold %.2f --return %.2f)\n"
+        "%.2f s, return %.2f s (kcrig run %s)\n"
         "  resolves %d of the %zu ties; their mean separation %.0f %% -> "
         "%.0f %%, smallest %.0f %% -> %.0f %% (%d evaluations)\n",
         d.phi / kDegree, d.z_a, d.duration, d.hold, d.return_duration,
-        d.phi / kDegree, d.z_a, d.fmax, d.duration, d.hold, d.return_duration,
-        design.resolved, design.ties.size(), 100 * design.mean_before,
-        100 * design.mean_after, 100 * design.smallest_before,
-        100 * design.smallest_after, design.evaluations);
+        RunOptions(d).c_str(), design.resolved, design.ties.size(),
+        100 * design.mean_before, 100 * design.mean_after,
+        100 * design.smallest_before, 100 * design.smallest_after,
+        design.evaluations);
   }
   if (!args.out.empty()) std::printf("  wrote %s\n", args.out.c_str());
   return 0;

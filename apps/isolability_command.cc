@@ -32,10 +32,9 @@ int RunIsolability(const IsolabilityArgs& args) {
     return 1;
   };
   KcrigConfig config;
-  Status status = LoadConfig(args.config_dir, &config);
-  if (status.ok()) status = CheckOutput("--out", args.out, args.logs);
   std::vector<Experiment> plan;
-  if (status.ok()) status = LoadPlan(args.logs, args.ramps, config, &plan);
+  Status status = LoadPlanInputs(args.config_dir, args.out, args.logs,
+                                 args.ramps, &config, &plan);
   if (!status.ok()) return fail(status);
   IsolabilityOptions options;
   options.candidates = SplitList(args.candidates);

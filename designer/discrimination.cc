@@ -51,14 +51,18 @@ Status DesignDiscriminatingExperiment(const EffectModel& a,
   return Status::Ok();
 }
 
-std::string DiscriminatingDesignToJson(const DiscriminatingDesign& design) {
-  const RampExcitation<double>& d = design.excitation;
+std::string RunOptions(const RampExcitation<double>& d) {
   char options[200];
   std::snprintf(options, sizeof(options),
                 "--phi %.2f --z %.3f --fmax %.0f --duration %.2f --hold %.2f "
                 "--return %.2f",
                 d.phi / kDegree, d.z_a, d.fmax, d.duration, d.hold,
                 d.return_duration);
+  return options;
+}
+
+std::string DiscriminatingDesignToJson(const DiscriminatingDesign& design) {
+  const RampExcitation<double>& d = design.excitation;
   nlohmann::ordered_json doc = {
       {"discriminates", {design.model_a, design.model_b}},
       {"criterion", "sum of squared prediction differences / sigma^2"},
@@ -70,7 +74,7 @@ std::string DiscriminatingDesignToJson(const DiscriminatingDesign& design) {
       {"return_s", d.return_duration},
       {"divergence", design.divergence},
       {"evaluations", design.evaluations},
-      {"run_options", options}};
+      {"run_options", RunOptions(d)}};
   return doc.dump();
 }
 

@@ -64,6 +64,11 @@ Status DesignToTellApart(const KcrigConfig& config,
                          const std::string& model_a, const std::string& model_b,
                          DiscriminatingDesign* design);
 
+// The `kcrig run` / `kcrig simulate` options that perform `ramp`:
+// "--phi 11.11 --z -0.500 --fmax 4000 --duration 1.00 --hold 0.00
+// --return 0.00".
+std::string RunOptions(const RampExcitation<double>& ramp);
+
 // The design as a JSON object for diag.json (angles in deg, with the
 // `kcrig run` / `kcrig simulate` options that perform it).
 std::string DiscriminatingDesignToJson(const DiscriminatingDesign& design);

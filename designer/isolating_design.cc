@@ -135,12 +135,6 @@ std::string IsolatingDesignToJson(const IsolatingDesign& design) {
   nlohmann::ordered_json doc = {{"ties", ties}};
   if (!design.ties.empty()) {
     const RampExcitation<double>& d = design.excitation;
-    char options[200];
-    std::snprintf(options, sizeof(options),
-                  "--phi %.2f --z %.3f --fmax %.0f --duration %.2f --hold "
-                  "%.2f --return %.2f",
-                  d.phi / kDegree, d.z_a, d.fmax, d.duration, d.hold,
-                  d.return_duration);
     doc["criterion"] =
         "mean over the ties of min(left(i, j), left(j, i)) with the ramp";
     doc["phi_deg"] = d.phi / kDegree;
@@ -155,7 +149,7 @@ std::string IsolatingDesignToJson(const IsolatingDesign& design) {
     doc["smallest_separation_before"] = design.smallest_before;
     doc["smallest_separation_after"] = design.smallest_after;
     doc["evaluations"] = design.evaluations;
-    doc["run_options"] = options;
+    doc["run_options"] = RunOptions(d);
   }
   return doc.dump(2) + "\n";
 }
