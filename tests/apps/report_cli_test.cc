@@ -96,7 +96,7 @@ TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
   const Json campaign =
       Json::parse(std::ifstream(Campaign() + "/campaign.json"));
   const Json& first = campaign["iterations"][0]["isolability"];
-  EXPECT_EQ(first["candidates"], 47);
+  EXPECT_EQ(first["num_candidates"], 47);
   EXPECT_GT(first["pairs"].get<int>(), 1000);
   EXPECT_TRUE(first["ties_with_next"].is_number());
   EXPECT_TRUE(

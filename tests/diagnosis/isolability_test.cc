@@ -94,7 +94,11 @@ TEST_F(IsolabilityTest, EveryLibraryCandidateIsComputedWithinItsRange) {
   EXPECT_EQ(iso.candidates, IsolabilityCandidates(config_.model));
   for (int i = 0; i < iso.left.rows(); ++i) {
     for (int j = 0; j < iso.left.cols(); ++j) {
-      if (!iso.visible[i]) continue;
+      // Undefined where either is not seen.
+      if (!iso.visible[i] || !iso.visible[j]) {
+        EXPECT_TRUE(std::isnan(iso.left(i, j))) << iso.candidates[i];
+        continue;
+      }
       EXPECT_GE(iso.left(i, j), -1e-9) << iso.candidates[i];
       EXPECT_LE(iso.left(i, j), 1 + 1e-9) << iso.candidates[i];
     }
