@@ -302,10 +302,9 @@ class CampaignRun {
       return Status::Error(Dir(k) + ": cannot create (" + error.message() +
                            ")");
     }
-    // A matrix of an earlier campaign in this folder is not this one's.
-    if (!options_.isolability) {
-      fs::remove(fs::path(Dir(k)) / "isolability.json", error);
-    }
+    // A matrix of an earlier campaign in this folder is not this one's
+    // (Isolate writes this one's, when it has one).
+    fs::remove(fs::path(Dir(k)) / "isolability.json", error);
     const std::string csv = (fs::path(Dir(k)) / "run.csv").string();
     char text[160];
     std::snprintf(text, sizeof(text),
