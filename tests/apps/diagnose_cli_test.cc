@@ -260,14 +260,18 @@ TEST_F(DiagnoseCliTest, DesignIsolateProposesTheRampThatResolvesATie) {
       "hysteresis@bushing:V1,bushing_damping@bushing:V1");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("nothing to design"), std::string::npos) << r.output;
-  // The two modes' options are not mixed.
-  fs::remove(out);
+}
+
+// The two modes' options are not mixed.
+TEST_F(DiagnoseCliTest, DesignIsolateRefusesTheCriterionsOptions) {
+  const std::string out = Path("isolating.json");
   for (const auto& [arguments, expected] :
        std::vector<std::pair<std::string, std::string>>{
            {"--isolate --criterion A", "drop --criterion"},
            {"--ramp 0,0", "--ramp: only with --isolate"},
            {"--isolate --ramp 0,,1", "--ramp '0,,1': '' is not a number"}}) {
-    r = RunKcrig("design --quiet " + arguments + " --out " + out);
+    const CliResult r =
+        RunKcrig("design --quiet " + arguments + " --out " + out);
     EXPECT_EQ(r.exit_code, 1) << arguments << ": " << r.output;
     EXPECT_EQ(CountLines(r.output), 1) << r.output;
     EXPECT_NE(r.output.find(expected), std::string::npos) << r.output;

@@ -42,20 +42,23 @@ Json PageData(const std::string& html) {
 
 // One small campaign per test process that needs it (ctest runs each test
 // in its own process, two at a time: the folder is the process's), built
-// on first use: under the sanitizers a campaign takes a minute.
+// on first use: under the sanitizers a campaign takes a minute, and one
+// that judges isolability (47 candidates' sensitivities per experiment)
+// three; only the test of the report's figures needs that one.
 class ReportCliTest : public TempDirTest {
  protected:
-  static const std::string& Campaign() {
+  enum class Judge { kIsolability, kNothingMore };
+  static const std::string& Campaign(Judge judge) {
     if (campaign_ == nullptr) {
       campaign_ = new std::string(
           (fs::temp_directory_path() /
            ("kcrig_report_cli_campaign_" + std::to_string(getpid())))
               .string());
       fs::remove_all(*campaign_);
-      const CliResult r = RunKcrig(
-          "campaign --iterations 1 --budget 12 --quiet --no-report "
-          "--isolability --out " +
-          *campaign_);
+      const CliResult r =
+          RunKcrig(std::string("campaign --iterations 1 --budget 12 --quiet ") +
+                   (judge == Judge::kIsolability ? "--isolability " : "") +
+                   "--no-report --out " + *campaign_);
       EXPECT_EQ(r.exit_code, 0) << r.output;
     }
     return *campaign_;
@@ -71,9 +74,10 @@ class ReportCliTest : public TempDirTest {
 std::string* ReportCliTest::campaign_ = nullptr;
 
 TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
-  ASSERT_FALSE(fs::exists(Campaign() + "/report.html"));
+  const std::string& campaign = Campaign(Judge::kIsolability);
+  ASSERT_FALSE(fs::exists(campaign + "/report.html"));
   const std::string html = Path("report.html");
-  const CliResult r = RunKcrig("report --from " + Campaign() +
+  const CliResult r = RunKcrig("report --from " + campaign +
                                " --grid 4x3 --quiet --out " + html);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   // 2 experiments, sensitivities, estimates, D and A surfaces, kriging,
@@ -93,14 +97,13 @@ TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
   EXPECT_EQ(data["isolability"]["left"].size(), 47u);
   // campaign.json counts what each iteration's logs tell apart, and the
   // ties the next experiment leaves (none after the last).
-  const Json campaign =
-      Json::parse(std::ifstream(Campaign() + "/campaign.json"));
-  const Json& first = campaign["iterations"][0]["isolability"];
+  const Json summary = Json::parse(std::ifstream(campaign + "/campaign.json"));
+  const Json& first = summary["iterations"][0]["isolability"];
   EXPECT_EQ(first["num_candidates"], 47);
   EXPECT_GT(first["pairs"].get<int>(), 1000);
   EXPECT_TRUE(first["ties_with_next"].is_number());
   EXPECT_TRUE(
-      campaign["iterations"][1]["isolability"]["ties_with_next"].is_null());
+      summary["iterations"][1]["isolability"]["ties_with_next"].is_null());
   // The K&C sheet of both runs against the final model, with their loops:
   // the rising branch is the 4 s ramp, decimated to at most 1001 points.
   ASSERT_EQ(data["kc"]["sheet"]["runs"].size(), 2u);
@@ -389,14 +392,15 @@ TEST_F(ReportCliTest, BadFoldersAreOneLineErrorsAndWriteNothing) {
   ExpectRefused("--from " + Path("empty"),
                 "no campaign.json, diag.json, timing.json or validate.json",
                 out);
-  ExpectRefused("--from " + Campaign() + " --grid 19", "--grid 19", out);
-  ExpectRefused("--from " + Campaign() + " --grid 1x5", "--grid 1x5", out);
+  const std::string& campaign = Campaign(Judge::kNothingMore);
+  ExpectRefused("--from " + campaign + " --grid 19", "--grid 19", out);
+  ExpectRefused("--from " + campaign + " --grid 1x5", "--grid 1x5", out);
 
   // A copy of the campaign, broken in one place at a time.
   const std::string copy = Path("copy");
   auto fresh = [&] {
     fs::remove_all(copy);
-    fs::copy(Campaign(), copy, fs::copy_options::recursive);
+    fs::copy(campaign, copy, fs::copy_options::recursive);
   };
   fresh();
   const std::string summary = copy + "/campaign.json";
