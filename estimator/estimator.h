@@ -85,7 +85,7 @@ struct ParameterEstimate {
 };
 
 // A log's initial state: where its model started, what the rig kept from
-// its last run (README: "How kcrig handles the memory").
+// its last run (docs/rig.md, "How kcrig handles the memory").
 struct LogInitialState {
   // The log's tare (Experiment::tare). A log without phases has none.
   std::optional<TarePose> tare;

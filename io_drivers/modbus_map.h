@@ -34,7 +34,7 @@ struct ModbusMap {
 };
 
 // Control word bits and the map's protocol version. One master at a time
-// (README 2.4): a write with `claim` and a session token (not 0 or
+// (docs/rig.md, Modbus): a write with `claim` and a session token (not 0 or
 // kOwnerHidden) takes an unclaimed rig; while claimed, the rig obeys only
 // writes that carry the owner's token in the same request on the
 // connection that claimed (others get exception 6, server busy), and tells

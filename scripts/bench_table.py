@@ -15,9 +15,9 @@ A file or a benchmark that is missing, unreadable or skipped makes its row
 say "not run"; the script never fails on the data.
 
   python3 scripts/bench_table.py                       print the table
-  python3 scripts/bench_table.py --update README.md    also rewrite the part
+  python3 scripts/bench_table.py --update docs/benchmarks.md    also rewrite the part
       between <!-- bench-table:begin --> and <!-- bench-table:end -->
-      (temp file + rename: the README is never half-written)
+      (temp file + rename: the file is never half-written)
   --dir DIR    where the JSON files are (default: build/bench of this repo)
 
 Python 3 standard library only.

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Fails when a library includes a header of a folder it may not depend on.
 
-The table is the README's layout section (DESIGN.md section 2 as built, with
-the amendments the README states): a folder lists the folders it may include
+The table is docs/layout.md's (DESIGN.md section 2 as built, with
+the amendments it states): a folder lists the folders it may include
 from directly. Tests, benchmarks and fuzzers may include anything; no
 library may include from them or from any other folder of the tree. A
 library's headers under internal/ are its own (Ceres' internal/ split):

@@ -56,7 +56,7 @@ long DeadlinesPassedWhileAsleep(const nlohmann::json& timing) {
 
 class HilCliTest : public TempDirTest {
  protected:
-  // The controller and the software rig share one CPU, as the README
+  // The controller and the software rig share one CPU, as docs/rig.md
   // advises when both run on one machine: the loopback reply then wakes
   // the loop without a cross-CPU wake-up, which a VM makes slow.
   void SetUp() override {
@@ -605,7 +605,7 @@ TEST_F(HilCliTest, AStallIsNamedAsTheRigsWatchdogAndTheClaimStays) {
   EXPECT_EQ(hil["undelivered_after_trip"], 0) << hil.dump();
 }
 
-// The fault-reaction matrix's Modbus TCP rows (README 2.5): an operator
+// The fault-reaction matrix's Modbus TCP rows (docs/rig.md, safety): an operator
 // stop, the rig's own emergency stop (SIGUSR1 to kcrig emulate) and a
 // travel limit reached, each timed from run.csv in cycles from the trip:
 // every axis of the load cell below 5 % of force_max, and the disable.

@@ -390,13 +390,13 @@ std::string Cell(std::int64_t cycles) {
   return cycles < 0 ? "—" : std::to_string(cycles);
 }
 
-// The fault-reaction matrix of README 2.5, on the SIL rig at 1 kHz: each
+// The fault-reaction matrix of docs/rig.md, safety, on the SIL rig at 1 kHz: each
 // fault at cycle 2000 (0.3 s into the ramp, at -3.4 kN), its reaction and
 // latencies from the fault: to the loop's first safe command, to the rig's
 // own fault, to every axis of the rig's force below 5 % of force_max, and
 // to disabled (the loop's disable reaching the rig, or the rig's own at
-// under 1 N). Printed as the README's table; every latency within the
-// bounds the README states.
+// under 1 N). Printed as docs/rig.md's table; every latency within the
+// bounds it states.
 TEST_F(FaultReactionTest, EveryFaultsReactionIsMeasuredAndWithinItsBounds) {
   const struct {
     const char* fault;
