@@ -1,5 +1,5 @@
-// One master at a time, on the rig side (the contract of docs/rig.md, Modbus, that a
-// real rig's front end implements too): a master claims an unclaimed rig
+// One master at a time, on the rig side (the contract of docs/rig.md, Modbus,
+// that a real rig's front end implements too): a master claims an unclaimed rig
 // with a non-zero session token; while it is claimed, only requests that
 // carry the owner's token on the owner's connection are obeyed, and all
 // others are refused and counted, so a token read or guessed by another

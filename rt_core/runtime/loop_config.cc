@@ -50,8 +50,8 @@ Status LoadSafetyLimits(const YamlReader& reader, const YAML::Node& root,
   KCRIG_RETURN_IF_ERROR(
       within_a_second("force_error_cycles", l.force_error_cycles));
   // A force ramping at the rate limit leads the load cell by at least the
-  // transport's two cycles (and by the actuator's lag on top: docs/rig.md, safety),
-  // or a correct run trips.
+  // transport's two cycles (and by the actuator's lag on top: docs/rig.md,
+  // safety), or a correct run trips.
   if (l.force_error_max <= 2 * period * l.force_rate_max) {
     return reader.Error(safety["force_error_max"], "safety.force_error_max",
                         "must exceed force_rate_max x 2 cycles (the command "

@@ -605,8 +605,8 @@ TEST_F(HilCliTest, AStallIsNamedAsTheRigsWatchdogAndTheClaimStays) {
   EXPECT_EQ(hil["undelivered_after_trip"], 0) << hil.dump();
 }
 
-// The fault-reaction matrix's Modbus TCP rows (docs/rig.md, safety): an operator
-// stop, the rig's own emergency stop (SIGUSR1 to kcrig emulate) and a
+// The fault-reaction matrix's Modbus TCP rows (docs/rig.md, safety): an
+// operator stop, the rig's own emergency stop (SIGUSR1 to kcrig emulate) and a
 // travel limit reached, each timed from run.csv in cycles from the trip:
 // every axis of the load cell below 5 % of force_max, and the disable.
 // Within the loop's ramp-down (500 cycles) and the actuator's lag.

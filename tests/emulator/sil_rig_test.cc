@@ -390,8 +390,8 @@ std::string Cell(std::int64_t cycles) {
   return cycles < 0 ? "—" : std::to_string(cycles);
 }
 
-// The fault-reaction matrix of docs/rig.md, safety, on the SIL rig at 1 kHz: each
-// fault at cycle 2000 (0.3 s into the ramp, at -3.4 kN), its reaction and
+// The fault-reaction matrix of docs/rig.md, safety, on the SIL rig at 1 kHz:
+// each fault at cycle 2000 (0.3 s into the ramp, at -3.4 kN), its reaction and
 // latencies from the fault: to the loop's first safe command, to the rig's
 // own fault, to every axis of the rig's force below 5 % of force_max, and
 // to disabled (the loop's disable reaching the rig, or the rig's own at
