@@ -3,13 +3,15 @@
 # AddressSanitizer + UBSan preset (clang), and runs the test suite under both, then
 # the libFuzzer targets (clang) for a short time each.
 #   scripts/test.sh          CI tier (labels ci, ci-statistical, ci-heavy,
-#                            ci-realtime, ci-vcan, ci-loopback); under the
+#                            ci-realtime, ci-vcan, ci-loopback,
+#                            ci-package); under the
 #                            sanitizers the statistical and heavy ones
 #                            (hundreds of seeded re-estimations, long
 #                            profiles: numbers, not memory), the real-time
 #                            tests (1 kHz processes, in-process rigs in
-#                            real time: deadlines) and the vcan
-#                            tests (a VM under TCG) are left to Release, and
+#                            real time: deadlines), the vcan
+#                            tests (a VM under TCG) and the Debian package
+#                            (a Release artefact) are left to Release, and
 #                            only what the sanitizer tier runs is built
 #                            there (ci_tier_tests; line tables, -g1); in
 #                            Release what the ci* labels run
@@ -40,7 +42,7 @@ for preset in release asan; do
   if ((full)); then
     ctest --preset "$preset"
   elif [[ "$preset" == asan ]]; then
-    ctest --preset "$preset" -L ci -LE 'statistical|heavy|realtime|vcan|browser|loopback'
+    ctest --preset "$preset" -L ci -LE 'statistical|heavy|realtime|vcan|browser|loopback|package'
     # The in-process Modbus master and rig, the rig on a virtual clock (its
     # real-time twins are ci-realtime: Release only); a stall of the machine
     # can still time a reply out, so a failed case runs once more.

@@ -200,8 +200,16 @@ Status LoadConfig(const std::string& given_directory, KcrigConfig* config) {
 }
 
 std::string DefaultConfigDirectory() {
-  if (std::filesystem::is_directory(KCRIG_INSTALLED_CONFIG_DIR)) {
-    return KCRIG_INSTALLED_CONFIG_DIR;
+  namespace fs = std::filesystem;
+  // Relative to the binary, not to a prefix fixed at build time: a package
+  // unpacked anywhere reads its own config, and a build tree's binary never
+  // reads a kcrig installed on the machine.
+  std::error_code error;
+  const fs::path binary = fs::read_symlink("/proc/self/exe", error);
+  if (!error) {
+    const fs::path beside =
+        (binary.parent_path() / KCRIG_CONFIG_DIR_FROM_BINARY).lexically_normal();
+    if (fs::is_directory(beside, error)) return beside.string();
   }
   return KCRIG_SOURCE_CONFIG_DIR;
 }

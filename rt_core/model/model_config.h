@@ -54,8 +54,9 @@ Status LoadConfig(const std::string& directory, KcrigConfig* config);
 Status ValidateModel(const SuspensionParameters<double>& model,
                      const std::string& source);
 
-// The config directory used when --config is not given: the installed one if
-// present, else the source tree's.
+// The config directory used when --config is not given: the one installed
+// beside the running binary (its bin/../share/kcrig/config) if present, else
+// the source tree's.
 std::string DefaultConfigDirectory();
 
 // A short hex digest of the model's geometry, masses, spring and damping:

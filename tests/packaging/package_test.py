@@ -1,0 +1,146 @@
+#!/usr/bin/env python3
+"""The Debian package of a rig PC, built, installed by dpkg and run.
+
+  package_test.py BUILD_DIR WORK_DIR
+
+Builds the package with `cpack -G DEB` from BUILD_DIR, checks its control
+fields and contents, checks that every run-time dependency it declares is
+installed on this machine, installs it with dpkg into a root of its own
+under WORK_DIR (its own dpkg database: the machine's packages are never
+touched) and runs the main job, `kcrig campaign`, from the installed
+binary in a folder outside the source tree. The installed plant.yaml is
+edited first (c_O1 3600 -> 3200 N/mm), so the campaign finding 3200 N/mm
+proves the binary reads the configuration installed beside it. Finally the
+package is purged and must leave no file behind.
+Python 3 standard library only; dpkg, dpkg-deb and cpack from the machine.
+"""
+import json
+import pathlib
+import re
+import shutil
+import subprocess
+import sys
+
+CONTENTS = [
+    'usr/bin/kcrig',
+    'usr/share/kcrig/config/model.yaml',
+    'usr/share/kcrig/config/experiment.yaml',
+    'usr/share/kcrig/config/rig.yaml',
+    'usr/share/kcrig/config/plant.yaml',
+    'usr/share/kcrig/config/kc_rig.dbc',
+    'usr/share/kcrig/config/modbus_map.yaml',
+    'usr/share/doc/kcrig/README.md',
+    'usr/share/doc/kcrig/docs/rig.md',
+]
+TRUE_C_O1 = 3.2e6
+
+
+def run(args, **kwargs):
+    result = subprocess.run(args, capture_output=True, text=True, **kwargs)
+    if result.returncode != 0:
+        sys.exit(f'{" ".join(map(str, args))}: exit {result.returncode}\n'
+                 f'{result.stdout}{result.stderr}')
+    return result.stdout
+
+
+def build_package(build_dir, work):
+    out = work / 'package'
+    run(['cpack', '-G', 'DEB', '-B', str(out)], cwd=build_dir)
+    debs = list(out.glob('kcrig_*.deb'))
+    if len(debs) != 1:
+        sys.exit(f'cpack wrote {len(debs)} kcrig_*.deb in {out}')
+    return debs[0]
+
+
+def check_control(deb):
+    fields = {f: run(['dpkg-deb', '-f', str(deb), f]).strip()
+              for f in ('Package', 'Version', 'Architecture', 'Depends')}
+    print('control:', fields)
+    assert fields['Package'] == 'kcrig', fields
+    for lib in ('libmodbus5', 'libyaml-cpp0.7', 'libstdc++6'):
+        assert lib in fields['Depends'], f'Depends lacks {lib}'
+    # Every dependency satisfiable here: one alternative of each installed.
+    for group in fields['Depends'].split(','):
+        names = [re.sub(r'\s*\(.*\)', '', a).strip()
+                 for a in group.split('|')]
+        if not any(installed(n) for n in names):
+            sys.exit(f'dependency {group.strip()} is not installed')
+
+
+def installed(package):
+    result = subprocess.run(
+        ['dpkg-query', '-W', '-f=${Status}', package],
+        capture_output=True, text=True)
+    return result.stdout.strip() == 'install ok installed'
+
+
+def check_contents(deb):
+    listed = {line.split()[-1].lstrip('./')
+              for line in run(['dpkg-deb', '-c', str(deb)]).splitlines()}
+    for path in CONTENTS:
+        assert path in listed, f'{deb.name} lacks {path}'
+
+
+def install(deb, root):
+    admin = root / 'var/lib/dpkg'
+    for sub in ('info', 'updates', 'triggers'):
+        (admin / sub).mkdir(parents=True)
+    (admin / 'status').touch()
+    (admin / 'available').touch()
+    # This root's database knows no library: the dependencies were checked
+    # against the machine's above.
+    run(['dpkg', f'--root={root}', '--force-depends', '--force-not-root',
+         '--log=/dev/null', '-i', str(deb)])
+    status = run(['dpkg-query', f'--admindir={admin}', '-W',
+                  '-f=${Status}', 'kcrig'])
+    assert status == 'install ok installed', status
+
+
+def run_main_job(root, work):
+    plant = root / 'usr/share/kcrig/config/plant.yaml'
+    text = plant.read_text()
+    edited = re.sub(r'(\n\s*c_O1:\s*)3\.6e6', rf'\g<1>{TRUE_C_O1:g}', text)
+    assert edited != text, 'plant.yaml: no c_O1: 3.6e6 to edit'
+    plant.write_text(edited)
+    job = work / 'job'
+    job.mkdir()
+    output = run([str(root / 'usr/bin/kcrig'), 'campaign', '--quiet',
+                  '--out', 'out/campaign'], cwd=job)
+    print(output)
+    folder = job / 'out/campaign'
+    assert (folder / 'report.html').is_file(), 'no report.html'
+    campaign = json.loads((folder / 'campaign.json').read_text())
+    c_o1 = next(p for p in campaign['iterations'][-1]['parameters']
+                if p['name'] == 'c_O1')
+    low, high = c_o1['ci95']
+    print(f'c_O1 {c_o1["value"]:.0f} N/m, 95 % [{low:.0f}, {high:.0f}]')
+    assert abs(c_o1['value'] - TRUE_C_O1) < 0.01 * TRUE_C_O1, c_o1
+
+
+def purge(root):
+    run(['dpkg', f'--root={root}', '--force-not-root', '--log=/dev/null',
+         '--purge', 'kcrig'])
+    left = [p for p in (root / 'usr').rglob('*') if p.is_file()]
+    assert not left, f'left after --purge: {left}'
+
+
+def main():
+    if len(sys.argv) != 3:
+        sys.exit(__doc__)
+    build_dir = pathlib.Path(sys.argv[1]).resolve()
+    work = pathlib.Path(sys.argv[2]).resolve()
+    shutil.rmtree(work, ignore_errors=True)
+    work.mkdir(parents=True)
+    deb = build_package(build_dir, work)
+    check_control(deb)
+    check_contents(deb)
+    root = work / 'root'
+    install(deb, root)
+    run_main_job(root, work)
+    purge(root)
+    shutil.rmtree(work)
+    print('package: built, installed, ran the main job, purged')
+
+
+if __name__ == '__main__':
+    main()
