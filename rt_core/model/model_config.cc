@@ -208,7 +208,8 @@ std::string DefaultConfigDirectory() {
   const fs::path binary = fs::read_symlink("/proc/self/exe", error);
   if (!error) {
     const fs::path beside =
-        (binary.parent_path() / KCRIG_CONFIG_DIR_FROM_BINARY).lexically_normal();
+        (binary.parent_path() / KCRIG_CONFIG_DIR_FROM_BINARY)
+            .lexically_normal();
     if (fs::is_directory(beside, error)) return beside.string();
   }
   return KCRIG_SOURCE_CONFIG_DIR;
