@@ -23,7 +23,7 @@
 #include "designer/campaign.h"
 #include "designer/internal/ecnoise.h"
 #include "designer/optimizers.h"
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 #include "emulator/plant_config.h"
 #include "emulator/sil_rig.h"
 #include "emulator/simulated_run.h"

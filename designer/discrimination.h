@@ -16,7 +16,7 @@
 
 #include "base/status.h"
 #include "diagnosis/diagnosis.h"
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 #include "rt_core/model/model_config.h"
 
 namespace kcrig {

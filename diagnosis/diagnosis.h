@@ -21,7 +21,7 @@
 #include "base/batch_runner.h"
 #include "base/iteration_callback.h"
 #include "base/status.h"
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 #include "estimator/adequacy.h"
 #include "estimator/experiment.h"
 

@@ -8,7 +8,7 @@
 
 #include "Eigen/QR"
 #include "base/parallel_for.h"
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 #include "nlohmann/json.hpp"
 #include "rt_core/model/plant_effects.h"
 

@@ -28,7 +28,7 @@
 #include "Eigen/Core"
 #include "base/iteration_callback.h"
 #include "base/status.h"
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 #include "estimator/experiment.h"
 #include "rt_core/model/suspension_parameters.h"
 

@@ -4,7 +4,7 @@
 #include <type_traits>
 #include <utility>
 
-#include "estimator/sensitivity_plant.h"
+#include "estimator/internal/sensitivity_plant.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/simulation.h"
 

@@ -6,7 +6,7 @@
 #include <optional>
 
 #include "Eigen/Dense"
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 #include "rt_core/model/channels.h"
 
 namespace kcrig {

@@ -14,7 +14,7 @@
 #include "designer/criterion_surface.h"
 #include "designer/kriging.h"
 #include "diagnosis/diagnosis_io.h"
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 #include "estimator/estimate_io.h"
 #include "estimator/estimator.h"
 #include "estimator/experiment.h"

@@ -16,7 +16,7 @@
 
 #include "Eigen/Cholesky"
 #include "diagnosis/diagnosis_io.h"
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 #include "emulator/sil_rig.h"
 #include "hil/rig_session.h"
 #include "nlohmann/json.hpp"

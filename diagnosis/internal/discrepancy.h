@@ -27,7 +27,7 @@
 
 #include "base/status.h"
 #include "diagnosis/diagnosis.h"
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 #include "estimator/experiment.h"
 
 namespace kcrig {

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "base/status.h"
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 #include "estimator/adequacy.h"
 #include "estimator/experiment.h"
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "estimator/estimator.h"
-#include "estimator/least_squares.h"
+#include "estimator/internal/least_squares.h"
 
 namespace kcrig {
 

@@ -2,7 +2,7 @@
 // analytic problems whose solutions are known: a bound the data push
 // against, a start on a bound, a parameter pushed beyond its bound early
 // and pulled back in later, and the box itself never left.
-#include "estimator/least_squares.h"
+#include "estimator/internal/least_squares.h"
 
 #include <gtest/gtest.h>
 

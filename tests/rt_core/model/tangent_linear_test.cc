@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "ceres/jet.h"
-#include "estimator/sensitivity_plant.h"
+#include "estimator/internal/sensitivity_plant.h"
 #include "gtest/gtest.h"
 #include "rt_core/model/rig_plant.h"
 #include "rt_core/model/simulation.h"

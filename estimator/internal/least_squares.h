@@ -12,8 +12,8 @@
 // made it crawl towards the bound in ever smaller steps); a parameter the
 // data push outward stays on its bound, and the next round of the solve
 // holds it there (released again when the gradient turns inward).
-#ifndef KCRIG_ESTIMATOR_LEAST_SQUARES_H_
-#define KCRIG_ESTIMATOR_LEAST_SQUARES_H_
+#ifndef KCRIG_ESTIMATOR_INTERNAL_LEAST_SQUARES_H_
+#define KCRIG_ESTIMATOR_INTERNAL_LEAST_SQUARES_H_
 
 #include <memory>
 #include <string>
@@ -112,4 +112,4 @@ class LeastSquaresProblem {
 
 }  // namespace kcrig
 
-#endif  // KCRIG_ESTIMATOR_LEAST_SQUARES_H_
+#endif  // KCRIG_ESTIMATOR_INTERNAL_LEAST_SQUARES_H_

@@ -2,8 +2,8 @@
 // trajectories, the diagnosis' single effects): a Jet of 8 directions, its
 // tangent-linear model and plant compiled once (sensitivity_plant.cc)
 // instead of in each file that fits.
-#ifndef KCRIG_ESTIMATOR_SENSITIVITY_PLANT_H_
-#define KCRIG_ESTIMATOR_SENSITIVITY_PLANT_H_
+#ifndef KCRIG_ESTIMATOR_INTERNAL_SENSITIVITY_PLANT_H_
+#define KCRIG_ESTIMATOR_INTERNAL_SENSITIVITY_PLANT_H_
 
 #include "ceres/jet.h"
 #include "rt_core/model/rig_plant.h"
@@ -20,4 +20,4 @@ extern template class BasicRigPlant<SensitivityJet>;
 
 }  // namespace kcrig
 
-#endif  // KCRIG_ESTIMATOR_SENSITIVITY_PLANT_H_
+#endif  // KCRIG_ESTIMATOR_INTERNAL_SENSITIVITY_PLANT_H_

@@ -10,8 +10,8 @@
 // Parameters are fitted in scaled form theta: a bushing stiffness is
 // nominal * theta, an effect parameter base + scale * theta (scale a typical
 // magnitude, so every theta is of order one).
-#ifndef KCRIG_DIAGNOSIS_EFFECT_MODEL_H_
-#define KCRIG_DIAGNOSIS_EFFECT_MODEL_H_
+#ifndef KCRIG_ESTIMATOR_EFFECT_MODEL_H_
+#define KCRIG_ESTIMATOR_EFFECT_MODEL_H_
 
 #include <string>
 #include <vector>
@@ -325,4 +325,4 @@ Status RefitOneStep(const EffectModel& model, const std::vector<double>& values,
 
 }  // namespace kcrig
 
-#endif  // KCRIG_DIAGNOSIS_EFFECT_MODEL_H_
+#endif  // KCRIG_ESTIMATOR_EFFECT_MODEL_H_

@@ -1,4 +1,4 @@
-#include "estimator/least_squares.h"
+#include "estimator/internal/least_squares.h"
 
 #include <algorithm>
 #include <cmath>

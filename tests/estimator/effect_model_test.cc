@@ -1,7 +1,7 @@
 // Candidate models of the diagnosis: the fit recovers an effect's parameters
 // from data the software rig's plant made with that effect, with intervals
 // that cover the truth, and the nominal candidate is the nominal model.
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "estimator/sensitivity_plant.h"
+#include "estimator/internal/sensitivity_plant.h"
 
 namespace kcrig {
 

@@ -1,4 +1,4 @@
-#include "diagnosis/effect_model.h"
+#include "estimator/effect_model.h"
 
 #include <algorithm>
 #include <chrono>
@@ -11,9 +11,9 @@
 #include "ceres/ceres.h"
 #include "ceres/jet.h"
 #include "estimator/jacobian_cache.h"
-#include "estimator/least_squares.h"
+#include "estimator/internal/least_squares.h"
 #include "estimator/residual_structure.h"
-#include "estimator/sensitivity_plant.h"
+#include "estimator/internal/sensitivity_plant.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/rig_plant.h"
 
