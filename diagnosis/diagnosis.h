@@ -21,8 +21,8 @@
 #include "base/batch_runner.h"
 #include "base/iteration_callback.h"
 #include "base/status.h"
-#include "estimator/effect_model.h"
 #include "estimator/adequacy.h"
+#include "estimator/effect_model.h"
 #include "estimator/experiment.h"
 
 namespace kcrig {

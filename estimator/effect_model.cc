@@ -10,10 +10,10 @@
 #include "base/parallel_for.h"
 #include "ceres/ceres.h"
 #include "ceres/jet.h"
-#include "estimator/jacobian_cache.h"
 #include "estimator/internal/least_squares.h"
-#include "estimator/residual_structure.h"
 #include "estimator/internal/sensitivity_plant.h"
+#include "estimator/jacobian_cache.h"
+#include "estimator/residual_structure.h"
 #include "rt_core/model/excitation.h"
 #include "rt_core/model/rig_plant.h"
 

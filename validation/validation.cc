@@ -16,8 +16,8 @@
 
 #include "Eigen/Cholesky"
 #include "diagnosis/diagnosis_io.h"
-#include "estimator/effect_model.h"
 #include "emulator/sil_rig.h"
+#include "estimator/effect_model.h"
 #include "hil/rig_session.h"
 #include "nlohmann/json.hpp"
 

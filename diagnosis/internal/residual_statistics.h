@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "base/status.h"
-#include "estimator/effect_model.h"
 #include "estimator/adequacy.h"
+#include "estimator/effect_model.h"
 #include "estimator/experiment.h"
 
 namespace kcrig {
