@@ -6,6 +6,7 @@
 #include <new>
 #include <utility>
 
+#include "base/json_writer.h"
 #include "nlohmann/json.hpp"
 #include "rt_core/model/channels.h"
 #include "rt_core/model/excitation.h"
@@ -58,7 +59,7 @@ const char* SafetyName(SafetyState state) {
 Json Array(const double* values, int n) {
   Json list = Json::array();
   for (int i = 0; i < n; ++i) {
-    list.push_back(std::isfinite(values[i]) ? Json(values[i]) : Json());
+    list.push_back(FiniteOrNull(values[i]));
   }
   return list;
 }

@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "base/json_reader.h"
+#include "base/json_writer.h"
 #include "estimator/estimate_io.h"
 #include "nlohmann/json.hpp"
 
@@ -12,14 +13,9 @@ namespace {
 
 using Json = nlohmann::ordered_json;
 
-Json Number(double value) {
-  if (std::isfinite(value)) return value;
-  return nullptr;
-}
-
 Json PerChannel(const Vec6<double>& v) {
   Json out;
-  for (int k = 0; k < 6; ++k) out[kChannelNames[k]] = Number(v(k));
+  for (int k = 0; k < 6; ++k) out[kChannelNames[k]] = FiniteOrNull(v(k));
   return out;
 }
 
@@ -32,7 +28,8 @@ Json HardPointsToJson(const std::vector<HardPointMove>& moves) {
     Json covariance = Json::array();
     for (int j = 0; j < 3; ++j) {
       Json row = Json::array();
-      for (int k = 0; k < 3; ++k) row.push_back(Number(m.covariance(j, k)));
+      for (int k = 0; k < 3; ++k)
+        row.push_back(FiniteOrNull(m.covariance(j, k)));
       covariance.push_back(row);
     }
     out.push_back(
@@ -51,9 +48,9 @@ Json HardPointsToJson(const std::vector<HardPointMove>& moves) {
 Json SliceJson(const GapSlice& s) {
   return {{"name", s.name},
           {"samples", s.samples},
-          {"score", Number(s.score)},
+          {"score", FiniteOrNull(s.score)},
           {"score_per_channel", PerChannel(s.channel_score)},
-          {"excess_share", Number(s.excess_share)},
+          {"excess_share", FiniteOrNull(s.excess_share)},
           {"mean_residual", PerChannel(s.mean)},
           {"rms", PerChannel(s.rms)}};
 }
@@ -61,13 +58,14 @@ Json SliceJson(const GapSlice& s) {
 Json ParametersJson(const EstimationResult& r) {
   Json list = Json::array();
   for (const ParameterEstimate& p : r.parameters) {
-    list.push_back({{"name", p.name},
-                    {"unit", p.unit},
-                    {"value", p.value},
-                    {"standard_error", Number(p.standard_error)},
-                    {"ci95", {Number(p.ci95_low), Number(p.ci95_high)}},
-                    {"identifiable", p.identifiable},
-                    {"at_bound", p.at_bound}});
+    list.push_back(
+        {{"name", p.name},
+         {"unit", p.unit},
+         {"value", p.value},
+         {"standard_error", FiniteOrNull(p.standard_error)},
+         {"ci95", {FiniteOrNull(p.ci95_low), FiniteOrNull(p.ci95_high)}},
+         {"identifiable", p.identifiable},
+         {"at_bound", p.at_bound}});
   }
   return list;
 }
@@ -79,17 +77,17 @@ Json CandidateJson(const CandidateScore& s) {
     return out;
   }
   out["parameters"] = ParametersJson(s.fit.result);
-  out["residual_correlation"] = Number(s.fit.result.residual_correlation);
-  out["interval_widening"] = Number(s.fit.result.interval_widening);
+  out["residual_correlation"] = FiniteOrNull(s.fit.result.residual_correlation);
+  out["interval_widening"] = FiniteOrNull(s.fit.result.interval_widening);
   out["num_parameters"] = s.num_parameters;
-  out["train_chi2"] = Number(s.train_chi2);
-  out["bic"] = Number(s.bic);
-  out["aicc"] = Number(s.aicc);
+  out["train_chi2"] = FiniteOrNull(s.train_chi2);
+  out["bic"] = FiniteOrNull(s.bic);
+  out["aicc"] = FiniteOrNull(s.aicc);
   // Not computed is null, never a zero that reads as "below the noise".
-  out["score"] = s.scored ? Number(s.score) : Json(nullptr);
+  out["score"] = s.scored ? FiniteOrNull(s.score) : Json(nullptr);
   out["heldout_rms"] = s.heldout ? PerChannel(s.heldout_rms) : Json(nullptr);
-  out["gap_closed"] = s.scored ? Number(s.gap_closed) : Json(nullptr);
-  out["ljung_box_p"] = s.scored ? Number(s.ljung_box_p) : Json(nullptr);
+  out["gap_closed"] = s.scored ? FiniteOrNull(s.gap_closed) : Json(nullptr);
+  out["ljung_box_p"] = s.scored ? FiniteOrNull(s.ljung_box_p) : Json(nullptr);
   out["iterations"] = s.fit.result.iterations;
   out["converged"] = s.fit.result.converged;
   out["at_far_bound"] = s.at_far_bound;
@@ -201,23 +199,23 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
   doc["rival"] = r.rival.empty()
                      ? Json(nullptr)
                      : Json({{"model", r.rival},
-                             {"separation", Number(r.rival_separation)}});
+                             {"separation", FiniteOrNull(r.rival_separation)}});
   Json leads = Json::array();
   for (const ParameterLead& lead : r.parameter_leads) {
     leads.push_back({{"parameter", lead.name},
                      {"component", ComponentOfParameter(lead.name)},
-                     {"chi2_drop", Number(lead.chi2_drop)},
+                     {"chi2_drop", FiniteOrNull(lead.chi2_drop)},
                      {"freed", lead.freed}});
   }
   doc["parameter_screening"] = leads;
   doc["reason"] = r.reason;
   doc["gap"] = {{"present", r.gap},
-                {"chi2", Number(r.chi2)},
+                {"chi2", FiniteOrNull(r.chi2)},
                 {"dof", r.dof},
-                {"chi2_p", Number(r.chi2_p)},
-                {"ljung_box_p", Number(r.ljung_box_p)},
-                {"score", Number(r.dof > 0 ? r.chi2 / r.dof : 0)},
-                {"discretisation_sigma", Number(r.discretisation)},
+                {"chi2_p", FiniteOrNull(r.chi2_p)},
+                {"ljung_box_p", FiniteOrNull(r.ljung_box_p)},
+                {"score", FiniteOrNull(r.dof > 0 ? r.chi2 / r.dof : 0)},
+                {"discretisation_sigma", FiniteOrNull(r.discretisation)},
                 {"continuous_limit", r.continuous_limit},
                 {"source", r.gap_source}};
   if (r.prediction.assessed) {
@@ -229,10 +227,10 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
     const GapSlice& s = r.channels[k];
     channels.push_back({{"channel", s.name},
                         {"unit", k < 3 ? "m" : "rad"},
-                        {"rms", Number(s.rms(k))},
-                        {"score", Number(s.score)},
-                        {"excess_share", Number(s.excess_share)},
-                        {"mean_residual", Number(s.mean(k))}});
+                        {"rms", FiniteOrNull(s.rms(k))},
+                        {"score", FiniteOrNull(s.score)},
+                        {"excess_share", FiniteOrNull(s.excess_share)},
+                        {"mean_residual", FiniteOrNull(s.mean(k))}});
   }
   localisation["channels"] = channels;
   Json magnitude = Json::array(), direction = Json::array();
@@ -244,28 +242,28 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
   for (const FrequencyBand& b : r.bands) {
     bands.push_back({{"low_hz", b.low_hz},
                      {"high_hz", b.high_hz},
-                     {"energy_share", Number(b.energy_share)},
-                     {"white_noise_share", Number(b.white_share)}});
+                     {"energy_share", FiniteOrNull(b.energy_share)},
+                     {"white_noise_share", FiniteOrNull(b.white_share)}});
   }
   localisation["frequency_bands"] = bands;
   Json lags = Json::array();
   for (const LagCorrelation& c : r.lags) {
     lags.push_back({{"channel", c.channel},
                     {"force_lag_s", c.force_lag},
-                    {"force_correlation", Number(c.force_correlation)},
+                    {"force_correlation", FiniteOrNull(c.force_correlation)},
                     {"rate_lag_s", c.rate_lag},
-                    {"rate_correlation", Number(c.rate_correlation)}});
+                    {"rate_correlation", FiniteOrNull(c.rate_correlation)}});
   }
   localisation["lags"] = lags;
   Json drift = Json::array();
   for (const StiffnessDrift& d : r.drift) {
     Json se = Json::array();
-    for (double v : d.standard_errors) se.push_back(Number(v));
+    for (double v : d.standard_errors) se.push_back(FiniteOrNull(v));
     drift.push_back({{"parameter", d.parameter},
                      {"unit", "N/m"},
                      {"per_log", d.values},
                      {"standard_errors", se},
-                     {"max_z", Number(d.max_z)},
+                     {"max_z", FiniteOrNull(d.max_z)},
                      {"drifts", d.drifts}});
   }
   localisation["stiffness_drift"] = drift;
@@ -291,17 +289,18 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
            {"unit", "N/m"},
            {"before", before.value},
            {"after", after.value},
-           {"after_standard_error", Number(after.standard_error)},
+           {"after_standard_error", FiniteOrNull(after.standard_error)},
            {"bias", before.value - after.value}});
     }
     Json effect = Json::array();
     for (size_t i = kNumBushings; i < chosen->fit.result.parameters.size();
          ++i) {
       const ParameterEstimate& p = chosen->fit.result.parameters[i];
-      effect.push_back({{"name", p.name},
-                        {"unit", p.unit},
-                        {"value", p.value},
-                        {"ci95", {Number(p.ci95_low), Number(p.ci95_high)}}});
+      effect.push_back(
+          {{"name", p.name},
+           {"unit", p.unit},
+           {"value", p.value},
+           {"ci95", {FiniteOrNull(p.ci95_low), FiniteOrNull(p.ci95_high)}}});
     }
     doc["quantification"] = {
         {"model", chosen->model},
@@ -310,9 +309,9 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
          r.nominal.heldout ? PerChannel(r.nominal.heldout_rms) : Json(nullptr)},
         {"rms_after",
          chosen->heldout ? PerChannel(chosen->heldout_rms) : Json(nullptr)},
-        {"score_before", Number(r.nominal.score)},
-        {"score_after", Number(chosen->score)},
-        {"gap_closed", Number(chosen->gap_closed)},
+        {"score_before", FiniteOrNull(r.nominal.score)},
+        {"score_after", FiniteOrNull(chosen->score)},
+        {"gap_closed", FiniteOrNull(chosen->gap_closed)},
         {"leaves_noise", r.leaves_noise},
         {"effect_parameters", effect},
         {"hard_points", HardPointsToJson(r.hard_points)},
@@ -323,16 +322,17 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
     for (const DiscrepancyTerm& t : r.discrepancy.terms) {
       terms.push_back({{"component", t.component},
                        {"term", t.term},
-                       {"coefficient", Number(t.coefficient)},
+                       {"coefficient", FiniteOrNull(t.coefficient)},
                        {"unit", t.unit},
-                       {"force_rms_n", Number(t.force_rms)},
+                       {"force_rms_n", FiniteOrNull(t.force_rms)},
                        {"words", t.words}});
     }
     doc["discrepancy"] = {
         {"terms", terms},
         {"validated_on", r.discrepancy.validated_on},
-        {"gap_closed", Number(r.discrepancy.gap_closed)},
-        {"training_gap_closed", Number(r.discrepancy.training_gap_closed)},
+        {"gap_closed", FiniteOrNull(r.discrepancy.gap_closed)},
+        {"training_gap_closed",
+         FiniteOrNull(r.discrepancy.training_gap_closed)},
         {"predictive", r.discrepancy.predictive},
         {"text", r.discrepancy.text}};
   }

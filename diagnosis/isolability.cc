@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "Eigen/QR"
+#include "base/json_writer.h"
 #include "base/parallel_for.h"
 #include "estimator/effect_model.h"
 #include "nlohmann/json.hpp"
@@ -276,7 +277,7 @@ std::string IsolabilityToJson(const Isolability& iso) {
     Json row = Json::array();
     for (int j = 0; j < iso.left.cols(); ++j) {
       const double v = iso.left(i, j);
-      row.push_back(std::isfinite(v) ? Json(v) : Json(nullptr));
+      row.push_back(FiniteOrNull(v));
     }
     left.push_back(row);
   }

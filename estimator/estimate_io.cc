@@ -8,23 +8,19 @@
 #include <limits>
 
 #include "base/json_reader.h"
+#include "base/json_writer.h"
 #include "nlohmann/json.hpp"
 #include "rt_core/model/channels.h"
 
 namespace kcrig {
 namespace {
 
-nlohmann::ordered_json Number(double value) {
-  if (std::isfinite(value)) return value;
-  return nullptr;
-}
-
 // A pose in mm and deg, keyed x_mm .. caster_deg.
 nlohmann::ordered_json PoseToJson(const Vec6<double>& pose) {
   nlohmann::ordered_json out;
   for (int k = 0; k < kNumChannels; ++k) {
     out[std::string(kChannelNames[k]) + "_" + ChannelDisplayUnit(k)] =
-        Number(ChannelDisplayValue(k, pose(k)));
+        FiniteOrNull(ChannelDisplayValue(k, pose(k)));
   }
   return out;
 }
@@ -61,7 +57,7 @@ nlohmann::ordered_json InitialStatesToJson(
     if (!s.dahl_forces.empty()) {
       for (size_t i = 0; i < s.dahl_forces.size(); ++i) {
         log["dahl_force_N"][std::string(kBushingChassisNames[i])] =
-            Number(s.dahl_forces[i]);
+            FiniteOrNull(s.dahl_forces[i]);
       }
     }
     out.push_back(log);
@@ -97,7 +93,7 @@ nlohmann::ordered_json Matrix(const Eigen::MatrixXd& m) {
   nlohmann::ordered_json rows = nlohmann::ordered_json::array();
   for (int i = 0; i < m.rows(); ++i) {
     nlohmann::ordered_json row = nlohmann::ordered_json::array();
-    for (int k = 0; k < m.cols(); ++k) row.push_back(Number(m(i, k)));
+    for (int k = 0; k < m.cols(); ++k) row.push_back(FiniteOrNull(m(i, k)));
     rows.push_back(row);
   }
   return rows;
@@ -142,21 +138,21 @@ std::string AdequacyToJson(const Adequacy& a) {
   nlohmann::ordered_json doc;
   doc["verdict"] = a.adequate ? "adequate" : "inadequate";
   doc["reason"] = a.reason;
-  doc["chi2"] = Number(a.chi_square);
-  doc["dof"] = Number(a.dof);
-  doc["chi2_p"] = Number(a.p_value);
-  doc["score"] = Number(a.score);
-  doc["ljung_box_p"] = Number(a.whiteness_p);
-  doc["discretisation_rms_sigma"] = Number(a.discretisation);
+  doc["chi2"] = FiniteOrNull(a.chi_square);
+  doc["dof"] = FiniteOrNull(a.dof);
+  doc["chi2_p"] = FiniteOrNull(a.p_value);
+  doc["score"] = FiniteOrNull(a.score);
+  doc["ljung_box_p"] = FiniteOrNull(a.whiteness_p);
+  doc["discretisation_rms_sigma"] = FiniteOrNull(a.discretisation);
   doc["judged"] = a.continuous_limit ? "continuous_limit" : "model_step";
   nlohmann::ordered_json channels;
   for (int k = 0; k < 6; ++k) {
     const ChannelAdequacy& c = a.channels[k];
     if (!c.used) continue;
     channels[kChannelNames[k]] = {
-        {"score", Number(c.score)},
-        {"ljung_box_p", Number(c.whiteness_p)},
-        {"discretisation_rms_sigma", Number(c.discretisation)},
+        {"score", FiniteOrNull(c.score)},
+        {"ljung_box_p", FiniteOrNull(c.whiteness_p)},
+        {"discretisation_rms_sigma", FiniteOrNull(c.discretisation)},
         {"samples", c.samples}};
   }
   doc["channels"] = channels;
@@ -204,10 +200,10 @@ std::string EstimationResultToJson(
          {"nominal", p.nominal},
          {"initial", p.initial},
          {"value", p.value},
-         {"standard_error", Number(p.standard_error)},
-         {"ci95", {Number(p.ci95_low), Number(p.ci95_high)}},
+         {"standard_error", FiniteOrNull(p.standard_error)},
+         {"ci95", {FiniteOrNull(p.ci95_low), FiniteOrNull(p.ci95_high)}},
          {"discretisation_bias", p.discretisation_bias},
-         {"log10_diag_inv_jtj", Number(p.log10_inverse_information)},
+         {"log10_diag_inv_jtj", FiniteOrNull(p.log10_inverse_information)},
          {"identifiable", p.identifiable},
          {"at_bound", p.at_bound}});
   }
@@ -219,7 +215,7 @@ std::string EstimationResultToJson(
       result.singular_values.data(),
       result.singular_values.data() + result.singular_values.size());
   doc["singular_values"] = singular;
-  doc["condition_number"] = Number(result.condition_number);
+  doc["condition_number"] = FiniteOrNull(result.condition_number);
   doc["rank"] = result.rank;
   doc["ill_conditioned"] = result.ill_conditioned;
   doc["unidentifiable_combinations"] = result.unidentifiable_combinations;
@@ -227,7 +223,7 @@ std::string EstimationResultToJson(
   nlohmann::ordered_json rms;
   for (int k = 0; k < 6; ++k) {
     rms[kChannelNames[k]] =
-        result.channel_used[k] ? Number(result.residual_rms(k)) : nullptr;
+        result.channel_used[k] ? FiniteOrNull(result.residual_rms(k)) : nullptr;
   }
   doc["residual_rms"] = rms;
   doc["residual_rms_units"] = "m for x, y, z; rad for toe, camber, caster";
@@ -236,11 +232,11 @@ std::string EstimationResultToJson(
   doc["rig_initial_state"] = InitialStatesToJson(result.initial_states);
   doc["cost"] = result.cost;
   doc["sigma_hat"] = result.sigma_hat;
-  doc["residual_correlation"] = Number(result.residual_correlation);
-  doc["interval_widening"] = Number(result.interval_widening);
+  doc["residual_correlation"] = FiniteOrNull(result.residual_correlation);
+  doc["interval_widening"] = FiniteOrNull(result.interval_widening);
   doc["iterations"] = result.iterations;
   doc["integrator_step_s"] = result.integrator_step > 0
-                                 ? Number(result.integrator_step)
+                                 ? FiniteOrNull(result.integrator_step)
                                  : nlohmann::ordered_json();
   doc["converged"] = result.converged;
   doc["termination"] = result.termination;
@@ -255,11 +251,11 @@ std::string EstimationResultToJson(
     nlohmann::ordered_json list = nlohmann::ordered_json::array();
     for (const ParameterProfile& p : profiles) {
       nlohmann::ordered_json delta = nlohmann::ordered_json::array();
-      for (double d : p.delta_chi2) delta.push_back(Number(d));
+      for (double d : p.delta_chi2) delta.push_back(FiniteOrNull(d));
       list.push_back(
           {{"name", p.name},
            {"identifiability", IdentifiabilityName(p.identifiability)},
-           {"ci95_profile", {Number(p.lower), Number(p.upper)}},
+           {"ci95_profile", {FiniteOrNull(p.lower), FiniteOrNull(p.upper)}},
            {"values", p.values},
            {"delta_chi2", delta}});
     }

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "base/json_writer.h"
 #include "nlohmann/json.hpp"
 #include "rt_core/model/channels.h"
 
@@ -10,11 +11,6 @@ namespace kcrig {
 namespace {
 
 using Json = nlohmann::ordered_json;
-
-Json Number(double value) {
-  if (std::isfinite(value)) return value;
-  return nullptr;
-}
 
 // Per kN of a gradient, and its unit: mm/kN, deg/kN.
 double PerKilonewton(int c, double si) {
@@ -36,24 +32,26 @@ const char* ConventionName(SignConvention convention) {
 }
 
 Json FigureJson(const Figure& f, double scale) {
-  return {{"value", Number(f.value * scale)},
-          {"standard_error", Number(f.standard_error * scale)},
-          {"noise_standard_error", Number(f.noise_standard_error * scale)}};
+  return {
+      {"value", FiniteOrNull(f.value * scale)},
+      {"standard_error", FiniteOrNull(f.standard_error * scale)},
+      {"noise_standard_error", FiniteOrNull(f.noise_standard_error * scale)}};
 }
 
 Json LineJson(const LineFit& line, int c) {
   if (line.samples == 0) return nullptr;
-  return {{"gradient", Number(PerKilonewton(c, line.slope))},
-          {"standard_error", Number(PerKilonewton(c, line.standard_error))},
-          {"noise_standard_error",
-           Number(PerKilonewton(c, line.noise_standard_error))},
-          {"intercept", Number(ChannelDisplayValue(c, line.intercept))},
-          {"residual_rms", Number(ChannelDisplayValue(c, line.residual_rms))},
-          {"samples", line.samples}};
+  return {
+      {"gradient", FiniteOrNull(PerKilonewton(c, line.slope))},
+      {"standard_error", FiniteOrNull(PerKilonewton(c, line.standard_error))},
+      {"noise_standard_error",
+       FiniteOrNull(PerKilonewton(c, line.noise_standard_error))},
+      {"intercept", FiniteOrNull(ChannelDisplayValue(c, line.intercept))},
+      {"residual_rms", FiniteOrNull(ChannelDisplayValue(c, line.residual_rms))},
+      {"samples", line.samples}};
 }
 
 Json ComparisonJson(const Comparison& c) {
-  return {{"difference_z", Number(c.z)}, {"differs", c.differs}};
+  return {{"difference_z", FiniteOrNull(c.z)}, {"differs", c.differs}};
 }
 
 Json ChannelJson(const KcSheet& sheet, const RunSheet& run, int c) {
@@ -65,18 +63,18 @@ Json ChannelJson(const KcSheet& sheet, const RunSheet& run, int c) {
   Json width = {{"unit", ChannelDisplayUnit(c)},
                 {"rig", FigureJson(run.rig[c].loop_width, display)}};
   Json area = {{"unit", AreaUnit(c)},
-               {"rig", Number(AreaDisplay(c, run.rig[c].loop_area))}};
+               {"rig", FiniteOrNull(AreaDisplay(c, run.rig[c].loop_area))}};
   if (sheet.has_model) {
     gradient["model"] = {
-        {"value", Number(run.model[c].gradient.value * per_kn)},
-        {"standard_error", Number(run.model_gradient_se[c] * per_kn)}};
-    gradient["model_static"] = Number(run.static_gradient[c] * per_kn);
+        {"value", FiniteOrNull(run.model[c].gradient.value * per_kn)},
+        {"standard_error", FiniteOrNull(run.model_gradient_se[c] * per_kn)}};
+    gradient["model_static"] = FiniteOrNull(run.static_gradient[c] * per_kn);
     gradient.update(ComparisonJson(run.gradient_difference[c]));
     width["model"] = {
-        {"value", Number(run.model[c].loop_width.value * display)},
-        {"standard_error", Number(run.model_loop_width_se[c] * display)}};
+        {"value", FiniteOrNull(run.model[c].loop_width.value * display)},
+        {"standard_error", FiniteOrNull(run.model_loop_width_se[c] * display)}};
     width.update(ComparisonJson(run.loop_width_difference[c]));
-    area["model"] = Number(AreaDisplay(c, run.model[c].loop_area));
+    area["model"] = FiniteOrNull(AreaDisplay(c, run.model[c].loop_area));
   }
   channel["gradient"] = gradient;
   channel["rising"] = LineJson(run.rig[c].rising, c);
@@ -97,7 +95,7 @@ Json MatrixJson(const Mat6<double>& m) {
     Json row = Json::array(), unit_row = Json::array();
     for (int k = 0; k < 6; ++k) {
       // Per kN, or per kN m.
-      row.push_back(Number(ChannelDisplayValue(c, m(c, k)) * 1e3));
+      row.push_back(FiniteOrNull(ChannelDisplayValue(c, m(c, k)) * 1e3));
       unit_row.push_back(std::string(ChannelDisplayUnit(c)) +
                          (k < 3 ? "/kN" : "/kN m"));
     }
@@ -125,9 +123,9 @@ std::string KcSheetToJson(const KcSheet& sheet) {
     Json channels = Json::array();
     for (int c = 0; c < 6; ++c) channels.push_back(ChannelJson(sheet, run, c));
     runs.push_back({{"log", run.source},
-                    {"phi_deg", Number(run.phi / kDegree)},
-                    {"z_a", Number(run.z_a)},
-                    {"fmax_kN", Number(run.fmax * 1e-3)},
+                    {"phi_deg", FiniteOrNull(run.phi / kDegree)},
+                    {"z_a", FiniteOrNull(run.z_a)},
+                    {"fmax_kN", FiniteOrNull(run.fmax * 1e-3)},
                     {"falling_branch", run.has_falling},
                     {"channels", channels}});
   }
@@ -138,23 +136,24 @@ std::string KcSheetToJson(const KcSheet& sheet) {
     for (int c = 0; c < 6; ++c) {
       for (int k = 0; k < 2; ++k) {
         const double per_kn = PerKilonewton(c, 1.0);
-        Json g = {{"channel", kChannelNames[c]},
-                  {"force", k == 0 ? "Fx" : "Fy"},
-                  {"unit", GradientUnit(c)},
-                  {"rig", Number(cs.rig(c, k) * per_kn)},
-                  {"rig_standard_error", Number(cs.rig_se(c, k) * per_kn)},
-                  {"rig_noise_standard_error",
-                   Number(cs.rig_noise_se(c, k) * per_kn)}};
+        Json g = {
+            {"channel", kChannelNames[c]},
+            {"force", k == 0 ? "Fx" : "Fy"},
+            {"unit", GradientUnit(c)},
+            {"rig", FiniteOrNull(cs.rig(c, k) * per_kn)},
+            {"rig_standard_error", FiniteOrNull(cs.rig_se(c, k) * per_kn)},
+            {"rig_noise_standard_error",
+             FiniteOrNull(cs.rig_noise_se(c, k) * per_kn)}};
         if (sheet.has_model) {
-          g["model"] = Number(cs.model(c, k) * per_kn);
-          g["model_standard_error"] = Number(cs.model_se(c, k) * per_kn);
-          g["model_static"] = Number(cs.static_compliance(c, k) * per_kn);
-          g["difference_z"] = Number(cs.z(c, k));
+          g["model"] = FiniteOrNull(cs.model(c, k) * per_kn);
+          g["model_standard_error"] = FiniteOrNull(cs.model_se(c, k) * per_kn);
+          g["model_static"] = FiniteOrNull(cs.static_compliance(c, k) * per_kn);
+          g["difference_z"] = FiniteOrNull(cs.z(c, k));
         }
         gradients.push_back(g);
       }
     }
-    components.push_back({{"z_a", Number(cs.z_a)},
+    components.push_back({{"z_a", FiniteOrNull(cs.z_a)},
                           {"logs", cs.sources},
                           {"gradients", gradients}});
   }
@@ -165,14 +164,15 @@ std::string KcSheetToJson(const KcSheet& sheet) {
         {{"name", f.name},
          {"place", f.place},
          {"unit", f.unit},
-         {"rig", f.has_rig ? Number(f.rig) : Json()},
+         {"rig", f.has_rig ? FiniteOrNull(f.rig) : Json()},
          {"rig_standard_error",
-          f.has_rig ? Number(f.rig_standard_error) : Json()},
-         {"model", f.has_model ? Number(f.model) : Json()},
+          f.has_rig ? FiniteOrNull(f.rig_standard_error) : Json()},
+         {"model", f.has_model ? FiniteOrNull(f.model) : Json()},
          {"model_standard_error",
-          f.has_model ? Number(f.model_standard_error) : Json()},
-         {"difference_z", f.has_rig && f.has_model ? Number(f.z) : Json()},
-         {"model_static", Number(f.model_static)}});
+          f.has_model ? FiniteOrNull(f.model_standard_error) : Json()},
+         {"difference_z",
+          f.has_rig && f.has_model ? FiniteOrNull(f.z) : Json()},
+         {"model_static", FiniteOrNull(f.model_static)}});
   }
   doc["named_figures"] = named;
   if (sheet.has_model) {
@@ -181,10 +181,11 @@ std::string KcSheetToJson(const KcSheet& sheet) {
         {"wheel_centre", MatrixJson(sheet.compliance.wheel_centre)}};
     for (int c = 0; c < 6; ++c) {
       compliance["rest"].push_back(
-          Number(ChannelDisplayValue(c, sheet.compliance.rest(c))));
+          FiniteOrNull(ChannelDisplayValue(c, sheet.compliance.rest(c))));
     }
     if (sheet.has_contact_patch) {
-      compliance["contact_patch_z"] = Number(sheet.compliance.contact_patch_z);
+      compliance["contact_patch_z"] =
+          FiniteOrNull(sheet.compliance.contact_patch_z);
       compliance["contact_patch"] = MatrixJson(sheet.compliance.contact_patch);
     }
     doc["compliance"] = compliance;

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "base/json_reader.h"
+#include "base/json_writer.h"
 #include "designer/campaign.h"
 #include "designer/criteria.h"
 #include "designer/criterion_surface.h"
@@ -134,11 +135,6 @@ Status Predict(const KcrigConfig& config, const fs::path& root,
                              config.experiment.step / refine, sensed);
 }
 
-// A number the page draws, or a gap.
-Json Number(double value) {
-  return std::isfinite(value) ? Json(value) : Json(nullptr);
-}
-
 // A parameter's unit as engineers read it and the factor from SI to it.
 std::pair<std::string, double> PageUnit(const std::string& si) {
   if (si == "N/m") return {"N/mm", 1e-3};
@@ -173,10 +169,10 @@ Json EstimatesJson(const std::vector<CampaignIteration>& iterations) {
          hi = Json::array();
     for (const ParameterEstimate& p : it.estimate.parameters) {
       const double scale = PageUnit(p.unit).second;
-      l.push_back(Number(p.log10_inverse_information));
+      l.push_back(FiniteOrNull<Json>(p.log10_inverse_information));
       v.push_back(p.value * scale);
-      lo.push_back(Number(p.ci95_low * scale));
-      hi.push_back(Number(p.ci95_high * scale));
+      lo.push_back(FiniteOrNull<Json>(p.ci95_low * scale));
+      hi.push_back(FiniteOrNull<Json>(p.ci95_high * scale));
     }
     log10.push_back(l);
     value.push_back(v);
@@ -222,7 +218,7 @@ void AddSurfaceJson(const CriterionSurface& surface, Criterion optimised,
     for (size_t j = 0; j < surface.z_a.size(); ++j) {
       Json row = Json::array();
       for (size_t i = 0; i < np; ++i) {
-        row.push_back(Number(surface.grid[c][j * np + i]));
+        row.push_back(FiniteOrNull<Json>(surface.grid[c][j * np + i]));
       }
       rows.push_back(row);
     }
@@ -237,7 +233,7 @@ void AddSurfaceJson(const CriterionSurface& surface, Criterion optimised,
          {"optimum",
           {{"phi_deg", optimum.phi / kDegree},
            {"z_a", optimum.z_a},
-           {"value", Number(surface.at_points[c][0])}}}});
+           {"value", FiniteOrNull<Json>(surface.at_points[c][0])}}}});
   }
 }
 
@@ -489,12 +485,13 @@ Status InitialStatesJson(const fs::path& root,
     if (s.tare) {
       tare = Json::array();
       for (int k = 0; k < kNumChannels; ++k) {
-        tare.push_back(Number(ChannelDisplayValue(k, s.tare->mean(k))));
+        tare.push_back(
+            FiniteOrNull<Json>(ChannelDisplayValue(k, s.tare->mean(k))));
       }
     }
     if (!s.dahl_forces.empty()) {
       dahl = Json::array();
-      for (double f : s.dahl_forces) dahl.push_back(Number(f));
+      for (double f : s.dahl_forces) dahl.push_back(FiniteOrNull<Json>(f));
     }
     // Named as the time histories name them (iteration_K/run.csv): est.json
     // has each path as the campaign was given it, from wherever it ran.
@@ -624,9 +621,9 @@ fs::path LogPath(const fs::path& diag_file, const std::string& written) {
 // A candidate's figures as the page shows them (null: not computed).
 Json CandidateRow(const CandidateScore& c) {
   return {{"model", c.model},
-          {"score", Number(c.score)},
-          {"gap_closed", Number(c.gap_closed)},
-          {"bic", Number(c.bic)}};
+          {"score", FiniteOrNull<Json>(c.score)},
+          {"gap_closed", FiniteOrNull<Json>(c.gap_closed)},
+          {"bic", FiniteOrNull<Json>(c.bic)}};
 }
 
 Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
@@ -645,7 +642,8 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
       if (slice.samples == 0) continue;
       regimes.push_back(slice.name);
       Json row = Json::array();
-      for (int k = 0; k < 6; ++k) row.push_back(Number(slice.channel_score(k)));
+      for (int k = 0; k < 6; ++k)
+        row.push_back(FiniteOrNull<Json>(slice.channel_score(k)));
       energy.push_back(row);
     }
   }
@@ -663,8 +661,8 @@ Status DiagnosisJson(const KcrigConfig& config, const fs::path& file,
     }
   }
   if (diag.has_nominal) {
-    result["nominal_score"] = Number(d.nominal.score);
-    result["nominal_bic"] = Number(d.nominal.bic);
+    result["nominal_score"] = FiniteOrNull<Json>(d.nominal.score);
+    result["nominal_bic"] = FiniteOrNull<Json>(d.nominal.bic);
   }
   result["ranking"] = ranking;
   result["scoring"] = d.scoring;
@@ -732,10 +730,10 @@ Json HistogramJson(const TimingPhase& phase) {
   }
   return {{"us", x},
           {"count", y},
-          {"p50_us", Number(phase.p50_us)},
-          {"p99_us", Number(phase.p99_us)},
-          {"p999_us", Number(phase.p999_us)},
-          {"max_us", Number(phase.max_us)}};
+          {"p50_us", FiniteOrNull<Json>(phase.p50_us)},
+          {"p99_us", FiniteOrNull<Json>(phase.p99_us)},
+          {"p999_us", FiniteOrNull<Json>(phase.p999_us)},
+          {"max_us", FiniteOrNull<Json>(phase.max_us)}};
 }
 
 // A timing.json as the page draws it: histograms against the budget.
