@@ -267,18 +267,13 @@ Status MakeOutputFolder(const std::string& out) {
   return Status::Ok();
 }
 
-int Fail(const Status& status) {
-  std::fprintf(stderr, "kcrig campaign: %s\n", status.message().c_str());
-  return 1;
-}
-
 // The campaign as the user sees it: progress, campaign.json, the report;
 // and on the console (`feed`, optional) the stages, iterations and report.
 int RunAndReport(const CampaignArgs& args, const KcrigConfig& config,
                  const RigRunner& rig, const std::string& rig_text,
                  CampaignOptions options, LiveFeed* feed) {
   const StopSignal stop_signal;
-  const auto fail = Fail;
+  const CommandError fail("campaign");
   Status status;
   ProgressLine progress(args.quiet);
   options.callback =
@@ -414,7 +409,7 @@ int RunCampaignCommand(const CampaignArgs& args) {
   status = ranks.Agree(status);
   if (!status.ok()) {
     if (console != nullptr) console->Shutdown(status.message());
-    return Fail(status);
+    return CommandError("campaign")(status);
   }
   if (feed != nullptr) feed->Title("kcrig campaign");
   if (ranks.size() == 1) {

@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include "apps/cli_util.h"
 #include "apps/progress.h"
 #include "io_drivers/socket_can.h"
 #include "records/can_bus_log.h"
@@ -19,10 +20,7 @@ struct CanLogArgs {
 };
 
 int RunCanLog(const CanLogArgs& args) {
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig can-log: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("can-log");
   if (!(args.duration >= 0 && args.duration <= 86400)) {
     return fail(Status::Error("--duration: must be within [0, 86400] s"));
   }

@@ -155,6 +155,12 @@ RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
           args.return_duration.value_or(0.0)};
 }
 
+int CommandError::operator()(const Status& status) const {
+  std::fprintf(stderr, "kcrig %s: %s\n", command_.c_str(),
+               status.message().c_str());
+  return 1;
+}
+
 Status CheckOutput(const std::string& option, const std::string& out,
                    const std::vector<std::string>& inputs) {
   if (out.empty()) return Status::Ok();

@@ -4,6 +4,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "CLI/CLI.hpp"
@@ -52,6 +53,17 @@ void AddExcitationOptions(CLI::App* cmd, ExcitationArgs* args);
 // The given values over the config's defaults; phi in rad. Unchecked.
 RampExcitation<double> ResolveRamp(const ExcitationArgs& args,
                                    const ExperimentConfig& experiment);
+
+// How every command ends on an error: one line "kcrig COMMAND: message" on
+// stderr, and exit status 1.
+class CommandError {
+ public:
+  explicit CommandError(std::string command) : command_(std::move(command)) {}
+  int operator()(const Status& status) const;
+
+ private:
+  std::string command_;
+};
 
 // Before any work: the file `out` (given with `option`; "" for none) may be
 // written (records' CheckReplaceable) and is none of `inputs`, nor a run

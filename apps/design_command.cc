@@ -126,10 +126,7 @@ Status Prepare(const DesignArgs& args, DesignInputs* in) {
 // that resolves the most of them.
 int RunIsolatingDesign(const DesignArgs& args) {
   const StopSignal stop;
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig design: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("design");
   if (WorldRanks().size() > 1) {
     return fail(Status::Error(
         "--isolate runs in one process: start it without mpirun"));
@@ -196,10 +193,7 @@ int RunIsolatingDesign(const DesignArgs& args) {
 int RunDesign(const DesignArgs& args) {
   if (args.isolate) return RunIsolatingDesign(args);
   const StopSignal stop;
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig design: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("design");
   if (!args.isolate_options_given.empty()) {
     return fail(
         Status::Error(args.isolate_options_given + ": only with --isolate"));

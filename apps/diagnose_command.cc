@@ -106,10 +106,7 @@ Status Prepare(const DiagnoseArgs& args, DiagnoseInputs* in) {
 
 int RunDiagnose(const DiagnoseArgs& args) {
   const StopSignal stop;
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig diagnose: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("diagnose");
   // Rank 0 alone reads the inputs; the other ranks their copies.
   InputMirror mirror(WorldRanks());
   DiagnoseArgs read = args;

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "apps/cli_util.h"
 #include "apps/progress.h"
 #include "emulator/can_front_end.h"
 #include "emulator/modbus_front_end.h"
@@ -33,10 +34,7 @@ struct EmulateArgs {
 };
 
 int RunEmulate(const EmulateArgs& args) {
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig emulate: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("emulate");
   if (!args.modbus_tcp.empty() + !args.modbus_rtu.empty() + !args.can.empty() !=
       1) {
     return fail(

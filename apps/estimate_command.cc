@@ -30,10 +30,7 @@ struct EstimateArgs {
 
 int RunEstimate(const EstimateArgs& args) {
   const StopSignal stop;
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig estimate: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("estimate");
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);

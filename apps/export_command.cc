@@ -19,10 +19,7 @@ struct ExportArgs {
 };
 
 int RunExport(const ExportArgs& args) {
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig export: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("export");
   const std::string extension =
       std::filesystem::path(args.out).extension().string();
   if (extension != ".mat" && extension != ".csv") {

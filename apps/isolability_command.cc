@@ -27,10 +27,7 @@ struct IsolabilityArgs {
 
 int RunIsolability(const IsolabilityArgs& args) {
   const StopSignal stop;
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig isolability: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("isolability");
   KcrigConfig config;
   std::vector<Experiment> plan;
   Status status = LoadPlanInputs(args.config_dir, args.out, args.logs,

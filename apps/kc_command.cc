@@ -48,10 +48,7 @@ Status ModelAtEstimate(const std::string& path, const KcrigConfig& config,
 }
 
 int RunKc(const KcArgs& args) {
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig kc: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("kc");
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);

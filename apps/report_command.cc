@@ -24,10 +24,7 @@ struct ReportArgs {
 
 int RunReport(const ReportArgs& args) {
   const StopSignal stop;
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig report: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("report");
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);

@@ -81,10 +81,7 @@ void PrintOutcome(const char* who, const RigSessionResult& r,
 }
 
 int RunRun(const RunArgs& args) {
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig run: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("run");
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);

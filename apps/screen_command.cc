@@ -65,10 +65,7 @@ std::string ToJson(const ScreeningResult& r,
 
 int RunScreen(const ScreenArgs& args) {
   const StopSignal stop;
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig screen: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("screen");
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);

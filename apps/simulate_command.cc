@@ -97,10 +97,7 @@ void PrintSummary(const SimulateArgs& args, const RunLog& log,
 }
 
 int RunSimulate(const SimulateArgs& args) {
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig simulate: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("simulate");
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);

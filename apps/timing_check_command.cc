@@ -42,10 +42,7 @@ void PrintRow(const char* name, const TimingStatistics& s) {
 }
 
 int RunTimingCheck(const TimingCheckArgs& args) {
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "kcrig timing-check: %s\n", status.message().c_str());
-    return 1;
-  };
+  const CommandError fail("timing-check");
   KcrigConfig config;
   Status status = LoadConfig(args.config_dir, &config);
   if (!status.ok()) return fail(status);

@@ -242,14 +242,11 @@ int RunValidate(const ValidateArgs& args) {
   const StopSignal stop;
   BatchCheckpoint checkpoint;
   std::atomic<int> done{0};
+  // The error says which cases a checkpoint kept (rank 0 alone prints).
   auto fail = [&](const Status& status) {
-    if (ranks.is_root()) {
-      const std::string kept =
-          done > 0 ? "; " + KeptCases(checkpoint, done) : "";
-      std::fprintf(stderr, "kcrig validate: %s%s\n", status.message().c_str(),
-                   kept.c_str());
-    }
-    return 1;
+    if (done == 0) return CommandError("validate")(status);
+    return CommandError("validate")(
+        Status::Error(status.message() + "; " + KeptCases(checkpoint, done)));
   };
   // Rank 0 alone reads the inputs; the other ranks their copies.
   InputMirror mirror(ranks);
