@@ -217,16 +217,14 @@ Status MakeOptions(const CampaignArgs& args, const KcrigConfig& config,
   options->close_loop = !args.no_diagnose;
   options->isolability = args.isolability;
   if (WorldRanks().size() > 1) {
-    // The designs' batches and the diagnosis' fits spread over the ranks,
-    // one thread each.
+    // The designs' batches and the diagnosis' fits spread over the ranks.
     options->objective.batches = &WorldBatches();
-    options->objective.num_threads = 1;
     options->diagnosis.batches = &WorldBatches();
-    options->diagnosis.num_threads = 1;
-    // Ceres sums a cost over its threads in an order that varies; one
-    // thread keeps every rank's arithmetic, and so its decisions, the same.
-    options->estimator.num_threads = 1;
   }
+  const int threads = ThreadsPerRank(WorldRanks());
+  options->objective.num_threads = threads;
+  options->diagnosis.num_threads = threads;
+  options->estimator.num_threads = threads;
   return ValidateCampaignOptions(config, *options);
 }
 

@@ -116,9 +116,9 @@ Status Prepare(const DesignArgs& args, DesignInputs* in) {
   if (args.augment) in->step.prior_information = in->estimate.information;
   in->step.criterion = in->criterion;
   in->step.optimizer_options = in->optimizer_options;
-  // Under mpirun the batches spread over the ranks, a core each.
+  // Under mpirun the batches spread over the ranks.
   in->step.objective.batches = &WorldBatches();
-  if (WorldRanks().size() > 1) in->step.objective.num_threads = 1;
+  in->step.objective.num_threads = ThreadsPerRank(WorldRanks());
   return Status::Ok();
 }
 

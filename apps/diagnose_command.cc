@@ -92,10 +92,9 @@ Status Prepare(const DiagnoseArgs& args, DiagnoseInputs* in) {
   if (args.threads && *args.threads < 1) {
     return Status::Error("--threads: must be >= 1");
   }
-  // Under mpirun the candidate fits spread over the ranks, a core each.
+  // Under mpirun the candidate fits spread over the ranks.
   in->options.batches = &WorldBatches();
-  in->options.num_threads =
-      args.threads.value_or(WorldRanks().size() > 1 ? 1 : 2);
+  in->options.num_threads = ThreadsPerRank(WorldRanks(), args.threads);
 
   status = LoadLogs(args.logs, in->config, &in->training);
   if (!status.ok()) return status;

@@ -20,7 +20,7 @@ struct IsolabilityArgs {
   std::vector<std::string> ramps;
   std::string candidates;
   double min_share = 0.2;
-  int threads = 2;
+  int threads = kDefaultThreads;
   std::string out;
   bool quiet = false;
 };

@@ -83,9 +83,7 @@ Status Prepare(const ValidateArgs& args, const Ranks& ranks,
   status = DrawBlindCase(0, args.seed, config->model, options->classes,
                          options->plan, &probe);
   if (!status.ok()) return Status::Error("--effects: " + status.message());
-  // One process: both cores on each case; under MPI a core per rank.
-  options->diagnosis.num_threads =
-      args.threads.value_or(ranks.size() > 1 ? 1 : 2);
+  options->diagnosis.num_threads = ThreadsPerRank(ranks, args.threads);
   if (options->diagnosis.num_threads < 1) {
     return Status::Error("--threads: must be >= 1");
   }

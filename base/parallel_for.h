@@ -11,6 +11,11 @@
 
 namespace kcrig {
 
+// Threads a computation uses in a process of its own unless told otherwise:
+// the two cores of the rig PC and CI machines the benchmarks are measured
+// on (cluster's ThreadsPerRank gives a rank under mpirun one).
+inline constexpr int kDefaultThreads = 2;
+
 // Runs fn(0 .. count-1) on up to `threads` threads (the caller's included),
 // each taking the next job when it finishes one.
 inline void ParallelFor(int count, int threads,

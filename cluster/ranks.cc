@@ -467,6 +467,11 @@ const BatchRunner& WorldBatches() {
                                  : BatchesOr(nullptr);
 }
 
+int ThreadsPerRank(const Ranks& ranks, std::optional<int> requested) {
+  if (requested) return *requested;
+  return ranks.size() > 1 ? 1 : kDefaultThreads;
+}
+
 const Ranks& WorldRanks() {
   static const Ranks alone;
   return world != nullptr ? *world : alone;

@@ -8,6 +8,7 @@
 #define KCRIG_CLUSTER_RANKS_H_
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -93,6 +94,12 @@ class Ranks {
 
 // The process's ranks: main's Ranks, or rank 0 of 1 when there is none.
 const Ranks& WorldRanks();
+
+// The threads-per-rank policy: `requested` (a --threads) when given, else
+// kDefaultThreads in a process alone and one per rank under mpirun (the
+// ranks share the cores; one thread also keeps a rank's arithmetic, Ceres'
+// sums over threads included, the same as every other rank's).
+int ThreadsPerRank(const Ranks& ranks, std::optional<int> requested = {});
 
 // Batches spread over WorldRanks() by Distribute (on up to `threads`
 // threads per rank), every rank receiving every result. One rank: the

@@ -11,6 +11,7 @@
 #include "Eigen/Core"
 #include "base/batch_runner.h"
 #include "base/iteration_callback.h"
+#include "base/parallel_for.h"
 #include "designer/criteria.h"
 #include "designer/information.h"
 
@@ -32,7 +33,7 @@ struct ObjectiveOptions {
   // A batch of designs runs on this many threads, one design per thread,
   // in this process or, with `batches`, spread over a cluster job's ranks
   // (cluster/ranks.h; every rank then runs the same search). Optional.
-  int num_threads = 2;
+  int num_threads = kDefaultThreads;
   const BatchRunner* batches = nullptr;
   // Asked after every batch with the evaluations spent of the budget and
   // the stage "24/100 evaluations, best D -77.1058 at 16.0 deg, -0.500 m,

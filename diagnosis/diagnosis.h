@@ -20,6 +20,7 @@
 
 #include "base/batch_runner.h"
 #include "base/iteration_callback.h"
+#include "base/parallel_for.h"
 #include "base/status.h"
 #include "estimator/adequacy.h"
 #include "estimator/effect_model.h"
@@ -128,7 +129,7 @@ struct DiagnosisOptions {
   // Candidates are fitted on this many threads, in this process or, with
   // `batches`, spread over a cluster job's ranks (cluster/ranks.h: every
   // rank then runs the same diagnosis and gets every fit). Optional.
-  int num_threads = 2;
+  int num_threads = kDefaultThreads;
   const BatchRunner* batches = nullptr;
   // Every log needs at least this many observed samples.
   int min_samples = 500;

@@ -27,6 +27,7 @@
 
 #include "Eigen/Core"
 #include "base/iteration_callback.h"
+#include "base/parallel_for.h"
 #include "base/status.h"
 #include "estimator/effect_model.h"
 #include "estimator/experiment.h"
@@ -42,7 +43,7 @@ struct IsolabilityOptions {
   // diagnosis to tell them apart: DiagnosisOptions::min_gap_margin.
   double min_share_left = 0.2;
   // Candidates' Jacobians are computed on this many threads.
-  int num_threads = 2;
+  int num_threads = kDefaultThreads;
   // Asked after each candidate's Jacobian; kAbort stops with Interrupted().
   // Optional.
   IterationCallback callback;

@@ -12,6 +12,7 @@
 
 #include "Eigen/Core"
 #include "base/iteration_callback.h"
+#include "base/parallel_for.h"
 #include "base/status.h"
 #include "estimator/adequacy.h"
 #include "estimator/experiment.h"
@@ -37,7 +38,7 @@ struct EstimatorOptions {
   double gradient_tolerance = 1e-16;
   double parameter_tolerance = 1e-12;
   // Residual blocks (experiments) are evaluated on this many threads.
-  int num_threads = 2;
+  int num_threads = kDefaultThreads;
   // A direction of parameter space whose singular value is below this
   // fraction of the largest is not determined by the data at all (numerical
   // rank); its parameters get no standard errors.

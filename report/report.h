@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "base/iteration_callback.h"
+#include "base/parallel_for.h"
 #include "base/status.h"
 #include "rt_core/model/model_config.h"
 
@@ -45,7 +46,7 @@ struct ReportOptions {
   // log for its overlay; "" leaves such an overlay out with a note.
   std::string dbc_file;
   // Threads for the surface evaluations.
-  int num_threads = 2;
+  int num_threads = kDefaultThreads;
   // The plotly.js bundle inlined into the page (Debian: python3-plotly).
   std::string plotly_js = KCRIG_PLOTLY_JS;
   // Asked at each stage ("criterion surfaces iteration_1", "time histories
