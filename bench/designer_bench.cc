@@ -20,7 +20,7 @@
 #include <string>
 
 #include "benchmark/benchmark.h"
-#include "designer/campaign.h"
+#include "campaign/campaign.h"
 #include "designer/internal/ecnoise.h"
 #include "designer/optimizers.h"
 #include "emulator/plant_config.h"

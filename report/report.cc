@@ -10,7 +10,7 @@
 
 #include "base/json_reader.h"
 #include "base/json_writer.h"
-#include "designer/campaign.h"
+#include "campaign/campaign.h"
 #include "designer/criteria.h"
 #include "designer/criterion_surface.h"
 #include "designer/kriging.h"

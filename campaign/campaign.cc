@@ -1,4 +1,4 @@
-#include "designer/campaign.h"
+#include "campaign/campaign.h"
 
 #include <algorithm>
 #include <cmath>

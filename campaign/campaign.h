@@ -10,8 +10,8 @@
 // and the consistency of the estimates with the previous intervals. When a
 // check fails, the logs are diagnosed and the verdict acted on (an effect
 // adopted into the model, a discriminating experiment next, or a stop).
-#ifndef KCRIG_DESIGNER_CAMPAIGN_H_
-#define KCRIG_DESIGNER_CAMPAIGN_H_
+#ifndef KCRIG_CAMPAIGN_CAMPAIGN_H_
+#define KCRIG_CAMPAIGN_CAMPAIGN_H_
 
 #include <functional>
 #include <optional>
@@ -182,4 +182,4 @@ std::string CampaignIterationSummary(const CampaignIteration& iteration,
 
 }  // namespace kcrig
 
-#endif  // KCRIG_DESIGNER_CAMPAIGN_H_
+#endif  // KCRIG_CAMPAIGN_CAMPAIGN_H_
