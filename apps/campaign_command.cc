@@ -13,9 +13,8 @@
 #include "apps/console_options.h"
 #include "apps/progress.h"
 #include "apps/sil_rig_options.h"
-#include "base/byte_codec.h"
-#include "base/input_file.h"
 #include "campaign/campaign.h"
+#include "cluster/input_mirror.h"
 #include "cluster/rank_folder.h"
 #include "cluster/ranks.h"
 #include "diagnosis/diagnosis_io.h"
@@ -182,28 +181,9 @@ RigRunner RigOfRankZero(RigRunner rig) {
   return [rig](const RampExcitation<double>& excitation, int run,
                const std::string& csv_path) {
     const Ranks& ranks = WorldRanks();
-    const std::string sidecar = SidecarPath(csv_path);
     Status status = Status::Ok();
-    std::string bytes;
-    if (ranks.is_root()) {
-      status = rig(excitation, run, csv_path);
-      ByteWriter files;
-      for (const std::string& path : {csv_path, sidecar}) {
-        std::string text;
-        // The paper's 6.7 s run logs about 2 MB; Share refuses 2 GiB.
-        if (status.ok()) status = ReadInputFile(path, 1u << 30, &text);
-        files.Put(text);
-      }
-      bytes = files.bytes();
-    }
-    status = ranks.Share(status, &bytes);
-    if (!status.ok() || ranks.is_root()) return status;
-    ByteReader files(bytes);
-    std::string csv, json;
-    files.Get(&csv);
-    files.Get(&json);
-    if (!files.ok()) return Status::Error(csv_path + ": corrupt when shared");
-    return WriteFilesAtomically({{csv_path, csv}, {sidecar, json}});
+    if (ranks.is_root()) status = rig(excitation, run, csv_path);
+    return ShareFilesInPlace(ranks, status, {csv_path, SidecarPath(csv_path)});
   };
 }
 

@@ -111,4 +111,23 @@ Status InputMirror::Mirror(std::string* path,
   return Unpack(bytes, folder, path);
 }
 
+Status ShareFilesInPlace(const Ranks& ranks, Status root_status,
+                         const std::vector<std::string>& paths) {
+  if (ranks.size() == 1 || paths.empty()) return root_status;
+  const fs::path folder = fs::path(paths[0]).parent_path();
+  for (const std::string& path : paths) {
+    if (fs::path(path).parent_path() != folder) {
+      return Status::Error(path + ": not in " + folder.string());
+    }
+  }
+  std::string bytes;
+  if (ranks.is_root() && root_status.ok()) {
+    root_status = Pack(paths[0], {paths.begin() + 1, paths.end()}, &bytes);
+  }
+  const Status status = ranks.Share(root_status, &bytes);
+  if (!status.ok() || ranks.is_root()) return status;
+  std::string first = paths[0];
+  return Unpack(bytes, folder.string(), &first);
+}
+
 }  // namespace kcrig

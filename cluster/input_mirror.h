@@ -44,6 +44,14 @@ class InputMirror {
   int mirrored_ = 0;
 };
 
+// Rank 0's files `paths` (a run log and its sidecar that rank 0 alone
+// recorded), written at the same paths on every other rank: all in one
+// folder, which each rank has as its own. `root_status` is rank 0's outcome
+// so far: an error there is every rank's and nothing is shared. Alone it is
+// `root_status`. Collective, with InputMirror's codec.
+Status ShareFilesInPlace(const Ranks& ranks, Status root_status,
+                         const std::vector<std::string>& paths);
+
 }  // namespace kcrig
 
 #endif  // KCRIG_CLUSTER_INPUT_MIRROR_H_
