@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Fails when a library includes a header of a folder it may not depend on.
+"""Fails when a library includes a header of, or links a library of, a folder
+it may not depend on.
 
 The table is docs/layout.md's (DESIGN.md section 2 as built, with
 the amendments it states): a folder lists the folders it may include
@@ -47,6 +48,9 @@ MAY_INCLUDE = {
 ONLY = {("records", "io_drivers"): {"can_frame.h", "dbc.h",
                                     "kc_rig_protocol.h"}}
 
+# records links the DBC codec's library, never the transports'.
+LINK_ONLY = {("records", "io_drivers"): {"kcrig_can_codec"}}
+
 INCLUDE = re.compile(r'^\s*#\s*include\s+["<]([^">]+)[">]', re.M)
 
 
@@ -58,9 +62,50 @@ def folder_of(path):
     return None
 
 
+def library_folders():
+    """Each kcrig library (and the kcrig binary) -> the folder defining it."""
+    owner = {}
+    for folder in MAY_INCLUDE:
+        cmake = ROOT / folder / "CMakeLists.txt"
+        if cmake.is_file():
+            for name in re.findall(r"add_(?:library|executable)\(\s*(kcrig\w*)",
+                                   cmake.read_text(encoding="utf-8")):
+                owner[name] = folder
+    return owner
+
+
+def check_links(errors):
+    """The link lines of the library folders, against the same table."""
+    owner = library_folders()
+    for folder in MAY_INCLUDE:
+        cmake = ROOT / folder / "CMakeLists.txt"
+        if not cmake.is_file():
+            continue
+        text = cmake.read_text(encoding="utf-8")
+        for match in re.finditer(r"target_link_libraries\(\s*(\w+)([^)]*)\)",
+                                 text):
+            if owner.get(match.group(1)) != folder:
+                continue
+            line = text.count("\n", 0, match.start()) + 1
+            for linked in re.findall(r"\bkcrig_\w+", match.group(2)):
+                to = owner.get(linked)
+                if to is None:
+                    errors.append(f"{folder}/CMakeLists.txt:{line}: "
+                                  f"{linked} is no library of the table")
+                    continue
+                only = LINK_ONLY.get((folder, to))
+                if to != folder and (to not in MAY_INCLUDE[folder] or
+                                     (only and linked not in only)):
+                    errors.append(f"{folder}/CMakeLists.txt:{line}: "
+                                  f"{match.group(1)} may not link {linked} "
+                                  f"({to})")
+    return len(owner)
+
+
 def main():
     errors = []
     checked = 0
+    libraries = check_links(errors)
     for folder in MAY_INCLUDE:
         for source in sorted((ROOT / folder).rglob("*")):
             rel = source.relative_to(ROOT).as_posix()
@@ -98,9 +143,11 @@ def main():
     for error in errors:
         print(error)
     if errors:
-        print(f"layers: {len(errors)} include(s) cross the dependency table")
+        print(f"layers: {len(errors)} include(s) or link(s) cross the "
+              "dependency table")
         return 1
-    print(f"layers: {checked} sources within the dependency table")
+    print(f"layers: {checked} sources and the link lines of {libraries} "
+          "libraries within the dependency table")
     return 0
 
 
