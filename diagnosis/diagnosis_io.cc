@@ -184,43 +184,50 @@ Status ReadDiagnosisFile(const std::string& path, DiagnosisFile* file) {
                      [&] { return ReadDiagnosisDocument(path, doc, file); });
 }
 
-std::string DiagnosisToJson(const DiagnosisResult& r,
-                            const std::vector<std::string>& training_logs,
-                            const std::vector<std::string>& holdout_logs,
-                            const std::string& design_json) {
-  Json doc;
-  doc["format"] = "kcrig diagnose 1";
-  doc["logs"] = training_logs;
-  doc["holdout"] = holdout_logs;
-  doc["verdict"] = r.verdict;
-  doc["model"] = r.model;
-  doc["components"] = r.components;
-  doc["confidence"] = r.confidence;
-  doc["rival"] = r.rival.empty()
-                     ? Json(nullptr)
-                     : Json({{"model", r.rival},
-                             {"separation", FiniteOrNull(r.rival_separation)}});
-  Json leads = Json::array();
-  for (const ParameterLead& lead : r.parameter_leads) {
-    leads.push_back({{"parameter", lead.name},
-                     {"component", ComponentOfParameter(lead.name)},
-                     {"chi2_drop", FiniteOrNull(lead.chi2_drop)},
-                     {"freed", lead.freed}});
+namespace {
+
+Json StiffnessDriftJson(const std::vector<StiffnessDrift>& drifts) {
+  Json out = Json::array();
+  for (const StiffnessDrift& d : drifts) {
+    Json se = Json::array();
+    for (double v : d.standard_errors) se.push_back(FiniteOrNull(v));
+    out.push_back({{"parameter", d.parameter},
+                   {"unit", "N/m"},
+                   {"per_log", d.values},
+                   {"standard_errors", se},
+                   {"max_z", FiniteOrNull(d.max_z)},
+                   {"drifts", d.drifts}});
   }
-  doc["parameter_screening"] = leads;
-  doc["reason"] = r.reason;
-  doc["gap"] = {{"present", r.gap},
-                {"chi2", FiniteOrNull(r.chi2)},
-                {"dof", r.dof},
-                {"chi2_p", FiniteOrNull(r.chi2_p)},
-                {"ljung_box_p", FiniteOrNull(r.ljung_box_p)},
-                {"score", FiniteOrNull(r.dof > 0 ? r.chi2 / r.dof : 0)},
-                {"discretisation_sigma", FiniteOrNull(r.discretisation)},
-                {"continuous_limit", r.continuous_limit},
-                {"source", r.gap_source}};
-  if (r.prediction.assessed) {
-    doc["holdout_prediction"] = Json::parse(AdequacyToJson(r.prediction));
+  return out;
+}
+
+// The screening of the model parameters a wrong "known" value may hide in.
+Json ParameterLeadsJson(const std::vector<ParameterLead>& leads) {
+  Json out = Json::array();
+  for (const ParameterLead& lead : leads) {
+    out.push_back({{"parameter", lead.name},
+                   {"component", ComponentOfParameter(lead.name)},
+                   {"chi2_drop", FiniteOrNull(lead.chi2_drop)},
+                   {"freed", lead.freed}});
   }
+  return out;
+}
+
+Json GapJson(const DiagnosisResult& r) {
+  return {{"present", r.gap},
+          {"chi2", FiniteOrNull(r.chi2)},
+          {"dof", r.dof},
+          {"chi2_p", FiniteOrNull(r.chi2_p)},
+          {"ljung_box_p", FiniteOrNull(r.ljung_box_p)},
+          {"score", FiniteOrNull(r.dof > 0 ? r.chi2 / r.dof : 0)},
+          {"discretisation_sigma", FiniteOrNull(r.discretisation)},
+          {"continuous_limit", r.continuous_limit},
+          {"source", r.gap_source}};
+}
+
+// Where the gap lies: channels, load magnitude and direction, frequency
+// bands, lags, the stiffnesses' drift from log to log.
+Json LocalisationJson(const DiagnosisResult& r) {
   Json localisation;
   Json channels = Json::array();
   for (int k = 0; k < static_cast<int>(r.channels.size()); ++k) {
@@ -255,86 +262,103 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
                     {"rate_correlation", FiniteOrNull(c.rate_correlation)}});
   }
   localisation["lags"] = lags;
-  Json drift = Json::array();
-  for (const StiffnessDrift& d : r.drift) {
-    Json se = Json::array();
-    for (double v : d.standard_errors) se.push_back(FiniteOrNull(v));
-    drift.push_back({{"parameter", d.parameter},
-                     {"unit", "N/m"},
-                     {"per_log", d.values},
-                     {"standard_errors", se},
-                     {"max_z", FiniteOrNull(d.max_z)},
-                     {"drifts", d.drifts}});
-  }
-  localisation["stiffness_drift"] = drift;
+  localisation["stiffness_drift"] = StiffnessDriftJson(r.drift);
   localisation["drift_detected"] = r.drift_detected;
-  doc["localisation"] = localisation;
+  return localisation;
+}
+
+// How far the gap shrinks: the verdict's model against the nominal one.
+Json QuantificationJson(const DiagnosisResult& r,
+                        const CandidateScore& chosen) {
+  Json stiffness = Json::array();
+  for (int i = 0; i < kNumBushings; ++i) {
+    const ParameterEstimate& before = r.nominal.fit.result.parameters[i];
+    const ParameterEstimate& after = chosen.fit.result.parameters[i];
+    stiffness.push_back(
+        {{"name", before.name},
+         {"unit", "N/m"},
+         {"before", before.value},
+         {"after", after.value},
+         {"after_standard_error", FiniteOrNull(after.standard_error)},
+         {"bias", before.value - after.value}});
+  }
+  Json effect = Json::array();
+  for (size_t i = kNumBushings; i < chosen.fit.result.parameters.size(); ++i) {
+    const ParameterEstimate& p = chosen.fit.result.parameters[i];
+    effect.push_back(
+        {{"name", p.name},
+         {"unit", p.unit},
+         {"value", p.value},
+         {"ci95", {FiniteOrNull(p.ci95_low), FiniteOrNull(p.ci95_high)}}});
+  }
+  return {{"model", chosen.model},
+          {"scored_on", r.scoring},
+          {"rms_before", r.nominal.heldout ? PerChannel(r.nominal.heldout_rms)
+                                           : Json(nullptr)},
+          {"rms_after",
+           chosen.heldout ? PerChannel(chosen.heldout_rms) : Json(nullptr)},
+          {"score_before", FiniteOrNull(r.nominal.score)},
+          {"score_after", FiniteOrNull(chosen.score)},
+          {"gap_closed", FiniteOrNull(chosen.gap_closed)},
+          {"leaves_noise", r.leaves_noise},
+          {"effect_parameters", effect},
+          {"hard_points", HardPointsToJson(r.hard_points)},
+          {"stiffness", stiffness}};
+}
+
+Json DiscrepancyJson(const Discrepancy& d) {
+  Json terms = Json::array();
+  for (const DiscrepancyTerm& t : d.terms) {
+    terms.push_back({{"component", t.component},
+                     {"term", t.term},
+                     {"coefficient", FiniteOrNull(t.coefficient)},
+                     {"unit", t.unit},
+                     {"force_rms_n", FiniteOrNull(t.force_rms)},
+                     {"words", t.words}});
+  }
+  return {{"terms", terms},
+          {"validated_on", d.validated_on},
+          {"gap_closed", FiniteOrNull(d.gap_closed)},
+          {"training_gap_closed", FiniteOrNull(d.training_gap_closed)},
+          {"predictive", d.predictive},
+          {"text", d.text}};
+}
+
+}  // namespace
+
+std::string DiagnosisToJson(const DiagnosisResult& r,
+                            const std::vector<std::string>& training_logs,
+                            const std::vector<std::string>& holdout_logs,
+                            const std::string& design_json) {
+  Json doc;
+  doc["format"] = "kcrig diagnose 1";
+  doc["logs"] = training_logs;
+  doc["holdout"] = holdout_logs;
+  doc["verdict"] = r.verdict;
+  doc["model"] = r.model;
+  doc["components"] = r.components;
+  doc["confidence"] = r.confidence;
+  doc["rival"] = r.rival.empty()
+                     ? Json(nullptr)
+                     : Json({{"model", r.rival},
+                             {"separation", FiniteOrNull(r.rival_separation)}});
+  doc["parameter_screening"] = ParameterLeadsJson(r.parameter_leads);
+  doc["reason"] = r.reason;
+  doc["gap"] = GapJson(r);
+  if (r.prediction.assessed) {
+    doc["holdout_prediction"] = Json::parse(AdequacyToJson(r.prediction));
+  }
+  doc["localisation"] = LocalisationJson(r);
   doc["scoring"] = r.scoring;
   doc["nominal"] = CandidateJson(r.nominal);
   Json ranking = Json::array();
   for (const CandidateScore& s : r.ranking) ranking.push_back(CandidateJson(s));
   doc["candidates"] = ranking;
-  // Quantification: the verdict's model against the nominal one.
-  const CandidateScore* chosen = nullptr;
   for (const CandidateScore& s : r.ranking) {
-    if (s.model == r.model) chosen = &s;
-  }
-  if (chosen != nullptr) {
-    Json stiffness = Json::array();
-    for (int i = 0; i < kNumBushings; ++i) {
-      const ParameterEstimate& before = r.nominal.fit.result.parameters[i];
-      const ParameterEstimate& after = chosen->fit.result.parameters[i];
-      stiffness.push_back(
-          {{"name", before.name},
-           {"unit", "N/m"},
-           {"before", before.value},
-           {"after", after.value},
-           {"after_standard_error", FiniteOrNull(after.standard_error)},
-           {"bias", before.value - after.value}});
-    }
-    Json effect = Json::array();
-    for (size_t i = kNumBushings; i < chosen->fit.result.parameters.size();
-         ++i) {
-      const ParameterEstimate& p = chosen->fit.result.parameters[i];
-      effect.push_back(
-          {{"name", p.name},
-           {"unit", p.unit},
-           {"value", p.value},
-           {"ci95", {FiniteOrNull(p.ci95_low), FiniteOrNull(p.ci95_high)}}});
-    }
-    doc["quantification"] = {
-        {"model", chosen->model},
-        {"scored_on", r.scoring},
-        {"rms_before",
-         r.nominal.heldout ? PerChannel(r.nominal.heldout_rms) : Json(nullptr)},
-        {"rms_after",
-         chosen->heldout ? PerChannel(chosen->heldout_rms) : Json(nullptr)},
-        {"score_before", FiniteOrNull(r.nominal.score)},
-        {"score_after", FiniteOrNull(chosen->score)},
-        {"gap_closed", FiniteOrNull(chosen->gap_closed)},
-        {"leaves_noise", r.leaves_noise},
-        {"effect_parameters", effect},
-        {"hard_points", HardPointsToJson(r.hard_points)},
-        {"stiffness", stiffness}};
+    if (s.model == r.model) doc["quantification"] = QuantificationJson(r, s);
   }
   if (!r.discrepancy.validated_on.empty()) {
-    Json terms = Json::array();
-    for (const DiscrepancyTerm& t : r.discrepancy.terms) {
-      terms.push_back({{"component", t.component},
-                       {"term", t.term},
-                       {"coefficient", FiniteOrNull(t.coefficient)},
-                       {"unit", t.unit},
-                       {"force_rms_n", FiniteOrNull(t.force_rms)},
-                       {"words", t.words}});
-    }
-    doc["discrepancy"] = {
-        {"terms", terms},
-        {"validated_on", r.discrepancy.validated_on},
-        {"gap_closed", FiniteOrNull(r.discrepancy.gap_closed)},
-        {"training_gap_closed",
-         FiniteOrNull(r.discrepancy.training_gap_closed)},
-        {"predictive", r.discrepancy.predictive},
-        {"text", r.discrepancy.text}};
+    doc["discrepancy"] = DiscrepancyJson(r.discrepancy);
   }
   if (!r.ambiguous_a.empty()) {
     doc["ambiguous"] = {r.ambiguous_a, r.ambiguous_b};
