@@ -369,7 +369,10 @@ std::string DiagnosisToJson(const DiagnosisResult& r,
   return doc.dump(2) + "\n";
 }
 
-std::string DiagnosisSummary(const DiagnosisResult& r) {
+namespace {
+
+// The gap test and, when there is one, the hold-out's prediction.
+std::string GapSummary(const DiagnosisResult& r) {
   std::string out;
   char line[400];
   auto add = [&out, &line] { out += line; };
@@ -395,6 +398,14 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
         "absorbed by biased stiffnesses; the hold-out joined the training "
         "logs for the attribution\n";
   }
+  return out;
+}
+
+// Where the gap lies: per channel, load regime, band and log.
+std::string LocalisationSummary(const DiagnosisResult& r) {
+  std::string out;
+  char line[400];
+  auto add = [&out, &line] { out += line; };
   std::snprintf(line, sizeof(line), "  %-8s %12s %8s %8s %12s\n", "channel",
                 "rms", "score", "excess", "mean");
   add();
@@ -446,6 +457,14 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
     }
     out += "\n";
   }
+  return out;
+}
+
+// The candidates' table, the nominal model last.
+std::string RankingSummary(const DiagnosisResult& r) {
+  std::string out;
+  char line[400];
+  auto add = [&out, &line] { out += line; };
   if (!r.ranking.empty()) {
     std::snprintf(line, sizeof(line),
                   "candidates (scored by %s; score 1 = noise floor):\n"
@@ -469,48 +488,68 @@ std::string DiagnosisSummary(const DiagnosisResult& r) {
                   "0.0");
     add();
   }
+  return out;
+}
+
+// The verdict's model: held-out rms before and after, its fitted
+// parameters beside the nominal stiffnesses, the intervals' widening.
+std::string ChosenFitSummary(const DiagnosisResult& r,
+                             const CandidateScore& s) {
+  std::string out;
+  char line[400];
+  auto add = [&out, &line] { out += line; };
+  out += s.heldout ? "  held-out rms before -> after:"
+                   : "  (one log, no hold-out: no held-out rms)";
+  for (int k = 0; k < 6 && s.heldout; ++k) {
+    std::snprintf(line, sizeof(line), " %s %.4f->%.4f %s", kChannelNames[k],
+                  ChannelDisplayValue(k, r.nominal.heldout_rms(k)),
+                  ChannelDisplayValue(k, s.heldout_rms(k)),
+                  ChannelDisplayUnit(k));
+    add();
+  }
+  out += "\n  fitted:";
+  for (size_t i = 0; i < s.fit.result.parameters.size(); ++i) {
+    const ParameterEstimate& p = s.fit.result.parameters[i];
+    const double scale = DisplayScale(p);
+    // What the engineer compares: the stiffness before the effect was
+    // modelled; a mount compliance also as a stiffness.
+    char extra[64] = "";
+    if (i < kNumBushings) {
+      std::snprintf(extra, sizeof(extra), " (was %.0f)",
+                    r.nominal.fit.result.parameters[i].value * scale);
+    } else if (p.unit == "m/N" && p.value > 0) {
+      std::snprintf(extra, sizeof(extra), " (k %.0f N/mm)", 1e-3 / p.value);
+    }
+    std::snprintf(
+        line, sizeof(line), " %s %.4g +- %.2g %s%s", p.name.c_str(),
+        p.value * scale,
+        std::isfinite(p.standard_error) ? (p.ci95_high - p.value) * scale : NAN,
+        DisplayUnit(p).c_str(), extra);
+    add();
+  }
+  out += "\n" + IntervalWideningSummary(s.fit.result);
+  return out;
+}
+
+std::string VerdictSummary(const DiagnosisResult& r) {
   std::string where;
   for (const std::string& c : r.components) {
     where += (where.empty() ? " in " : " and ") + c;
   }
   if (r.model == r.verdict) where.clear();  // everywhere: nothing to place
   // The reason is as long as what it names: no fixed buffer.
-  out += "verdict: " + r.verdict + where +
+  return "verdict: " + r.verdict + where +
          (r.confidence.empty() ? "" : ", confidence " + r.confidence) + " — " +
          r.reason + "\n";
+}
+
+}  // namespace
+
+std::string DiagnosisSummary(const DiagnosisResult& r) {
+  std::string out = GapSummary(r) + LocalisationSummary(r) + RankingSummary(r) +
+                    VerdictSummary(r);
   for (const CandidateScore& s : r.ranking) {
-    if (s.model != r.model) continue;
-    out += s.heldout ? "  held-out rms before -> after:"
-                     : "  (one log, no hold-out: no held-out rms)";
-    for (int k = 0; k < 6 && s.heldout; ++k) {
-      std::snprintf(line, sizeof(line), " %s %.4f->%.4f %s", kChannelNames[k],
-                    ChannelDisplayValue(k, r.nominal.heldout_rms(k)),
-                    ChannelDisplayValue(k, s.heldout_rms(k)),
-                    ChannelDisplayUnit(k));
-      add();
-    }
-    out += "\n  fitted:";
-    for (size_t i = 0; i < s.fit.result.parameters.size(); ++i) {
-      const ParameterEstimate& p = s.fit.result.parameters[i];
-      const double scale = DisplayScale(p);
-      // What the engineer compares: the stiffness before the effect was
-      // modelled; a mount compliance also as a stiffness.
-      char extra[64] = "";
-      if (i < kNumBushings) {
-        std::snprintf(extra, sizeof(extra), " (was %.0f)",
-                      r.nominal.fit.result.parameters[i].value * scale);
-      } else if (p.unit == "m/N" && p.value > 0) {
-        std::snprintf(extra, sizeof(extra), " (k %.0f N/mm)", 1e-3 / p.value);
-      }
-      std::snprintf(line, sizeof(line), " %s %.4g +- %.2g %s%s", p.name.c_str(),
-                    p.value * scale,
-                    std::isfinite(p.standard_error)
-                        ? (p.ci95_high - p.value) * scale
-                        : NAN,
-                    DisplayUnit(p).c_str(), extra);
-      add();
-    }
-    out += "\n" + IntervalWideningSummary(s.fit.result);
+    if (s.model == r.model) out += ChosenFitSummary(r, s);
   }
   return out;
 }
