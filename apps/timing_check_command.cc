@@ -41,56 +41,42 @@ void PrintRow(const char* name, const TimingStatistics& s) {
               s.max() * 1e-3);
 }
 
-int RunTimingCheck(const TimingCheckArgs& args) {
-  const CommandError fail("timing-check");
-  KcrigConfig config;
-  Status status = LoadConfig(args.config_dir, &config);
-  if (!status.ok()) return fail(status);
-  status = CheckOutput("--out", args.out, {});
-  if (!status.ok()) return fail(status);
-  RigConfig rig_config;
-  status = LoadRigConfig(config.directory, &rig_config);
-  if (!status.ok()) return fail(status);
+// The config and rig.yaml with --rate applied, the options checked, and the
+// rig (none for the model alone) configured.
+Status PrepareTimingCheck(const TimingCheckArgs& args, KcrigConfig* config,
+                          RigConfig* rig_config,
+                          std::unique_ptr<RigInterface>* rig) {
+  KCRIG_RETURN_IF_ERROR(LoadConfig(args.config_dir, config));
+  KCRIG_RETURN_IF_ERROR(CheckOutput("--out", args.out, {}));
+  KCRIG_RETURN_IF_ERROR(LoadRigConfig(config->directory, rig_config));
   if (args.rate) {
     if (!(*args.rate >= 10 && *args.rate <= 10000)) {
-      return fail(Status::Error("--rate: must be within [10, 10000] Hz"));
+      return Status::Error("--rate: must be within [10, 10000] Hz");
     }
-    rig_config.period = 1.0 / *args.rate;
-    status = CheckLimitsAtPeriod(rig_config);
-    if (!status.ok()) return fail(Status::Error("--rate: " + status.message()));
-    if (rig_config.modbus.response_timeout > 0.5 * rig_config.period) {
-      return fail(Status::Error(
+    rig_config->period = 1.0 / *args.rate;
+    const Status status = CheckLimitsAtPeriod(*rig_config);
+    if (!status.ok()) return Status::Error("--rate: " + status.message());
+    if (rig_config->modbus.response_timeout > 0.5 * rig_config->period) {
+      return Status::Error(
           "--rate: the period is shorter than twice modbus.response_timeout "
-          "(rig.yaml)"));
+          "(rig.yaml)");
     }
   }
   if (!(args.duration > 0 && args.duration <= 3600) ||
       !(args.baseline >= 0 && args.baseline <= 3600)) {
-    return fail(
-        Status::Error("--duration and --baseline: must be within (0, 3600] s"));
+    return Status::Error(
+        "--duration and --baseline: must be within (0, 3600] s");
   }
-  std::unique_ptr<RigInterface> rig;
-  if (!args.rig.empty()) {
-    status = MakeRig(args.rig, rig_config, "", &rig);
-    if (!status.ok()) return fail(status);
-    status = rig->Configure();
-    if (!status.ok()) return fail(status);
-  }
-  const std::int64_t period_ns = std::llround(rig_config.period * 1e9);
-  ProgressLine progress(args.quiet);
+  if (args.rig.empty()) return Status::Ok();
+  KCRIG_RETURN_IF_ERROR(MakeRig(args.rig, *rig_config, "", rig));
+  return (*rig)->Configure();
+}
 
-  // The machine's baseline first, with the loop's scheduling.
-  TimingStatistics baseline;
-  RealtimeReport baseline_realtime;
-  if (args.baseline > 0) {
-    progress.Show("kcrig timing-check: baseline wake-up latency (" +
-                  std::to_string(static_cast<int>(args.baseline)) + " s)");
-    baseline_realtime = SetUpRealtime(rig_config.realtime);
-    baseline = MeasureWakeupLatency(period_ns, args.baseline);
-    LeaveRealtime();
-  }
-
-  // The loop with zero force: a timing check never loads the rig.
+// The loop with zero force (a timing check never loads the rig) for
+// --duration, through the rig if any.
+Status RunZeroForceLoop(const TimingCheckArgs& args, const KcrigConfig& config,
+                        const RigConfig& rig_config, RigInterface* rig,
+                        ProgressLine* progress, RigSessionResult* result) {
   RigSessionOptions options;
   options.excitation = {config.experiment.phi, config.experiment.z_a, 0.0,
                         std::max(args.duration, 1.0)};
@@ -101,89 +87,133 @@ int RunTimingCheck(const TimingCheckArgs& args) {
     std::snprintf(text, sizeof(text),
                   "kcrig timing-check: loop t = %.1f / %.1f s", t,
                   args.duration);
-    progress.Show(text, t / args.duration);
+    progress->Show(text, t / args.duration);
   };
-  RigSessionResult result;
-  status = RunRigSession(config, rig_config, rig.get(), options, &result);
-  progress.Clear();
-  if (!status.ok()) return fail(status);
-  for (const std::string& warning : result.realtime.warnings) {
+  const Status status = RunRigSession(config, rig_config, rig, options, result);
+  progress->Clear();
+  if (!status.ok()) return status;
+  for (const std::string& warning : result->realtime.warnings) {
     std::fprintf(stderr, "kcrig timing-check: warning: %s\n", warning.c_str());
   }
+  return Status::Ok();
+}
+
+void PrintPhases(const TimingFile& timing) {
+  std::printf("  %-22s %8s %8s %8s %8s %8s %9s  [us]\n", "phase", "min", "mean",
+              "p50", "p99", "p99.9", "max");
+  for (const char* name : {"wakeup", "read", "compute", "write", "cycle"}) {
+    const TimingPhase& p = timing.phases.at(name);
+    std::printf("  %-22s %8.1f %8.1f %8.1f %8.1f %8.1f %9.1f\n", name, p.min_us,
+                p.mean_us, p.p50_us, p.p99_us, p.p999_us, p.max_us);
+  }
+}
+
+// The machine's wake-up latency beside the loop's, printed and recorded.
+void AddBaseline(const TimingStatistics& baseline,
+                 const RealtimeReport& realtime, double duration,
+                 TimingFile* timing) {
+  PrintRow("baseline wake-up", baseline);
+  const double kcrig_p99 = timing->phases["wakeup"].p99_us;
+  const double ratio = baseline.Percentile(0.99) > 0
+                           ? kcrig_p99 * 1e3 / baseline.Percentile(0.99)
+                           : 0.0;
+  std::printf(
+      "  wake-up p99: kcrig %.1f us vs the machine's baseline %.1f us "
+      "(ratio %.2f; cyclictest-like, same priority and period)\n",
+      kcrig_p99, baseline.Percentile(0.99) * 1e-3, ratio);
+  timing->has_baseline = true;
+  TimingBaseline& b = timing->baseline;
+  b.duration_s = duration;
+  b.sched_fifo = realtime.fifo;
+  b.wakeup.count = baseline.count();
+  b.wakeup.min_us = baseline.min() * 1e-3;
+  b.wakeup.mean_us = baseline.mean() * 1e-3;
+  b.wakeup.p50_us = baseline.Percentile(0.5) * 1e-3;
+  b.wakeup.p99_us = baseline.Percentile(0.99) * 1e-3;
+  b.wakeup.p999_us = baseline.Percentile(0.999) * 1e-3;
+  b.wakeup.max_us = baseline.max() * 1e-3;
+  b.kcrig_to_baseline_p99 = ratio;
+}
+
+// The link over the whole run, its end included: a rig that dies in the
+// last cycles (before the watchdog's count) is no pass either. Lost rig
+// samples are reported but pass: another client reading the rig (an HMI)
+// takes samples this loop never sees.
+void JudgeLink(TimingFile* timing) {
+  std::printf(
+      "  link: %lld read errors, %lld write errors, %lld stale samples, "
+      "%lld rig samples lost; release %s\n",
+      static_cast<long long>(timing->read_errors),
+      static_cast<long long>(timing->write_errors),
+      static_cast<long long>(timing->stale_samples),
+      static_cast<long long>(timing->lost_rig_samples),
+      timing->release_error.empty()
+          ? "ok"
+          : ("failed (" + timing->release_error + ")").c_str());
+  if (timing->read_errors + timing->write_errors + timing->stale_samples > 0 ||
+      !timing->release_error.empty()) {
+    timing->violations.push_back("the link failed (see link)");
+    timing->within_budget = false;
+  }
+}
+
+// The budget's verdict. A loop that a fault or a signal ended early measured
+// only part of the run: never a pass, whatever its figures.
+void PrintVerdict(const TimingFile& timing, const RigSessionResult& result) {
+  for (const std::string& violation : timing.violations) {
+    std::printf("  over budget: %s\n", violation.c_str());
+  }
+  if (!result.completed) {
+    std::printf("  %s: the loop did not run to its end\n",
+                result.trip_message.c_str());
+  }
+  std::printf("  budget (rig.yaml timing_budget): %s\n",
+              !result.completed      ? "NOT CHECKED (the loop stopped early)"
+              : timing.within_budget ? "within"
+                                     : "EXCEEDED");
+}
+
+int RunTimingCheck(const TimingCheckArgs& args) {
+  const CommandError fail("timing-check");
+  KcrigConfig config;
+  RigConfig rig_config;
+  std::unique_ptr<RigInterface> rig;
+  Status status = PrepareTimingCheck(args, &config, &rig_config, &rig);
+  if (!status.ok()) return fail(status);
+  ProgressLine progress(args.quiet);
+
+  // The machine's baseline first, with the loop's scheduling.
+  TimingStatistics baseline;
+  RealtimeReport baseline_realtime;
+  if (args.baseline > 0) {
+    progress.Show("kcrig timing-check: baseline wake-up latency (" +
+                  std::to_string(static_cast<int>(args.baseline)) + " s)");
+    baseline_realtime = SetUpRealtime(rig_config.realtime);
+    baseline = MeasureWakeupLatency(std::llround(rig_config.period * 1e9),
+                                    args.baseline);
+    LeaveRealtime();
+  }
+  RigSessionResult result;
+  status =
+      RunZeroForceLoop(args, config, rig_config, rig.get(), &progress, &result);
+  if (!status.ok()) return fail(status);
 
   // The statistics printed are timing.json's: one source.
   TimingFile timing = result.timing;
   std::printf("kcrig timing-check: %.0f Hz for %.1f s, transport %s\n",
               1.0 / rig_config.period, args.duration,
               rig ? rig->Describe().c_str() : "none (model only)");
-  std::printf("  %-22s %8s %8s %8s %8s %8s %9s  [us]\n", "phase", "min", "mean",
-              "p50", "p99", "p99.9", "max");
-  for (const char* name : {"wakeup", "read", "compute", "write", "cycle"}) {
-    const TimingPhase& p = timing.phases[name];
-    std::printf("  %-22s %8.1f %8.1f %8.1f %8.1f %8.1f %9.1f\n", name, p.min_us,
-                p.mean_us, p.p50_us, p.p99_us, p.p999_us, p.max_us);
-  }
+  PrintPhases(timing);
   if (args.baseline > 0) {
-    PrintRow("baseline wake-up", baseline);
-    const double kcrig_p99 = timing.phases["wakeup"].p99_us;
-    const double ratio = baseline.Percentile(0.99) > 0
-                             ? kcrig_p99 * 1e3 / baseline.Percentile(0.99)
-                             : 0.0;
-    std::printf(
-        "  wake-up p99: kcrig %.1f us vs the machine's baseline %.1f us "
-        "(ratio %.2f; cyclictest-like, same priority and period)\n",
-        kcrig_p99, baseline.Percentile(0.99) * 1e-3, ratio);
-    timing.has_baseline = true;
-    TimingBaseline& b = timing.baseline;
-    b.duration_s = args.baseline;
-    b.sched_fifo = baseline_realtime.fifo;
-    b.wakeup.count = baseline.count();
-    b.wakeup.min_us = baseline.min() * 1e-3;
-    b.wakeup.mean_us = baseline.mean() * 1e-3;
-    b.wakeup.p50_us = baseline.Percentile(0.5) * 1e-3;
-    b.wakeup.p99_us = baseline.Percentile(0.99) * 1e-3;
-    b.wakeup.p999_us = baseline.Percentile(0.999) * 1e-3;
-    b.wakeup.max_us = baseline.max() * 1e-3;
-    b.kcrig_to_baseline_p99 = ratio;
+    AddBaseline(baseline, baseline_realtime, args.baseline, &timing);
   }
   std::printf(
       "  overruns %lld (cycles skipped %lld, of them %lld by late wake-ups)\n",
       static_cast<long long>(result.loop.overruns),
       static_cast<long long>(result.loop.skipped_cycles),
       static_cast<long long>(result.loop.skipped_by_late_wakeup));
-  // The link over the whole run, its end included: a rig that dies in the
-  // last cycles (before the watchdog's count) is no pass either.
-  std::printf(
-      "  link: %lld read errors, %lld write errors, %lld stale samples, "
-      "%lld rig samples lost; release %s\n",
-      static_cast<long long>(timing.read_errors),
-      static_cast<long long>(timing.write_errors),
-      static_cast<long long>(timing.stale_samples),
-      static_cast<long long>(timing.lost_rig_samples),
-      timing.release_error.empty()
-          ? "ok"
-          : ("failed (" + timing.release_error + ")").c_str());
-  // Lost rig samples are reported but pass: another client reading the
-  // rig (an HMI) takes samples this loop never sees.
-  if (timing.read_errors + timing.write_errors + timing.stale_samples > 0 ||
-      !timing.release_error.empty()) {
-    timing.violations.push_back("the link failed (see link)");
-    timing.within_budget = false;
-  }
-  const bool within = timing.within_budget;
-  for (const std::string& violation : timing.violations) {
-    std::printf("  over budget: %s\n", violation.c_str());
-  }
-  // A loop that a fault or a signal ended early measured only part of the
-  // run: never a pass, whatever its figures.
-  if (!result.completed) {
-    std::printf("  %s: the loop did not run to its end\n",
-                result.trip_message.c_str());
-  }
-  std::printf("  budget (rig.yaml timing_budget): %s\n",
-              !result.completed ? "NOT CHECKED (the loop stopped early)"
-              : within          ? "within"
-                                : "EXCEEDED");
+  JudgeLink(&timing);
+  PrintVerdict(timing, result);
   if (!args.out.empty()) {
     status = WriteFilesAtomically({{args.out, TimingFileToJson(timing)}});
     if (!status.ok()) return fail(status);
@@ -193,7 +223,7 @@ int RunTimingCheck(const TimingCheckArgs& args) {
     return 128 + result.loop.signal;
   }
   if (!result.completed) return kTripped;
-  return within ? 0 : kOverBudget;
+  return timing.within_budget ? 0 : kOverBudget;
 }
 
 }  // namespace
