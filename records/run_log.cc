@@ -339,9 +339,8 @@ Status ReadSidecar(const std::string& path, size_t rows, double first_t,
   return ParseSidecar(doc, path, rows, first_t, last_t, m);
 }
 
-}  // namespace
-
-Status ReadRunLog(const std::string& csv_path, RunLog* log) {
+// The whole file, which must end with a whole line.
+Status ReadWholeLog(const std::string& csv_path, std::string* text) {
   // An hour at 1 kHz with every column is about 0.6 GB.
   constexpr std::uintmax_t kMaxLogBytes = 1u << 30;
   KCRIG_RETURN_IF_ERROR(CheckInputFile(csv_path, kMaxLogBytes));
@@ -349,14 +348,129 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
   if (!in) return Status::Error(csv_path + ": cannot open");
   std::stringstream buffer;
   buffer << in.rdbuf();
-  const std::string text = buffer.str();
-  if (text.empty()) return Status::Error(csv_path + ": empty file");
-  if (text.back() != '\n') {
-    const long line = 1 + std::count(text.begin(), text.end(), '\n');
+  *text = buffer.str();
+  if (text->empty()) return Status::Error(csv_path + ": empty file");
+  if (text->back() != '\n') {
+    const long line = 1 + std::count(text->begin(), text->end(), '\n');
     return Status::Error(csv_path + ":" + std::to_string(line) +
                          ": truncated (the last line is incomplete)");
   }
+  return Status::Ok();
+}
 
+// Where each column of a run.csv is; -1 when absent.
+struct LogColumns {
+  // t, Fx, Fy, Fz (absent together: no load cell), x .. caster.
+  int channel[10];
+  int commanded[3];  // Fx_cmd .. Fz_cmd, all or none
+  int fresh = -1;
+  int phase = -1;
+  int loop[3 + 6];  // the loop's other columns, all or none
+};
+
+// The header's columns, checked: none twice, the required ones present, the
+// groups complete. Sets which groups `log` has.
+Status MapColumns(const std::vector<std::string_view>& header,
+                  const std::string& csv_path, LogColumns* columns,
+                  RunLog* log) {
+  // A column given twice would be read from whichever comes first.
+  for (size_t i = 0; i < header.size(); ++i) {
+    if (std::find(header.begin(), header.begin() + static_cast<long>(i),
+                  header[i]) != header.begin() + static_cast<long>(i)) {
+      return Status::Error(csv_path + ":1: column '" + std::string(header[i]) +
+                           "' appears twice");
+    }
+  }
+  auto find = [&header](std::string_view name) {
+    for (size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == name) return static_cast<int>(i);
+    }
+    return -1;
+  };
+  int forces_found = 0;
+  for (int k = 0; k < 10; ++k) {
+    columns->channel[k] = find(kChannels[k]);
+    const bool force = k >= 1 && k <= 3;
+    forces_found += force && columns->channel[k] >= 0;
+    if (columns->channel[k] < 0 && !force) {
+      return Status::Error(csv_path + ":1: missing column '" +
+                           std::string(kChannels[k]) + "'");
+    }
+  }
+  if (forces_found != 0 && forces_found != 3) {
+    return Status::Error(csv_path + ":1: Fx, Fy, Fz must appear together");
+  }
+  log->has_measured_force = forces_found == 3;
+  int commanded_found = 0;
+  for (int k = 0; k < 3; ++k) {
+    columns->commanded[k] = find(kCommandedChannels[k]);
+    commanded_found += columns->commanded[k] >= 0;
+  }
+  if (commanded_found != 0 && commanded_found != 3) {
+    return Status::Error(csv_path +
+                         ":1: Fx_cmd, Fy_cmd, Fz_cmd must appear together");
+  }
+  log->has_commanded_force = commanded_found == 3;
+  columns->fresh = find("fresh");
+  columns->phase = find("phase");
+  // A rig log re-written (kcrig export) keeps the loop's columns.
+  int loop_found = 0;
+  for (int k = 0; k < 9; ++k) {
+    columns->loop[k] = find(kLoopColumns[k]);
+    loop_found += columns->loop[k] >= 0;
+  }
+  log->has_loop_columns =
+      loop_found == 9 && columns->fresh >= 0 && columns->phase >= 0;
+  return Status::Ok();
+}
+
+// One row's sample; `where` (file:line) leads the error.
+Status ParseRow(const std::vector<std::string_view>& fields,
+                const LogColumns& columns, const RunLog& log,
+                const std::string& where, LogSample* sample) {
+  double values[10] = {};
+  for (int k = 0; k < 10; ++k) {
+    if (columns.channel[k] < 0) continue;
+    KCRIG_RETURN_IF_ERROR(ParseChannel(fields[columns.channel[k]], kChannels[k],
+                                       where, &values[k]));
+  }
+  sample->t = values[0];
+  sample->force << values[1], values[2], values[3];
+  sample->y << values[4], values[5], values[6], values[7], values[8], values[9];
+  if (log.has_commanded_force) {
+    for (int k = 0; k < 3; ++k) {
+      KCRIG_RETURN_IF_ERROR(ParseChannel(fields[columns.commanded[k]],
+                                         kCommandedChannels[k], where,
+                                         &sample->commanded(k)));
+    }
+  }
+  if (columns.fresh >= 0) {
+    const std::string_view fresh = fields[columns.fresh];
+    if (fresh != "0" && fresh != "1") {
+      return Status::Error(where + ": column 'fresh': expected 0 or 1, got '" +
+                           std::string(fresh) + "'");
+    }
+    sample->fresh = fresh == "1";
+  }
+  if (log.has_loop_columns) {
+    KCRIG_RETURN_IF_ERROR(
+        ParseLoopColumns(fields, columns.loop, where, sample));
+  }
+  if (columns.phase >= 0) {
+    sample->phase = RunPhaseNamed(fields[columns.phase]);
+    if (sample->phase.empty()) {
+      return Status::Error(where + ": column 'phase': unknown phase '" +
+                           std::string(fields[columns.phase]) + "'");
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status ReadRunLog(const std::string& csv_path, RunLog* log) {
+  std::string text;
+  KCRIG_RETURN_IF_ERROR(ReadWholeLog(csv_path, &text));
   std::string_view rest(text);
   auto next_line = [&rest]() {
     const size_t end = rest.find('\n');
@@ -366,112 +480,24 @@ Status ReadRunLog(const std::string& csv_path, RunLog* log) {
     return line;
   };
   const std::vector<std::string_view> header = SplitFields(next_line());
-  // A column given twice would be read from whichever comes first.
-  for (size_t i = 0; i < header.size(); ++i) {
-    if (std::find(header.begin(), header.begin() + static_cast<long>(i),
-                  header[i]) != header.begin() + static_cast<long>(i)) {
-      return Status::Error(csv_path + ":1: column '" + std::string(header[i]) +
-                           "' appears twice");
-    }
-  }
-  // Column index of each channel; -1 when absent.
-  auto find = [&header](std::string_view name) {
-    for (size_t i = 0; i < header.size(); ++i) {
-      if (header[i] == name) return static_cast<int>(i);
-    }
-    return -1;
-  };
-  // Fx, Fy, Fz (columns 1-3) may be absent together: no load cell.
-  int column[10];
-  int forces_found = 0;
-  for (int k = 0; k < 10; ++k) {
-    column[k] = find(kChannels[k]);
-    const bool force = k >= 1 && k <= 3;
-    forces_found += force && column[k] >= 0;
-    if (column[k] < 0 && !force) {
-      return Status::Error(csv_path + ":1: missing column '" +
-                           std::string(kChannels[k]) + "'");
-    }
-  }
-  if (forces_found != 0 && forces_found != 3) {
-    return Status::Error(csv_path + ":1: Fx, Fy, Fz must appear together");
-  }
-  log->has_measured_force = forces_found == 3;
-  int commanded[3];
-  int commanded_found = 0;
-  for (int k = 0; k < 3; ++k) {
-    commanded[k] = find(kCommandedChannels[k]);
-    commanded_found += commanded[k] >= 0;
-  }
-  if (commanded_found != 0 && commanded_found != 3) {
-    return Status::Error(csv_path +
-                         ":1: Fx_cmd, Fy_cmd, Fz_cmd must appear together");
-  }
-  log->has_commanded_force = commanded_found == 3;
-  const int fresh_column = find("fresh");
-  const int phase_column = find("phase");
-  // The loop's other columns, all or none: a rig log re-written (kcrig
-  // export) keeps them.
-  int loop[3 + 6];
-  int loop_found = 0;
-  for (int k = 0; k < 9; ++k) {
-    loop[k] = find(kLoopColumns[k]);
-    loop_found += loop[k] >= 0;
-  }
-  log->has_loop_columns =
-      loop_found == 9 && fresh_column >= 0 && phase_column >= 0;
+  LogColumns columns;
+  KCRIG_RETURN_IF_ERROR(MapColumns(header, csv_path, &columns, log));
   log->samples.clear();
-
   long line_number = 1;
   while (!rest.empty()) {
     ++line_number;
-    const std::string_view line = next_line();
     const std::string where = csv_path + ":" + std::to_string(line_number);
-    const std::vector<std::string_view> fields = SplitFields(line);
+    const std::vector<std::string_view> fields = SplitFields(next_line());
     if (fields.size() != header.size()) {
       return Status::Error(where + ": expected " +
                            std::to_string(header.size()) + " fields, got " +
                            std::to_string(fields.size()));
     }
-    double values[10] = {};
-    for (int k = 0; k < 10; ++k) {
-      if (column[k] < 0) continue;
-      KCRIG_RETURN_IF_ERROR(
-          ParseChannel(fields[column[k]], kChannels[k], where, &values[k]));
-    }
     LogSample sample;
-    sample.t = values[0];
-    sample.force << values[1], values[2], values[3];
-    sample.y << values[4], values[5], values[6], values[7], values[8],
-        values[9];
-    if (log->has_commanded_force) {
-      for (int k = 0; k < 3; ++k) {
-        KCRIG_RETURN_IF_ERROR(ParseChannel(fields[commanded[k]],
-                                           kCommandedChannels[k], where,
-                                           &sample.commanded(k)));
-      }
-    }
-    if (fresh_column >= 0) {
-      const std::string_view fresh = fields[fresh_column];
-      if (fresh != "0" && fresh != "1") {
-        return Status::Error(where +
-                             ": column 'fresh': expected 0 or 1, got '" +
-                             std::string(fresh) + "'");
-      }
-      sample.fresh = fresh == "1";
-    }
-    if (log->has_loop_columns) {
-      KCRIG_RETURN_IF_ERROR(ParseLoopColumns(fields, loop, where, &sample));
-    }
-    if (phase_column >= 0) {
-      sample.phase = RunPhaseNamed(fields[phase_column]);
-      if (sample.phase.empty()) {
-        return Status::Error(where + ": column 'phase': unknown phase '" +
-                             std::string(fields[phase_column]) + "'");
-      }
-    }
+    KCRIG_RETURN_IF_ERROR(ParseRow(fields, columns, *log, where, &sample));
     if (!log->samples.empty() && !(sample.t > log->samples.back().t)) {
-      return Status::Error(where + ": time " + std::string(fields[column[0]]) +
+      return Status::Error(where + ": time " +
+                           std::string(fields[columns.channel[0]]) +
                            " s does not increase");
     }
     log->samples.push_back(sample);
