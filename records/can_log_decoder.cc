@@ -17,6 +17,139 @@ const char* PhaseName(int wire) {
   return "unknown";
 }
 
+// Rebuilds the controller's rows from the frames, in order: the last
+// sample the rig sent, the KC_Setup in force, the owner's commands with
+// their sequence unwrapped (a cycle the controller skipped is a row without
+// a fresh sample).
+class RowAssembler {
+ public:
+  RowAssembler(const KcRigProtocol& protocol, const std::string& path,
+               RunLog* log, CanLogCounts* counts)
+      : protocol_(protocol),
+        samples_(&protocol),
+        path_(path),
+        log_(log),
+        counts_(counts) {}
+
+  Status Add(const CanFrame& frame) {
+    ++counts_->frames;
+    if (frame.error) {
+      ++counts_->error_frames;
+      return Status::Ok();
+    }
+    const KcFrame kind = protocol_.Classify(frame);
+    if (kind == KcFrame::kCount) {
+      ++counts_->unknown;
+      return Status::Ok();
+    }
+    if (!protocol_.WellFormed(frame, kind)) {
+      ++counts_->malformed;
+      return Status::Ok();
+    }
+    switch (kind) {
+      case KcFrame::kSetup:
+        return OnSetup(frame);
+      case KcFrame::kSession: {
+        const KcSession session = protocol_.DecodeSession(frame);
+        if (owner_ < 0 && session.claim) owner_ = session.session;
+        return Status::Ok();
+      }
+      case KcFrame::kHeartbeat:
+        fault_code_ = protocol_.DecodeHeartbeat(frame).fault_code;
+        return Status::Ok();
+      case KcFrame::kCommand:
+        return OnCommand(frame);
+      default:
+        if (samples_.Add(frame, kind, &latest_)) {
+          latest_.fault_code = fault_code_;
+          fresh_ = true;
+          ++counts_->samples;
+        }
+        return Status::Ok();
+    }
+  }
+
+ private:
+  Status OnSetup(const CanFrame& frame) {
+    bool clamped = false;
+    setup_ = protocol_.DecodeSetup(frame, &clamped);
+    if (setup_.protocol != kKcRigProtocolVersion) {
+      return Status::Error(
+          path_ + ": a log of CAN protocol " + std::to_string(setup_.protocol) +
+          " (KC_Setup); this kcrig reads " +
+          std::to_string(kKcRigProtocolVersion) +
+          ": decode it with the kcrig and DBC it was recorded with");
+    }
+    have_setup_ = true;
+    return Status::Ok();
+  }
+
+  Status OnCommand(const CanFrame& frame) {
+    bool clamped = false;
+    const KcCommand command = protocol_.DecodeCommand(frame, &clamped);
+    if (owner_ < 0) owner_ = command.session;  // a capture from mid-run
+    if (command.session != owner_) {
+      ++counts_->foreign;  // another controller's, refused by the rig
+      return Status::Ok();
+    }
+    if (setup_.phase == 0) return Status::Ok();  // lifecycle, outside the loop
+    if (!have_setup_ || setup_.period <= 0) {
+      return Status::Error(path_ +
+                           ": no KC_Setup (acting height, cycle period) "
+                           "before the first loop command");
+    }
+    ++counts_->commands;
+    const std::int64_t step =
+        cycle_ < 0
+            ? 0
+            : static_cast<std::uint8_t>(command.sequence - last_sequence_);
+    if (cycle_ >= 0 && step == 0) return Status::Ok();  // a repeated frame
+    // Cycles skipped by the controller: rows without a fresh sample.
+    for (std::int64_t k = 1; k < step && !log_->samples.empty(); ++k) {
+      LogSample filler = log_->samples.back();
+      filler.t = static_cast<double>(cycle_ + k) * setup_.period;
+      filler.fresh = false;
+      log_->samples.push_back(filler);
+    }
+    // The first loop cycle is below 256: its sequence is its index.
+    cycle_ = cycle_ < 0 ? command.sequence : cycle_ + step;
+    last_sequence_ = command.sequence;
+    log_->samples.push_back(Row(command));
+    log_->metadata.excitation.z_a = setup_.z_a;
+    log_->metadata.rate = 1.0 / setup_.period;
+    fresh_ = false;
+    return Status::Ok();
+  }
+
+  LogSample Row(const KcCommand& command) const {
+    LogSample row;
+    row.t = static_cast<double>(cycle_) * setup_.period;
+    row.force = latest_.force;
+    row.y = latest_.y;
+    row.commanded = command.force;
+    row.fresh = fresh_;
+    row.phase = PhaseName(setup_.phase);
+    row.safety = setup_.safety;
+    row.rig_sample = latest_.sample;
+    row.rig_status = latest_.status;
+    return row;
+  }
+
+  const KcRigProtocol& protocol_;
+  KcSampleAssembler samples_;
+  const std::string& path_;
+  RunLog* log_;
+  CanLogCounts* counts_;
+  RigMeasurement latest_;
+  bool fresh_ = false;
+  bool have_setup_ = false;
+  KcSetup setup_;
+  std::uint16_t fault_code_ = 0;
+  std::int64_t cycle_ = -1;  // unwrapped command sequence
+  std::uint8_t last_sequence_ = 0;
+  int owner_ = -1;  // the session of the log's first claim or command
+};
+
 }  // namespace
 
 Status DecodeCanLog(const std::string& path,
@@ -26,14 +159,11 @@ Status DecodeCanLog(const std::string& path,
   if (counts == nullptr) counts = &local;
   *counts = CanLogCounts();
   Dbc dbc;
-  Status status = LoadDbc(options.dbc_file, &dbc);
-  if (!status.ok()) return status;
+  KCRIG_RETURN_IF_ERROR(LoadDbc(options.dbc_file, &dbc));
   KcRigProtocol protocol;
-  status = protocol.Bind(dbc, options.dbc_file);
-  if (!status.ok()) return status;
+  KCRIG_RETURN_IF_ERROR(protocol.Bind(dbc, options.dbc_file));
   std::vector<CandumpRecord> records;
-  status = ReadCandumpLog(path, &records);
-  if (!status.ok()) return status;
+  KCRIG_RETURN_IF_ERROR(ReadCandumpLog(path, &records));
 
   *log = RunLog();
   log->has_measured_force = true;
@@ -45,106 +175,9 @@ Status DecodeCanLog(const std::string& path,
   m.sigma_position = options.sigma_position;
   m.sigma_angle = options.sigma_angle;
   m.transport = records.empty() ? "can" : "can:" + records[0].interface;
-
-  KcSampleAssembler assembler(&protocol);
-  RigMeasurement latest;
-  bool fresh = false, have_setup = false;
-  KcSetup setup;
-  std::uint16_t fault_code = 0;
-  std::int64_t cycle = -1;  // unwrapped command sequence
-  std::uint8_t last_sequence = 0;
-  int owner = -1;  // the session of the log's first claim or command
+  RowAssembler rows(protocol, path, log, counts);
   for (const CandumpRecord& record : records) {
-    const CanFrame& frame = record.frame.frame;
-    ++counts->frames;
-    if (frame.error) {
-      ++counts->error_frames;
-      continue;
-    }
-    const KcFrame kind = protocol.Classify(frame);
-    if (kind == KcFrame::kCount) {
-      ++counts->unknown;
-      continue;
-    }
-    if (!protocol.WellFormed(frame, kind)) {
-      ++counts->malformed;
-      continue;
-    }
-    bool clamped = false;
-    switch (kind) {
-      case KcFrame::kSetup:
-        setup = protocol.DecodeSetup(frame, &clamped);
-        if (setup.protocol != kKcRigProtocolVersion) {
-          return Status::Error(
-              path + ": a log of CAN protocol " +
-              std::to_string(setup.protocol) +
-              " (KC_Setup); this kcrig reads " +
-              std::to_string(kKcRigProtocolVersion) +
-              ": decode it with the kcrig and DBC it was recorded with");
-        }
-        have_setup = true;
-        break;
-      case KcFrame::kSession: {
-        const KcSession session = protocol.DecodeSession(frame);
-        if (owner < 0 && session.claim) owner = session.session;
-        break;
-      }
-      case KcFrame::kHeartbeat:
-        fault_code = protocol.DecodeHeartbeat(frame).fault_code;
-        break;
-      case KcFrame::kCommand: {
-        const KcCommand command = protocol.DecodeCommand(frame, &clamped);
-        if (owner < 0) owner = command.session;  // a capture from mid-run
-        if (command.session != owner) {
-          ++counts->foreign;  // another controller's, refused by the rig
-          break;
-        }
-        if (setup.phase == 0) break;  // lifecycle, outside the loop
-        if (!have_setup || setup.period <= 0) {
-          return Status::Error(path +
-                               ": no KC_Setup (acting height, cycle period) "
-                               "before the first loop command");
-        }
-        ++counts->commands;
-        const std::int64_t step =
-            cycle < 0
-                ? 0
-                : static_cast<std::uint8_t>(command.sequence - last_sequence);
-        if (cycle >= 0 && step == 0) break;  // a repeated frame
-        // Cycles skipped by the controller: rows without a fresh sample.
-        for (std::int64_t k = 1; k < step && !log->samples.empty(); ++k) {
-          LogSample filler = log->samples.back();
-          filler.t = static_cast<double>(cycle + k) * setup.period;
-          filler.fresh = false;
-          log->samples.push_back(filler);
-        }
-        // The first loop cycle is below 256: its sequence is its index.
-        cycle = cycle < 0 ? command.sequence : cycle + step;
-        last_sequence = command.sequence;
-        LogSample row;
-        row.t = static_cast<double>(cycle) * setup.period;
-        row.force = latest.force;
-        row.y = latest.y;
-        row.commanded = command.force;
-        row.fresh = fresh;
-        row.phase = PhaseName(setup.phase);
-        row.safety = setup.safety;
-        row.rig_sample = latest.sample;
-        row.rig_status = latest.status;
-        log->samples.push_back(row);
-        m.excitation.z_a = setup.z_a;
-        m.rate = 1.0 / setup.period;
-        fresh = false;
-        break;
-      }
-      default:
-        if (assembler.Add(frame, kind, &latest)) {
-          latest.fault_code = fault_code;
-          fresh = true;
-          ++counts->samples;
-        }
-        break;
-    }
+    KCRIG_RETURN_IF_ERROR(rows.Add(record.frame.frame));
   }
   if (log->samples.size() < 2) {
     return Status::Error(path +
