@@ -264,10 +264,10 @@ std::string EstimationResultToJson(
   return doc.dump(2) + "\n";
 }
 
-std::string EstimationSummary(const EstimationResult& result,
-                              const std::vector<std::string>& logs,
-                              const std::vector<ParameterProfile>& profiles,
-                              const HoldoutPrediction& holdout) {
+namespace {
+
+// The fit's one line, the rows left out, the Dahl forces, the widening.
+std::string FitHeader(const EstimationResult& result) {
   std::string out;
   char line[256];
   std::snprintf(line, sizeof(line),
@@ -288,10 +288,17 @@ std::string EstimationSummary(const EstimationResult& result,
   }
   out += DahlForcesSummary(result.initial_states);
   out += IntervalWideningSummary(result);
+  return out;
+}
+
+// The estimates with their 95 % half-widths and the bars of the paper's
+// Fig. 4: log10 diag((J^T J)^-1), from the smallest to each value.
+std::string EstimateTable(const EstimationResult& result) {
+  std::string out;
+  char line[256];
   std::snprintf(line, sizeof(line), "  %-10s %14s %12s %-6s  %s\n", "parameter",
                 "estimate", "+- 95 %", "", "log10 diag((J^T J)^-1)");
   out += line;
-  // Bars from the smallest to each value, like the paper's Fig. 4.
   double low = 0, high = 0;
   bool any = false;
   for (const ParameterEstimate& p : result.parameters) {
@@ -322,6 +329,13 @@ std::string EstimationSummary(const EstimationResult& result,
     }
     out += line;
   }
+  return out;
+}
+
+// What the data do not determine: bounds, combinations, conditioning.
+std::string IdentifiabilityWarnings(const EstimationResult& result) {
+  std::string out;
+  char line[256];
   for (const ParameterEstimate& p : result.parameters) {
     if (p.at_bound)
       out += "  " + p.name +
@@ -336,6 +350,12 @@ std::string EstimationSummary(const EstimationResult& result,
                   result.condition_number);
     out += line;
   }
+  return out;
+}
+
+std::string ProfileLines(const std::vector<ParameterProfile>& profiles) {
+  std::string out;
+  char line[256];
   for (const ParameterProfile& p : profiles) {
     std::snprintf(line, sizeof(line), "  profile %-8s %s", p.name.c_str(),
                   IdentifiabilityName(p.identifiability));
@@ -348,6 +368,16 @@ std::string EstimationSummary(const EstimationResult& result,
     }
     out += "\n";
   }
+  return out;
+}
+
+// The residual and the adequacy of the fit and of the hold-out's
+// prediction, with what to run when the hold-out is mispredicted.
+std::string AdequacyLines(const EstimationResult& result,
+                          const std::vector<std::string>& logs,
+                          const HoldoutPrediction& holdout) {
+  std::string out;
+  char line[256];
   out += "  residual RMS:";
   for (int k = 0; k < 6; ++k) {
     if (!result.channel_used[k]) continue;
@@ -376,6 +406,17 @@ std::string EstimationSummary(const EstimationResult& result,
         command + "\n";
   }
   return out;
+}
+
+}  // namespace
+
+std::string EstimationSummary(const EstimationResult& result,
+                              const std::vector<std::string>& logs,
+                              const std::vector<ParameterProfile>& profiles,
+                              const HoldoutPrediction& holdout) {
+  return FitHeader(result) + EstimateTable(result) +
+         IdentifiabilityWarnings(result) + ProfileLines(profiles) +
+         AdequacyLines(result, logs, holdout);
 }
 
 namespace {
