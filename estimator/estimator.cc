@@ -233,39 +233,42 @@ std::vector<LogInitialState> InitialStatesAtEquilibrium(
   return states;
 }
 
-Status Estimate(const SuspensionParameters<double>& nominal,
-                const std::vector<Experiment>& experiments,
-                const EstimatorOptions& options,
-                const std::vector<double>& initial, double integrator_step,
-                EstimationResult* result) {
-  const auto start = std::chrono::steady_clock::now();
-  std::vector<int> indices;
-  Status status = ResolveParameters(nominal, options.parameters, &indices);
-  if (!status.ok()) return status;
+namespace {
+
+// Preprocess: the parameters named and checked, each with its start scaled
+// by its nominal value (within the box).
+Status PreprocessEstimate(const SuspensionParameters<double>& nominal,
+                          const std::vector<Experiment>& experiments,
+                          const EstimatorOptions& options,
+                          const std::vector<double>& initial,
+                          std::vector<int>* indices,
+                          std::vector<double>* scaled,
+                          EstimationResult* result) {
+  KCRIG_RETURN_IF_ERROR(
+      ResolveParameters(nominal, options.parameters, indices));
   if (experiments.empty()) return Status::Error("no experiments to fit");
   if (options.channels.empty()) return Status::Error("no channels selected");
-  if (initial.size() != indices.size()) {
+  if (initial.size() != indices->size()) {
     return Status::Error("one initial value per parameter is needed");
   }
   if (!(options.lower_scale > 0 && options.lower_scale < 1.0 &&
         options.upper_scale > 1.0)) {
     return Status::Error("scale bounds must satisfy 0 < lower < 1 < upper");
   }
-  const int n = static_cast<int>(indices.size());
+  const int n = static_cast<int>(indices->size());
   SuspensionParameters<double> copy = nominal;
   const std::vector<NamedParameter<double>> list = ListParameters(&copy);
-
   *result = EstimationResult();
-  std::vector<double> scaled(n);
+  scaled->resize(n);
   for (int i = 0; i < n; ++i) {
     ParameterEstimate p;
-    p.name = list[indices[i]].name;
-    p.unit = list[indices[i]].unit;
-    p.nominal = *list[indices[i]].value;
+    p.name = list[(*indices)[i]].name;
+    p.unit = list[(*indices)[i]].unit;
+    p.nominal = *list[(*indices)[i]].value;
     p.initial = initial[i];
-    scaled[i] = initial[i] / p.nominal;
-    if (!(scaled[i] >= options.lower_scale &&
-          scaled[i] <= options.upper_scale)) {
+    (*scaled)[i] = initial[i] / p.nominal;
+    if (!((*scaled)[i] >= options.lower_scale &&
+          (*scaled)[i] <= options.upper_scale)) {
       return Status::Error(
           "initial " + p.name + " = " + std::to_string(initial[i]) +
           " is outside the bounds [" + std::to_string(options.lower_scale) +
@@ -273,46 +276,36 @@ Status Estimate(const SuspensionParameters<double>& nominal,
     }
     result->parameters.push_back(p);
   }
+  return Status::Ok();
+}
 
-  KCRIG_RETURN_IF_ERROR(CheckFitMemory(experiments, options, n));
-  FitProblem problem(nominal, experiments, options, integrator_step, indices);
-  LeastSquaresSummary summary;
-  KCRIG_RETURN_IF_ERROR(problem.Minimize(FitOptions(options, "estimation"), {},
-                                         &scaled, &summary));
-  result->cost = summary.cost;
-  result->converged = summary.converged;
-  result->iterations = summary.iterations;
-  result->termination = summary.message;
-  Eigen::MatrixXd jacobian;
-  Eigen::VectorXd residuals;
-  if (!problem.Evaluate(scaled, nullptr, &residuals, &jacobian)) {
-    return Status::Error("the model cannot be evaluated at the solution");
-  }
-  // Rows of unobserved samples (fresh = 0, the rig's memory) are zero and
-  // carry no data.
-  int unobserved_rows = 0;
-  result->memory_rows = MemoryRows(experiments);
-  result->initial_states = InitialStatesAtEquilibrium(experiments);
+// The residuals that carry data: rows of unobserved samples (fresh = 0, the
+// rig's memory) are zero.
+int ObservedResiduals(const std::vector<Experiment>& experiments,
+                      const EstimatorOptions& options, int rows) {
   for (const Experiment& experiment : experiments) {
-    unobserved_rows +=
-        static_cast<int>(std::count(experiment.observed.begin(),
-                                    experiment.observed.end(), false) *
-                         options.channels.size());
+    rows -= static_cast<int>(std::count(experiment.observed.begin(),
+                                        experiment.observed.end(), false) *
+                             options.channels.size());
   }
-  const int m = static_cast<int>(residuals.size()) - unobserved_rows;
-  result->num_residuals = m;
-  result->sigma_hat = m > n ? std::sqrt(2.0 * result->cost / (m - n)) : 0.0;
+  return rows;
+}
 
-  // Residual RMS per channel in SI units, and the fit's adequacy, judged
-  // without the model's own discretisation error (reported beside it).
-  const std::vector<std::vector<Vec6<double>>> weighted =
-      SplitResiduals(experiments, options.channels, residuals);
-  Eigen::VectorXd discretisation;
+// The fit's adequacy, judged without the model's own discretisation error
+// (returned, reported beside it), and the residual RMS per channel in SI.
+Status AssessFit(const SuspensionParameters<double>& nominal,
+                 const std::vector<Experiment>& experiments,
+                 const EstimatorOptions& options, double integrator_step,
+                 const std::vector<int>& indices,
+                 const std::vector<double>& scaled,
+                 const Eigen::VectorXd& residuals,
+                 Eigen::VectorXd* discretisation, EstimationResult* result) {
   KCRIG_RETURN_IF_ERROR(DiscretisationError(nominal, experiments, options,
                                             integrator_step, indices, scaled,
-                                            residuals, &discretisation));
+                                            residuals, discretisation));
+  const int n = static_cast<int>(indices.size());
   result->adequacy = AssessStepAndLimit(
-      experiments, options.channels, residuals, discretisation,
+      experiments, options.channels, residuals, *discretisation,
       [&](const Eigen::VectorXd& r) {
         return AssessAdequacy(experiments,
                               SplitResiduals(experiments, options.channels, r),
@@ -322,8 +315,53 @@ Status Estimate(const SuspensionParameters<double>& nominal,
     const ChannelAdequacy& c = result->adequacy.channels[k];
     result->channel_used[k] = c.used && c.samples > 0;
   }
-  result->residual_rms = ResidualRms(experiments, weighted);
+  result->residual_rms = ResidualRms(
+      experiments, SplitResiduals(experiments, options.channels, residuals));
+  return Status::Ok();
+}
 
+}  // namespace
+
+Status Estimate(const SuspensionParameters<double>& nominal,
+                const std::vector<Experiment>& experiments,
+                const EstimatorOptions& options,
+                const std::vector<double>& initial, double integrator_step,
+                EstimationResult* result) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<int> indices;
+  std::vector<double> scaled;
+  KCRIG_RETURN_IF_ERROR(PreprocessEstimate(nominal, experiments, options,
+                                           initial, &indices, &scaled, result));
+  const int n = static_cast<int>(indices.size());
+
+  // Minimize.
+  KCRIG_RETURN_IF_ERROR(CheckFitMemory(experiments, options, n));
+  FitProblem problem(nominal, experiments, options, integrator_step, indices);
+  LeastSquaresSummary summary;
+  KCRIG_RETURN_IF_ERROR(problem.Minimize(FitOptions(options, "estimation"), {},
+                                         &scaled, &summary));
+  result->cost = summary.cost;
+  result->converged = summary.converged;
+  result->iterations = summary.iterations;
+  result->termination = summary.message;
+
+  // Summarize: the residual and Jacobian at the solution, the adequacy, the
+  // values and their uncertainty.
+  Eigen::MatrixXd jacobian;
+  Eigen::VectorXd residuals;
+  if (!problem.Evaluate(scaled, nullptr, &residuals, &jacobian)) {
+    return Status::Error("the model cannot be evaluated at the solution");
+  }
+  result->memory_rows = MemoryRows(experiments);
+  result->initial_states = InitialStatesAtEquilibrium(experiments);
+  const int m = ObservedResiduals(experiments, options,
+                                  static_cast<int>(residuals.size()));
+  result->num_residuals = m;
+  result->sigma_hat = m > n ? std::sqrt(2.0 * result->cost / (m - n)) : 0.0;
+  Eigen::VectorXd discretisation;
+  KCRIG_RETURN_IF_ERROR(AssessFit(nominal, experiments, options,
+                                  integrator_step, indices, scaled, residuals,
+                                  &discretisation, result));
   for (int i = 0; i < n; ++i) {
     ParameterEstimate& p = result->parameters[i];
     p.value = scaled[i] * p.nominal;
