@@ -936,14 +936,9 @@ std::string KcSheetLine(const ReportSummary& summary) {
          channels + " (the report's K&C sheet shows where)";
 }
 
-Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
-                   const std::string& html_path, const ReportOptions& options,
-                   ReportSummary* summary) {
-  *summary = ReportSummary();
-  const fs::path root(from_dir);
-  if (!fs::is_directory(root)) {
-    return Status::Error(from_dir + ": not a folder");
-  }
+namespace {
+
+Status ReadPlotly(const ReportOptions& options, std::string* plotly) {
   const char* plotly_override = std::getenv("KCRIG_PLOTLY_JS");
   const std::string plotly_path =
       plotly_override != nullptr ? plotly_override : options.plotly_js;
@@ -954,97 +949,100 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
                          "python3-plotly; scripts/setup.sh installs it; "
                          "KCRIG_PLOTLY_JS names another copy)");
   }
-  std::stringstream plotly;
-  plotly << plotly_in.rdbuf();
+  std::stringstream text;
+  text << plotly_in.rdbuf();
+  *plotly = text.str();
+  return Status::Ok();
+}
 
-  Json data;
-  data["from"] = fs::absolute(root).lexically_normal().string();
-  const std::time_t now = std::time(nullptr);
-  char stamp[64];
-  std::strftime(stamp, sizeof(stamp), "%Y-%m-%d %H:%M:%S UTC",
-                std::gmtime(&now));
-  data["generated"] = stamp;
+// The diagnosis, timing and validation files anywhere in the folder, each
+// kind sorted by path.
+struct FolderFiles {
+  std::vector<fs::path> diagnoses, timings, validations;
+};
 
-  Status status;
-  if (fs::exists(root / "campaign.json")) {
-    status = CampaignJson(config, root, options, &data, summary);
-    if (!status.ok()) return status;
-  }
-  // Diagnosis and timing files anywhere in the folder.
-  std::vector<fs::path> diag_files, timing_files, validate_files;
+FolderFiles FindResultFiles(const fs::path& root) {
+  FolderFiles files;
   for (const fs::directory_entry& entry :
        fs::recursive_directory_iterator(root)) {
     if (!entry.is_regular_file()) continue;
     const std::string name = entry.path().filename().string();
-    if (name == "diag.json") diag_files.push_back(entry.path());
-    if (name == "timing.json") timing_files.push_back(entry.path());
-    if (name == "validate.json") validate_files.push_back(entry.path());
+    if (name == "diag.json") files.diagnoses.push_back(entry.path());
+    if (name == "timing.json") files.timings.push_back(entry.path());
+    if (name == "validate.json") files.validations.push_back(entry.path());
   }
-  std::sort(diag_files.begin(), diag_files.end());
-  std::sort(timing_files.begin(), timing_files.end());
-  std::sort(validate_files.begin(), validate_files.end());
+  for (std::vector<fs::path>* kind :
+       {&files.diagnoses, &files.timings, &files.validations}) {
+    std::sort(kind->begin(), kind->end());
+  }
+  return files;
+}
+
+// data["diagnoses"], ["timings"], ["validations"] from the folder's files.
+Status ResultFilesJson(const KcrigConfig& config, const fs::path& root,
+                       const ReportOptions& options, Json* data,
+                       ReportSummary* summary) {
+  const FolderFiles files = FindResultFiles(root);
   Json diagnoses = Json::array();
-  for (const fs::path& file : diag_files) {
+  for (const fs::path& file : files.diagnoses) {
     KCRIG_RETURN_IF_ERROR(Progress(
         options, "diagnosis " + fs::relative(file, root).string(), -1));
     Json d;
-    status = GuardedRead(
-        file, [&] { return DiagnosisJson(config, file, options, &d); });
-    if (!status.ok()) return status;
+    KCRIG_RETURN_IF_ERROR(GuardedRead(
+        file, [&] { return DiagnosisJson(config, file, options, &d); }));
     diagnoses.push_back(d);
   }
-  data["diagnoses"] = diagnoses;
-  summary->diagnosis = !diagnoses.empty();
   Json timings = Json::array();
-  for (const fs::path& file : timing_files) {
+  for (const fs::path& file : files.timings) {
     Json t;
-    status = TimingJson(root, file, &t);
-    if (!status.ok()) return status;
+    KCRIG_RETURN_IF_ERROR(TimingJson(root, file, &t));
     timings.push_back(t);
   }
-  data["timings"] = timings;
-  summary->timing = !timings.empty();
   Json validations = Json::array();
-  for (const fs::path& file : validate_files) {
+  for (const fs::path& file : files.validations) {
     Json v;
-    status = GuardedRead(file, [&] { return ValidationJson(root, file, &v); });
-    if (!status.ok()) return status;
+    KCRIG_RETURN_IF_ERROR(
+        GuardedRead(file, [&] { return ValidationJson(root, file, &v); }));
     validations.push_back(v);
   }
-  data["validations"] = validations;
+  summary->diagnosis = !diagnoses.empty();
+  summary->timing = !timings.empty();
   summary->validation = !validations.empty();
-  if (!summary->campaign && !summary->diagnosis && !summary->timing &&
-      !summary->validation) {
-    return Status::Error(from_dir +
-                         ": no campaign.json, diag.json, timing.json or "
-                         "validate.json to report on");
-  }
-  // Figures the page will draw (the browser test checks each rendered).
+  (*data)["diagnoses"] = diagnoses;
+  (*data)["timings"] = timings;
+  (*data)["validations"] = validations;
+  return Status::Ok();
+}
+
+// The figures the page will draw (the browser test checks each rendered).
+int ExpectedFigures(const Json& data, const ReportSummary& summary) {
   int figures = 0;
-  if (summary->campaign) {
-    figures += summary->experiments + 2 +
+  if (summary.campaign) {
+    figures += summary.experiments + 2 +
                static_cast<int>(data["surfaces"].size()) +
                (data["kriging"].is_null() ? 0 : 1) +
                (data["isolability"].is_null() ? 0 : 1) +
                static_cast<int>(data["kc"]["loops"].size());
   }
-  for (const Json& d : diagnoses) {
+  for (const Json& d : data["diagnoses"]) {
     figures +=
         1 + (d["ranking"].empty() ? 0 : 1) + (d.contains("overlay") ? 1 : 0);
   }
-  figures += static_cast<int>(timings.size());
+  figures += static_cast<int>(data["timings"].size());
   // Per validation: the confusion matrix, the cases and, unless every case
   // was clean, the power curve; with bushing effects, their places.
-  for (const Json& v : validations) {
+  for (const Json& v : data["validations"]) {
     figures +=
         (v["power"].empty() ? 2 : 3) + (v["places"]["rows"].empty() ? 0 : 1);
   }
-  summary->figures = figures;
-  data["expected_figures"] = figures;
+  return figures;
+}
 
-  // Inside <script> a "</script" or "<!--" would change how the page
-  // parses: every "<" (only ever inside JSON strings) is written escaped.
-  // Invalid UTF-8 (a file name) is replaced rather than thrown on.
+// The page's data as a script's JSON: inside <script> a "</script" or
+// "<!--" would change how the page parses, so every "<" (only ever inside
+// JSON strings) is written escaped. Invalid UTF-8 (a file name) is
+// replaced rather than thrown on.
+std::string ScriptJson(const Json& data) {
   const std::string raw =
       data.dump(-1, ' ', false, Json::error_handler_t::replace);
   std::string json;
@@ -1056,9 +1054,42 @@ Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
       json += c;
     }
   }
+  return json;
+}
+
+}  // namespace
+
+Status WriteReport(const KcrigConfig& config, const std::string& from_dir,
+                   const std::string& html_path, const ReportOptions& options,
+                   ReportSummary* summary) {
+  *summary = ReportSummary();
+  const fs::path root(from_dir);
+  if (!fs::is_directory(root)) {
+    return Status::Error(from_dir + ": not a folder");
+  }
+  std::string plotly;
+  KCRIG_RETURN_IF_ERROR(ReadPlotly(options, &plotly));
+  Json data;
+  data["from"] = fs::absolute(root).lexically_normal().string();
+  const std::time_t now = std::time(nullptr);
+  char stamp[64];
+  std::strftime(stamp, sizeof(stamp), "%Y-%m-%d %H:%M:%S UTC",
+                std::gmtime(&now));
+  data["generated"] = stamp;
+  if (fs::exists(root / "campaign.json")) {
+    KCRIG_RETURN_IF_ERROR(CampaignJson(config, root, options, &data, summary));
+  }
+  KCRIG_RETURN_IF_ERROR(ResultFilesJson(config, root, options, &data, summary));
+  if (!summary->campaign && !summary->diagnosis && !summary->timing &&
+      !summary->validation) {
+    return Status::Error(from_dir +
+                         ": no campaign.json, diag.json, timing.json or "
+                         "validate.json to report on");
+  }
+  summary->figures = ExpectedFigures(data, *summary);
+  data["expected_figures"] = summary->figures;
   std::string page;
-  status = FillTemplate(plotly.str(), json, &page);
-  if (!status.ok()) return status;
+  KCRIG_RETURN_IF_ERROR(FillTemplate(plotly, ScriptJson(data), &page));
   return WriteFilesAtomically({{html_path, page}});
 }
 
