@@ -30,27 +30,22 @@ Eigen::Vector2d Project(const Eigen::Vector2d& u) {
   return u.cwiseMax(0.0).cwiseMin(1.0);
 }
 
-}  // namespace
-
-Status ImplicitFiltering(DesignObjective* objective,
-                         const OptimizerOptions& options,
-                         OptimizationResult* result) {
-  if (!(options.imfil_initial_scale > 0) || options.imfil_num_scales < 1) {
-    return Status::Error("imfil: initial scale must be > 0, scales >= 1");
+// The criterion on the optimizer's scale (smaller is better).
+class ScaledCriterion {
+ public:
+  explicit ScaledCriterion(Criterion criterion) : criterion_(criterion) {}
+  double operator()(const DesignEvaluation& e) const {
+    return OptimizationScale(criterion_, e.value);
   }
-  const Criterion criterion = objective->criterion();
-  auto scaled = [criterion](const DesignEvaluation& e) {
-    return OptimizationScale(criterion, e.value);
-  };
-  const DesignEvaluation& start = objective->record().front();
-  Point x{start.unit, scaled(start)};
 
-  auto out_of_budget = [&](const char* where) {
-    result->message = std::string("budget exhausted (") + where + ")";
-    return Status::Ok();
-  };
+ private:
+  Criterion criterion_;
+};
 
-  // Exploration.
+// The exploration: a coarse lattice over the box, *x moved to its best
+// point. False when the budget ran out.
+bool Explore(DesignObjective* objective, const ScaledCriterion& scaled,
+             Point* x) {
   std::vector<Eigen::Vector2d> lattice;
   for (int i = 0; i < kExplorePerAxis; ++i) {
     for (int j = 0; j < kExplorePerAxis; ++j) {
@@ -60,9 +55,98 @@ Status ImplicitFiltering(DesignObjective* objective,
   }
   const std::vector<DesignEvaluation> explored = objective->Evaluate(lattice);
   for (const DesignEvaluation& e : explored) {
-    if (scaled(e) < x.f) x = {e.unit, scaled(e)};
+    if (scaled(e) < x->f) *x = {e.unit, scaled(e)};
   }
-  if (explored.size() < lattice.size()) return out_of_budget("exploration");
+  return explored.size() == lattice.size();
+}
+
+// The BFGS update of the Hessian model by the step s and gradient change y
+// (skipped without positive curvature; the first one scales the identity).
+void UpdateHessian(const Eigen::Vector2d& s, const Eigen::Vector2d& y,
+                   Eigen::Matrix2d* hessian, bool* hessian_scaled) {
+  const double ys = y.dot(s);
+  if (!(ys > 1e-10 * y.norm() * s.norm())) return;
+  if (!*hessian_scaled) {
+    *hessian = Eigen::Matrix2d::Identity() * (y.dot(y) / ys);
+    *hessian_scaled = true;
+  }
+  const Eigen::Vector2d hs = *hessian * s;
+  *hessian += y * y.transpose() / ys - hs * hs.transpose() / s.dot(hs);
+}
+
+// The projected quasi-Newton direction: variables on a bound with the
+// gradient pushing outwards are held; the rest use the reduced model. A
+// direction that is no descent restarts the Hessian model.
+Eigen::Vector2d ProjectedDirection(const Eigen::Vector2d& u,
+                                   const Eigen::Vector2d& gradient,
+                                   Eigen::Matrix2d* hessian,
+                                   bool* hessian_scaled) {
+  Eigen::Matrix2d reduced = *hessian;
+  Eigen::Vector2d reduced_gradient = gradient;
+  for (int i = 0; i < 2; ++i) {
+    const bool active = (u(i) <= kBoundSlack && gradient(i) > 0) ||
+                        (u(i) >= 1 - kBoundSlack && gradient(i) < 0);
+    if (!active) continue;
+    reduced.row(i).setZero();
+    reduced.col(i).setZero();
+    reduced(i, i) = 1;
+    reduced_gradient(i) = 0;
+  }
+  Eigen::Vector2d direction = -reduced.ldlt().solve(reduced_gradient);
+  if (!direction.allFinite() || direction.dot(reduced_gradient) >= 0) {
+    *hessian = Eigen::Matrix2d::Identity();  // lost curvature: restart
+    *hessian_scaled = false;
+    direction = -reduced_gradient;
+  }
+  return direction;
+}
+
+// Armijo on the projected path from x, two step lengths per batch: the
+// first point of sufficient decrease in *candidate. False when the budget
+// ran out before one was found.
+bool ArmijoSearch(DesignObjective* objective, const OptimizerOptions& options,
+                  const ScaledCriterion& scaled, const Point& x,
+                  const Eigen::Vector2d& gradient,
+                  const Eigen::Vector2d& direction, Point* candidate,
+                  bool* accepted) {
+  *accepted = false;
+  for (int tried = 0; tried < options.imfil_max_armijo && !*accepted;
+       tried += 2) {
+    std::vector<Eigen::Vector2d> trials;
+    for (int t = tried; t < tried + 2 && t < options.imfil_max_armijo; ++t) {
+      trials.push_back(Project(x.u + std::ldexp(1.0, -t) * direction));
+    }
+    const std::vector<DesignEvaluation> tried_values =
+        objective->Evaluate(trials);
+    for (const DesignEvaluation& e : tried_values) {
+      const double decrease = kArmijo * gradient.dot(x.u - e.unit);
+      if (e.unit != x.u && scaled(e) <= x.f - decrease) {
+        *candidate = {e.unit, scaled(e)};
+        *accepted = true;
+        break;
+      }
+    }
+    if (tried_values.size() < trials.size() && !*accepted) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+Status ImplicitFiltering(DesignObjective* objective,
+                         const OptimizerOptions& options,
+                         OptimizationResult* result) {
+  if (!(options.imfil_initial_scale > 0) || options.imfil_num_scales < 1) {
+    return Status::Error("imfil: initial scale must be > 0, scales >= 1");
+  }
+  const ScaledCriterion scaled(objective->criterion());
+  const DesignEvaluation& start = objective->record().front();
+  Point x{start.unit, scaled(start)};
+  auto out_of_budget = [&](const char* where) {
+    result->message = std::string("budget exhausted (") + where + ")";
+    return Status::Ok();
+  };
+  if (!Explore(objective, scaled, &x)) return out_of_budget("exploration");
   result->path.push_back(objective->ToDesign(x.u));
 
   Eigen::Matrix2d hessian = Eigen::Matrix2d::Identity();
@@ -86,65 +170,17 @@ Status ImplicitFiltering(DesignObjective* objective,
       const Eigen::Vector2d gradient = stencil.Gradient(x.f, values, scaled);
       // Stencil failure: the centre beats its whole stencil at this scale.
       if (best_stencil.f >= x.f) break;
-
       if (have_previous) {
-        const Eigen::Vector2d s = x.u - previous_u;
-        const Eigen::Vector2d y = gradient - previous_gradient;
-        const double ys = y.dot(s);
-        if (ys > 1e-10 * y.norm() * s.norm()) {
-          if (!hessian_scaled) {
-            hessian = Eigen::Matrix2d::Identity() * (y.dot(y) / ys);
-            hessian_scaled = true;
-          }
-          const Eigen::Vector2d hs = hessian * s;
-          hessian += y * y.transpose() / ys - hs * hs.transpose() / s.dot(hs);
-        }
+        UpdateHessian(x.u - previous_u, gradient - previous_gradient, &hessian,
+                      &hessian_scaled);
       }
-      // Projected quasi-Newton direction: variables on a bound with the
-      // gradient pushing outwards are held; the rest use the reduced model.
-      bool active[2];
-      for (int i = 0; i < 2; ++i) {
-        active[i] = (x.u(i) <= kBoundSlack && gradient(i) > 0) ||
-                    (x.u(i) >= 1 - kBoundSlack && gradient(i) < 0);
-      }
-      Eigen::Matrix2d reduced = hessian;
-      Eigen::Vector2d reduced_gradient = gradient;
-      for (int i = 0; i < 2; ++i) {
-        if (!active[i]) continue;
-        reduced.row(i).setZero();
-        reduced.col(i).setZero();
-        reduced(i, i) = 1;
-        reduced_gradient(i) = 0;
-      }
-      Eigen::Vector2d direction = -reduced.ldlt().solve(reduced_gradient);
-      if (!direction.allFinite() || direction.dot(reduced_gradient) >= 0) {
-        hessian = Eigen::Matrix2d::Identity();  // lost curvature: restart
-        hessian_scaled = false;
-        direction = -reduced_gradient;
-      }
-      // Armijo on the projected path, two step lengths per batch.
+      const Eigen::Vector2d direction =
+          ProjectedDirection(x.u, gradient, &hessian, &hessian_scaled);
       Point candidate = x;
       bool accepted = false;
-      for (int tried = 0; tried < options.imfil_max_armijo && !accepted;
-           tried += 2) {
-        std::vector<Eigen::Vector2d> trials;
-        for (int t = tried; t < tried + 2 && t < options.imfil_max_armijo;
-             ++t) {
-          trials.push_back(Project(x.u + std::ldexp(1.0, -t) * direction));
-        }
-        const std::vector<DesignEvaluation> tried_values =
-            objective->Evaluate(trials);
-        for (const DesignEvaluation& e : tried_values) {
-          const double decrease = kArmijo * gradient.dot(x.u - e.unit);
-          if (e.unit != x.u && scaled(e) <= x.f - decrease) {
-            candidate = {e.unit, scaled(e)};
-            accepted = true;
-            break;
-          }
-        }
-        if (tried_values.size() < trials.size() && !accepted) {
-          return out_of_budget("line search");
-        }
+      if (!ArmijoSearch(objective, options, scaled, x, gradient, direction,
+                        &candidate, &accepted)) {
+        return out_of_budget("line search");
       }
       // The best stencil point wins over a worse line-search point (and
       // replaces a failed line search).
