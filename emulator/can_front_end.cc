@@ -4,6 +4,108 @@
 #include "io_drivers/socket_can.h"
 
 namespace kcrig {
+namespace {
+
+// The rig's CAN node between frames: the acting height of the last
+// KC_Setup, the last sample sent, the heartbeat's schedule.
+class CanNode {
+ public:
+  CanNode(RigEmulator* rig, const KcRigProtocol& protocol, CanSocket* socket,
+          CanNodeCounters* counters)
+      : rig_(rig),
+        protocol_(protocol),
+        socket_(socket),
+        counters_(counters),
+        last_sample_(rig->TakeSample()),
+        refused_at_heartbeat_(rig->ownership().refused()) {}
+
+  // A frame of the controller's page: a setup, a session request or a
+  // command, which the owner's is answered with a sample.
+  void OnFrame(const CanFrame& frame, double now) {
+    const KcFrame kind = protocol_.Classify(frame);
+    if (kind != KcFrame::kCommand && kind != KcFrame::kSetup &&
+        kind != KcFrame::kSession) {
+      return;
+    }
+    if (!protocol_.WellFormed(frame, kind)) {
+      ++counters_->malformed;
+      return;
+    }
+    bool clamped = false;
+    rig_->AdvanceTo(now);
+    if (kind == KcFrame::kSetup) {
+      z_a_ = protocol_.DecodeSetup(frame, &clamped).z_a;
+      return;
+    }
+    RigRequest request;
+    request.command.z_a = z_a_;
+    request.ownership.has_session = true;
+    if (kind == KcFrame::kSession) {
+      const KcSession session = protocol_.DecodeSession(frame);
+      request.ownership.session = session.session;
+      request.ownership.claim = session.claim;
+      request.ownership.release = session.release;
+      request.reset_fault = session.reset_fault;
+      if (!rig_->Request(request)) ++counters_->refused;
+      return;
+    }
+    const KcCommand decoded = protocol_.DecodeCommand(frame, &clamped);
+    request.command.force = decoded.force;
+    request.command.enable = decoded.enable;
+    request.command.sequence = decoded.sequence;
+    request.ownership.session = decoded.session;
+    request.ownership.enable = decoded.enable;
+    // A refused command gets no sample: the owner's samples stay its own.
+    if (!rig_->Request(request)) {
+      ++counters_->refused;
+      return;
+    }
+    ++counters_->commands;
+    last_sample_ = rig_->TakeSample();
+    CanFrame frames[kSampleFrames];
+    protocol_.EncodeSample(last_sample_, frames, &clamped);
+    for (const CanFrame& f : frames) Send(f);
+    ++counters_->samples_sent;
+  }
+
+  // The heartbeat, every kHeartbeatPeriod and at once on a status change.
+  void Heartbeat(double now) {
+    const std::uint16_t rig_status = rig_->status();
+    if (now < next_heartbeat_ && rig_status == last_status_) return;
+    KcHeartbeat heartbeat;
+    heartbeat.status = rig_status;
+    heartbeat.fault_code = rig_->fault();
+    heartbeat.protocol = kKcRigProtocolVersion;
+    heartbeat.sample = last_sample_.sample;
+    heartbeat.owner = static_cast<std::uint8_t>(rig_->ownership().owner());
+    heartbeat.refusing = rig_->ownership().refused() != refused_at_heartbeat_;
+    refused_at_heartbeat_ = rig_->ownership().refused();
+    Send(protocol_.EncodeHeartbeat(heartbeat));
+    ++counters_->heartbeats;
+    last_status_ = rig_status;
+    next_heartbeat_ = now + kHeartbeatPeriod;
+  }
+
+ private:
+  void Send(const CanFrame& frame) {
+    int error = 0;
+    if (socket_->Send(frame, &error) != CanSocket::SendResult::kSent) {
+      ++counters_->send_failures;
+    }
+  }
+
+  RigEmulator* rig_;
+  const KcRigProtocol& protocol_;
+  CanSocket* socket_;
+  CanNodeCounters* counters_;
+  RigMeasurement last_sample_;
+  double z_a_ = 0;
+  double next_heartbeat_ = 0;
+  std::uint16_t last_status_ = 0xFFFF;
+  std::uint16_t refused_at_heartbeat_;
+};
+
+}  // namespace
 
 Status ServeCan(RigEmulator* rig, const Clock& clock,
                 const std::string& dbc_file, const std::string& interface,
@@ -11,33 +113,18 @@ Status ServeCan(RigEmulator* rig, const Clock& clock,
                 const std::function<void()>& on_ready,
                 CanNodeCounters* counters) {
   Dbc dbc;
-  Status status = LoadDbc(dbc_file, &dbc);
-  if (!status.ok()) return status;
+  KCRIG_RETURN_IF_ERROR(LoadDbc(dbc_file, &dbc));
   KcRigProtocol protocol;
-  status = protocol.Bind(dbc, dbc_file);
-  if (!status.ok()) return status;
+  KCRIG_RETURN_IF_ERROR(protocol.Bind(dbc, dbc_file));
   CanSocket socket;
   CanSocketOptions options;
   options.interface = interface;
   // The controller's page (KC_Command, KC_Setup).
   options.filters = {{protocol.id(KcFrame::kCommand) & 0x700u, 0x700u}};
   options.error_frames = false;
-  status = socket.Open(options);
-  if (!status.ok()) return status;
-  status = rig->Start(clock.Seconds());
-  if (!status.ok()) return status;
-
-  auto send = [&](const CanFrame& frame) {
-    int error = 0;
-    if (socket.Send(frame, &error) != CanSocket::SendResult::kSent) {
-      ++counters->send_failures;
-    }
-  };
-  RigMeasurement last_sample = rig->TakeSample();
-  double z_a = 0;
-  double next_heartbeat = 0;
-  std::uint16_t last_status = 0xFFFF;
-  std::uint16_t refused_at_heartbeat = rig->ownership().refused();
+  KCRIG_RETURN_IF_ERROR(socket.Open(options));
+  KCRIG_RETURN_IF_ERROR(rig->Start(clock.Seconds()));
+  CanNode node(rig, protocol, &socket, counters);
   on_ready();
   while (stop.load() == 0) {
     socket.WaitReadable(1e-3);
@@ -46,67 +133,9 @@ Status ServeCan(RigEmulator* rig, const Clock& clock,
     TimedCanFrame timed;
     int error = 0;
     while (socket.Receive(&timed, &error)) {
-      const CanFrame& frame = timed.frame;
-      const KcFrame kind = protocol.Classify(frame);
-      if (kind != KcFrame::kCommand && kind != KcFrame::kSetup &&
-          kind != KcFrame::kSession) {
-        continue;
-      }
-      if (!protocol.WellFormed(frame, kind)) {
-        ++counters->malformed;
-        continue;
-      }
-      bool clamped = false;
-      rig->AdvanceTo(clock.Seconds());
-      if (kind == KcFrame::kSetup) {
-        z_a = protocol.DecodeSetup(frame, &clamped).z_a;
-        continue;
-      }
-      RigRequest request;
-      request.command.z_a = z_a;
-      request.ownership.has_session = true;
-      if (kind == KcFrame::kSession) {
-        const KcSession session = protocol.DecodeSession(frame);
-        request.ownership.session = session.session;
-        request.ownership.claim = session.claim;
-        request.ownership.release = session.release;
-        request.reset_fault = session.reset_fault;
-        if (!rig->Request(request)) ++counters->refused;
-        continue;
-      }
-      const KcCommand decoded = protocol.DecodeCommand(frame, &clamped);
-      request.command.force = decoded.force;
-      request.command.enable = decoded.enable;
-      request.command.sequence = decoded.sequence;
-      request.ownership.session = decoded.session;
-      request.ownership.enable = decoded.enable;
-      // A refused command gets no sample: the owner's samples stay its own.
-      if (!rig->Request(request)) {
-        ++counters->refused;
-        continue;
-      }
-      ++counters->commands;
-      last_sample = rig->TakeSample();
-      CanFrame frames[kSampleFrames];
-      protocol.EncodeSample(last_sample, frames, &clamped);
-      for (const CanFrame& f : frames) send(f);
-      ++counters->samples_sent;
+      node.OnFrame(timed.frame, clock.Seconds());
     }
-    const std::uint16_t rig_status = rig->status();
-    if (now >= next_heartbeat || rig_status != last_status) {
-      KcHeartbeat heartbeat;
-      heartbeat.status = rig_status;
-      heartbeat.fault_code = rig->fault();
-      heartbeat.protocol = kKcRigProtocolVersion;
-      heartbeat.sample = last_sample.sample;
-      heartbeat.owner = static_cast<std::uint8_t>(rig->ownership().owner());
-      heartbeat.refusing = rig->ownership().refused() != refused_at_heartbeat;
-      refused_at_heartbeat = rig->ownership().refused();
-      send(protocol.EncodeHeartbeat(heartbeat));
-      ++counters->heartbeats;
-      last_status = rig_status;
-      next_heartbeat = now + kHeartbeatPeriod;
-    }
+    node.Heartbeat(now);
   }
   return Status::Ok();
 }
