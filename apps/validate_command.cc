@@ -242,6 +242,7 @@ int RunValidate(const ValidateArgs& args) {
   std::atomic<int> done{0};
   // The error says which cases a checkpoint kept (rank 0 alone prints).
   auto fail = [&](const Status& status) {
+    if (!ranks.is_root()) return 1;
     if (done == 0) return CommandError("validate")(status);
     return CommandError("validate")(
         Status::Error(status.message() + "; " + KeptCases(checkpoint, done)));

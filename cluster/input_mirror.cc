@@ -77,10 +77,15 @@ Status Unpack(const std::string& bytes, const std::string& folder,
       in.Fail();
       break;
     }
+    // Whole or not at all: a copy is written beside and renamed.
     const std::string copy = (fs::path(folder) / name).string();
-    std::ofstream out(copy, std::ios::binary);
+    const std::string partial = copy + ".partial";
+    std::ofstream out(partial, std::ios::binary);
     out << text;
     if (!out.flush()) return Status::Error(copy + ": cannot write");
+    out.close();
+    fs::rename(partial, copy, error);
+    if (error) return Status::Error(copy + ": cannot write");
     if (i == 0) first = copy;
   }
   if (!in.ok()) return Status::Error(*path + ": corrupt when shared");
@@ -116,11 +121,24 @@ Status ShareFilesInPlace(const Ranks& ranks, Status root_status,
   if (ranks.size() == 1 || paths.empty()) return root_status;
   const fs::path folder = fs::path(paths[0]).parent_path();
   for (const std::string& path : paths) {
+    // The same on every rank: no rank goes on to the collective.
     if (fs::path(path).parent_path() != folder) {
-      return Status::Error(path + ": not in " + folder.string());
+      return root_status.ok()
+                 ? Status::Error(path + ": not in " + folder.string())
+                 : root_status;
     }
   }
   std::string bytes;
+  if (ranks.is_root() && root_status.ok()) {
+    // Every file is needed (Pack would skip a missing companion).
+    for (const std::string& path : paths) {
+      std::error_code error;
+      if (!fs::is_regular_file(path, error)) {
+        root_status = Status::Error(path + ": not written");
+        break;
+      }
+    }
+  }
   if (ranks.is_root() && root_status.ok()) {
     root_status = Pack(paths[0], {paths.begin() + 1, paths.end()}, &bytes);
   }

@@ -9,6 +9,13 @@ set(CMAKE_SKIP_INSTALL_ALL_DEPENDENCY ON)
 install(DIRECTORY config/ DESTINATION ${CMAKE_INSTALL_DATADIR}/kcrig/config)
 install(FILES README.md DESTINATION ${CMAKE_INSTALL_DOCDIR})
 install(DIRECTORY docs/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/docs)
+# The folders' READMEs the manual links to.
+file(GLOB folder_readmes RELATIVE ${PROJECT_SOURCE_DIR}
+  ${PROJECT_SOURCE_DIR}/*/README.md)
+foreach(readme ${folder_readmes})
+  get_filename_component(folder ${readme} DIRECTORY)
+  install(FILES ${readme} DESTINATION ${CMAKE_INSTALL_DOCDIR}/${folder})
+endforeach()
 
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME kcrig)
@@ -24,6 +31,8 @@ set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+# The report inlines plotly.js from the path it was built with.
+set(CPACK_DEBIAN_PACKAGE_DEPENDS python3-plotly)
 set(CPACK_STRIP_FILES ON)
 # mpirun spreads `kcrig validate` and a campaign's batches over ranks.
 set(CPACK_DEBIAN_PACKAGE_RECOMMENDS openmpi-bin)

@@ -1016,24 +1016,31 @@ Status ResultFilesJson(const KcrigConfig& config, const fs::path& root,
 
 // The figures the page will draw (the browser test checks each rendered).
 int ExpectedFigures(const Json& data, const ReportSummary& summary) {
+  // JSON pointers: a key the page's data lacks counts as empty, never
+  // indexes a const object out of its range.
+  const auto size = [](const Json& node, const char* pointer) {
+    const Json::json_pointer at(pointer);
+    return node.contains(at) ? static_cast<int>(node.at(at).size()) : 0;
+  };
+  const auto drawn = [&data](const char* key) {
+    return data.contains(key) && !data.at(key).is_null() ? 1 : 0;
+  };
   int figures = 0;
   if (summary.campaign) {
-    figures += summary.experiments + 2 +
-               static_cast<int>(data["surfaces"].size()) +
-               (data["kriging"].is_null() ? 0 : 1) +
-               (data["isolability"].is_null() ? 0 : 1) +
-               static_cast<int>(data["kc"]["loops"].size());
+    figures += summary.experiments + 2 + size(data, "/surfaces") +
+               drawn("kriging") + drawn("isolability") +
+               size(data, "/kc/loops");
   }
-  for (const Json& d : data["diagnoses"]) {
+  for (const Json& d : data.value("diagnoses", Json::array())) {
     figures +=
-        1 + (d["ranking"].empty() ? 0 : 1) + (d.contains("overlay") ? 1 : 0);
+        1 + (size(d, "/ranking") > 0 ? 1 : 0) + (d.contains("overlay") ? 1 : 0);
   }
-  figures += static_cast<int>(data["timings"].size());
+  figures += size(data, "/timings");
   // Per validation: the confusion matrix, the cases and, unless every case
   // was clean, the power curve; with bushing effects, their places.
-  for (const Json& v : data["validations"]) {
+  for (const Json& v : data.value("validations", Json::array())) {
     figures +=
-        (v["power"].empty() ? 2 : 3) + (v["places"]["rows"].empty() ? 0 : 1);
+        (size(v, "/power") > 0 ? 3 : 2) + (size(v, "/places/rows") > 0 ? 1 : 0);
   }
   return figures;
 }

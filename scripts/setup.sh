@@ -4,7 +4,7 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake ninja-build pkg-config git clang-format ccache
+  build-essential cmake ninja-build pkg-config git clang-format ccache file
   libeigen3-dev libceres-dev libnlopt-dev libnlopt-cxx-dev libmodbus-dev
   libopenmpi-dev openmpi-bin slurmctld slurmd slurm-client munge
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev

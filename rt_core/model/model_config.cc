@@ -204,15 +204,20 @@ std::string DefaultConfigDirectory() {
   // Relative to the binary, not to a prefix fixed at build time: a package
   // unpacked anywhere reads its own config, and a build tree's binary never
   // reads a kcrig installed on the machine.
+  // A binary outside its build tree (installed, or copied) never falls back
+  // to the build machine's source folder: without a config beside it, the
+  // error names where it looked.
   std::error_code error;
   const fs::path binary = fs::read_symlink("/proc/self/exe", error);
-  if (!error) {
-    const fs::path beside =
-        (binary.parent_path() / KCRIG_CONFIG_DIR_FROM_BINARY)
-            .lexically_normal();
-    if (fs::is_directory(beside, error)) return beside.string();
+  if (error) return KCRIG_SOURCE_CONFIG_DIR;
+  const fs::path beside =
+      (binary.parent_path() / KCRIG_CONFIG_DIR_FROM_BINARY).lexically_normal();
+  const std::string tree = fs::path(KCRIG_BUILD_TREE).lexically_normal();
+  const bool in_build_tree = binary.string().rfind(tree + "/", 0) == 0;
+  if (in_build_tree && !fs::is_directory(beside, error)) {
+    return KCRIG_SOURCE_CONFIG_DIR;
   }
-  return KCRIG_SOURCE_CONFIG_DIR;
+  return beside.string();
 }
 
 std::string GeometryFingerprint(const SuspensionParameters<double>& model) {

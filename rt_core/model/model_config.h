@@ -55,8 +55,8 @@ Status ValidateModel(const SuspensionParameters<double>& model,
                      const std::string& source);
 
 // The config directory used when --config is not given: the one installed
-// beside the running binary (its bin/../share/kcrig/config) if present, else
-// the source tree's.
+// beside the running binary (its bin/../share/kcrig/config); for a binary
+// in its build tree without one, the source tree's.
 std::string DefaultConfigDirectory();
 
 // A short hex digest of the model's geometry, masses, spring and damping:

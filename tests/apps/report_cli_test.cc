@@ -47,34 +47,40 @@ Json PageData(const std::string& html) {
 // three; only the test of the report's figures needs that one.
 class ReportCliTest : public TempDirTest {
  protected:
-  enum class Judge { kIsolability, kNothingMore };
+  enum Judge { kIsolability, kNothingMore, kJudges };
+  // One folder per kind, so any order of tests in one process gets the
+  // campaign it asked for.
   static const std::string& Campaign(Judge judge) {
-    if (campaign_ == nullptr) {
-      campaign_ = new std::string(
+    std::string*& campaign = campaigns_[judge];
+    if (campaign == nullptr) {
+      campaign = new std::string(
           (fs::temp_directory_path() /
-           ("kcrig_report_cli_campaign_" + std::to_string(getpid())))
+           ("kcrig_report_cli_campaign_" + std::to_string(getpid()) + "_" +
+            std::to_string(judge)))
               .string());
-      fs::remove_all(*campaign_);
+      fs::remove_all(*campaign);
       const CliResult r =
           RunKcrig(std::string("campaign --iterations 1 --budget 12 --quiet ") +
-                   (judge == Judge::kIsolability ? "--isolability " : "") +
-                   "--no-report --out " + *campaign_);
+                   (judge == kIsolability ? "--isolability " : "") +
+                   "--no-report --out " + *campaign);
       EXPECT_EQ(r.exit_code, 0) << r.output;
     }
-    return *campaign_;
+    return *campaign;
   }
   static void TearDownTestSuite() {
-    if (campaign_ == nullptr) return;
-    fs::remove_all(*campaign_);
-    delete campaign_;
-    campaign_ = nullptr;
+    for (std::string*& campaign : campaigns_) {
+      if (campaign == nullptr) continue;
+      fs::remove_all(*campaign);
+      delete campaign;
+      campaign = nullptr;
+    }
   }
-  static std::string* campaign_;
+  static std::string* campaigns_[kJudges];
 };
-std::string* ReportCliTest::campaign_ = nullptr;
+std::string* ReportCliTest::campaigns_[kJudges] = {};
 
 TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
-  const std::string& campaign = Campaign(Judge::kIsolability);
+  const std::string& campaign = Campaign(kIsolability);
   ASSERT_FALSE(fs::exists(campaign + "/report.html"));
   const std::string html = Path("report.html");
   const CliResult r = RunKcrig("report --from " + campaign +
@@ -392,7 +398,7 @@ TEST_F(ReportCliTest, BadFoldersAreOneLineErrorsAndWriteNothing) {
   ExpectRefused("--from " + Path("empty"),
                 "no campaign.json, diag.json, timing.json or validate.json",
                 out);
-  const std::string& campaign = Campaign(Judge::kNothingMore);
+  const std::string& campaign = Campaign(kNothingMore);
   ExpectRefused("--from " + campaign + " --grid 19", "--grid 19", out);
   ExpectRefused("--from " + campaign + " --grid 1x5", "--grid 1x5", out);
 

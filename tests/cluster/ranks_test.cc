@@ -17,6 +17,15 @@
 namespace kcrig {
 namespace {
 
+// Alone, a computation takes the default threads unless told; a
+// --threads always wins.
+TEST(RanksTest, ThreadsPerRankAloneAndAsRequested) {
+  ASSERT_EQ(WorldRanks().size(), 1);
+  EXPECT_EQ(ThreadsPerRank(WorldRanks()), kDefaultThreads);
+  EXPECT_EQ(ThreadsPerRank(WorldRanks(), 3), 3);
+  EXPECT_EQ(ThreadsPerRank(WorldRanks(), 1), 1);
+}
+
 TEST(RanksTest, EveryPendingItemRunsOnceAndIsKeptByItem) {
   for (int threads : {1, 3}) {
     std::vector<std::string> results(6, "kept");

@@ -10,7 +10,9 @@ one line per problem naming file:line) when
   - a command line `kcrig SUBCOMMAND --option ...` (in a code block or in
     inline code) names a subcommand `kcrig --help` does not list, or an
     option `kcrig SUBCOMMAND --help` does not list;
-  - a script it quotes (scripts/..., tests/...) does not exist.
+  - a script it quotes (scripts/..., tests/...) or a source file it names
+    in inline code (a path under one of the repository's folders) does not
+    exist.
 Python 3 standard library only.
 """
 import pathlib
@@ -22,7 +24,11 @@ LINK = re.compile(r'!?\[[^\]]*\]\(([^)\s]+)\)')
 INLINE_CODE = re.compile(r'`([^`\n]+)`')
 OPTION = re.compile(r'^--([a-z0-9][a-z0-9-]*)')
 SUBCOMMAND = re.compile(r'^[a-z][a-z-]*$')
-SCRIPT = re.compile(r'(?<![\w/.])((?:scripts|tests)/[\w./-]+\.(?:sh|py))\b')
+SCRIPT = re.compile(r'(?:^|(?<=[\s`\'"(=]))(?:\./)?'
+                    r'((?:scripts|tests)/[\w./-]+\.(?:sh|py))\b')
+SOURCE = re.compile(r'^[\w.-]+(?:/[\w.-]+)+\.(?:h|cc|py|sh|yaml|dbc|md|js)$')
+HELP_OPTION = re.compile(r'^\s+(?:-\w,)?--([a-z0-9][a-z0-9-]*)', re.M)
+FOLDERS = set()  # the repository's top-level folders, filled by main
 SHELL_END = {'|', '||', ';', '&&', '&', '>', '>>', '2>', '2>&1', '<', '#'}
 
 
@@ -72,21 +78,47 @@ def check_links(path, root, problems):
                                 f'#{anchor} in {dest.relative_to(root)}')
 
 
-def command_lines(path):
-    """(line number, words) of each quoted line that runs something."""
+def paragraphs(path):
+    """(first line number, text) of each paragraph outside code blocks: an
+    inline code span may wrap across its lines."""
+    first, lines = None, []
+    for number, line, fence in read_lines(path):
+        if fence or not line.strip():
+            if lines:
+                yield first, ' '.join(lines)
+            first, lines = None, []
+            continue
+        if first is None:
+            first = number
+        lines.append(line.strip())
+    if lines:
+        yield first, ' '.join(lines)
+
+
+def code_lines(path):
+    """(line number, text) of each line of a code block, a backslash
+    continuation joined to the line it continues."""
     pending, start = '', None
     for number, line, fence in read_lines(path):
-        if fence:
-            if start is None:
-                start = number
-            if line.rstrip().endswith('\\'):
-                pending += line.rstrip()[:-1] + ' '
-                continue
-            yield start, (pending + line).split()
-            pending, start = '', None
-        else:
-            for m in INLINE_CODE.finditer(line):
-                yield number, m.group(1).split()
+        if not fence:
+            continue
+        if start is None:
+            start = number
+        if line.rstrip().endswith('\\'):
+            pending += line.rstrip()[:-1] + ' '
+            continue
+        yield start, pending + line
+        pending, start = '', None
+
+
+def command_lines(path):
+    """(line number, words) of each quoted line that runs something, and
+    of each inline code span."""
+    for number, text in code_lines(path):
+        yield number, text.split()
+    for number, text in paragraphs(path):
+        for m in INLINE_CODE.finditer(text):
+            yield number, m.group(1).split()
 
 
 class Help:
@@ -99,22 +131,27 @@ class Help:
         if subcommand not in self.cache:
             run = subprocess.run([self.kcrig, subcommand, '--help'],
                                  capture_output=True, text=True)
-            self.cache[subcommand] = (
-                run.returncode == 0,
-                set(re.findall(r'--([a-z0-9][a-z0-9-]*)', run.stdout)))
+            # The options CLI11 lists, not words of their descriptions.
+            self.cache[subcommand] = (run.returncode == 0,
+                                      set(HELP_OPTION.findall(run.stdout)))
         return self.cache[subcommand]
 
 
 def check_commands(path, root, help_, problems):
     for number, words in command_lines(path):
         where = f'{path.relative_to(root)}:{number}'
-        for word in words:
-            for m in SCRIPT.finditer(word):
-                if not (root / m.group(1)).exists():
-                    problems.append(f'{where}: {m.group(1)}: no such file')
+        for m in SCRIPT.finditer(' '.join(words)):
+            if not (root / m.group(1)).exists():
+                problems.append(f'{where}: {m.group(1)}: no such file')
+        if len(words) == 1 and SOURCE.match(words[0]):
+            top = words[0].split('/')[0]
+            if top in FOLDERS and not (root / words[0]).exists():
+                problems.append(f'{where}: {words[0]}: no such file')
         for i, word in enumerate(words[:-1]):
             if word != 'kcrig' and not word.endswith('/kcrig'):
                 continue
+            if i > 0 and words[i - 1].endswith(('.py', '.sh')):
+                continue  # the binary handed to a script, not a command
             subcommand = words[i + 1]
             rest = words[i + 2:]
             if not SUBCOMMAND.match(subcommand) or \
@@ -139,6 +176,8 @@ def main():
     if len(sys.argv) != 3:
         sys.exit(__doc__)
     kcrig, root = sys.argv[1], pathlib.Path(sys.argv[2]).resolve()
+    FOLDERS.update(p.name for p in root.iterdir()
+                   if p.is_dir() and not p.name.startswith(('.', 'build')))
     pages = [root / 'README.md'] + sorted((root / 'docs').glob('*.md')) + \
         sorted(p for p in root.glob('*/README.md'))
     help_ = Help(kcrig)

@@ -10,8 +10,11 @@ under WORK_DIR (its own dpkg database: the machine's packages are never
 touched) and runs the main job, `kcrig campaign`, from the installed
 binary in a folder outside the source tree. The installed plant.yaml is
 edited first (c_O1 3600 -> 3200 N/mm), so the campaign finding 3200 N/mm
-proves the binary reads the configuration installed beside it. Finally the
-package is purged and must leave no file behind.
+proves the binary reads the configuration installed beside it; a copy of
+the binary without its share/ must refuse in one line, not read the build
+machine's config. The package declares the package of every file the
+binary reads at run time (plotly.js for the report). Finally the package
+is purged and must leave no file behind.
 Python 3 standard library only; dpkg, dpkg-deb and cpack from the machine.
 """
 import json
@@ -20,6 +23,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tempfile
 
 CONTENTS = [
     'usr/bin/kcrig',
@@ -31,6 +35,7 @@ CONTENTS = [
     'usr/share/kcrig/config/modbus_map.yaml',
     'usr/share/doc/kcrig/README.md',
     'usr/share/doc/kcrig/docs/rig.md',
+    'usr/share/doc/kcrig/estimator/README.md',
 ]
 TRUE_C_O1 = 3.2e6
 
@@ -52,13 +57,19 @@ def build_package(build_dir, work):
     return debs[0]
 
 
-def check_control(deb):
+def check_control(deb, build_dir):
     fields = {f: run(['dpkg-deb', '-f', str(deb), f]).strip()
               for f in ('Package', 'Version', 'Architecture', 'Depends')}
     print('control:', fields)
     assert fields['Package'] == 'kcrig', fields
     for lib in ('libmodbus5', 'libyaml-cpp0.7', 'libstdc++6'):
         assert lib in fields['Depends'], f'Depends lacks {lib}'
+    # What the binary reads at run time beyond its libraries: the report
+    # inlines plotly.js from the path it was built with.
+    plotly = re.search(r'KCRIG_PLOTLY_JS:FILEPATH=(.*)',
+                       (build_dir / 'CMakeCache.txt').read_text()).group(1)
+    owner = run(['dpkg-query', '-S', plotly]).split(':')[0]
+    assert owner in fields['Depends'], f'Depends lacks {owner} ({plotly})'
     # Every dependency satisfiable here: one alternative of each installed.
     for group in fields['Depends'].split(','):
         names = [re.sub(r'\s*\(.*\)', '', a).strip()
@@ -68,10 +79,11 @@ def check_control(deb):
 
 
 def installed(package):
+    # One line per architecture the package is installed for.
     result = subprocess.run(
-        ['dpkg-query', '-W', '-f=${Status}', package],
+        ['dpkg-query', '-W', '-f=${Status}\\n', package],
         capture_output=True, text=True)
-    return result.stdout.strip() == 'install ok installed'
+    return 'install ok installed' in result.stdout.splitlines()
 
 
 def check_contents(deb):
@@ -117,6 +129,23 @@ def run_main_job(root, work):
     assert abs(c_o1['value'] - TRUE_C_O1) < 0.01 * TRUE_C_O1, c_o1
 
 
+def run_copied_binary(root):
+    """A copy of the binary without its share/ finds no config: one line
+    naming where it looked, never the build machine's source config."""
+    with tempfile.TemporaryDirectory() as lonely:
+        copy = pathlib.Path(lonely) / 'bin' / 'kcrig'
+        copy.parent.mkdir()
+        shutil.copy2(root / 'usr/bin/kcrig', copy)
+        result = subprocess.run(
+            [str(copy), 'simulate', '--out', str(pathlib.Path(lonely) /
+                                                  'run.csv')],
+            capture_output=True, text=True, cwd=lonely)
+        where = str(pathlib.Path(lonely) / 'share/kcrig/config')
+        assert result.returncode == 1, result
+        assert f'{where}: config directory not found' in result.stderr, \
+            result.stderr
+
+
 def purge(root):
     run(['dpkg', f'--root={root}', '--force-not-root', '--log=/dev/null',
          '--purge', 'kcrig'])
@@ -132,11 +161,12 @@ def main():
     shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True)
     deb = build_package(build_dir, work)
-    check_control(deb)
+    check_control(deb, build_dir)
     check_contents(deb)
     root = work / 'root'
     install(deb, root)
     run_main_job(root, work)
+    run_copied_binary(root)
     purge(root)
     shutil.rmtree(work)
     print('package: built, installed, ran the main job, purged')
