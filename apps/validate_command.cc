@@ -243,9 +243,10 @@ int RunValidate(const ValidateArgs& args) {
   // The error says which cases a checkpoint kept (rank 0 alone prints).
   auto fail = [&](const Status& status) {
     if (!ranks.is_root()) return 1;
-    if (done == 0) return CommandError("validate")(status);
     return CommandError("validate")(
-        Status::Error(status.message() + "; " + KeptCases(checkpoint, done)));
+        done == 0 ? status
+                  : Status::Error(status.message() + "; " +
+                                  KeptCases(checkpoint, done)));
   };
   // Rank 0 alone reads the inputs; the other ranks their copies.
   InputMirror mirror(ranks);

@@ -138,9 +138,9 @@ Status ShareFilesInPlace(const Ranks& ranks, Status root_status,
         break;
       }
     }
-  }
-  if (ranks.is_root() && root_status.ok()) {
-    root_status = Pack(paths[0], {paths.begin() + 1, paths.end()}, &bytes);
+    if (root_status.ok()) {
+      root_status = Pack(paths[0], {paths.begin() + 1, paths.end()}, &bytes);
+    }
   }
   const Status status = ranks.Share(root_status, &bytes);
   if (!status.ok() || ranks.is_root()) return status;

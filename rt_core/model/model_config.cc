@@ -203,10 +203,9 @@ std::string DefaultConfigDirectory() {
   namespace fs = std::filesystem;
   // Relative to the binary, not to a prefix fixed at build time: a package
   // unpacked anywhere reads its own config, and a build tree's binary never
-  // reads a kcrig installed on the machine.
-  // A binary outside its build tree (installed, or copied) never falls back
-  // to the build machine's source folder: without a config beside it, the
-  // error names where it looked.
+  // reads a kcrig installed on the machine. A binary outside its build tree
+  // (installed, or copied) never falls back to the build machine's source
+  // folder: without a config beside it, the error names where it looked.
   std::error_code error;
   const fs::path binary = fs::read_symlink("/proc/self/exe", error);
   if (error) return KCRIG_SOURCE_CONFIG_DIR;
