@@ -458,6 +458,16 @@ TEST_F(ReportCliTest, BadFoldersAreOneLineErrorsAndWriteNothing) {
   doc["iterations"][0]["parameters"] = "c_O1";
   std::ofstream(summary) << doc.dump();
   ExpectRefused("--from " + copy, "campaign.json", out);
+
+  // Whole again, the copy renders: each refusal above was its breakage.
+  fresh();
+  const CliResult r =
+      RunKcrig("report --from " + copy + " --grid 2x2 --quiet --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("9 figures (2 experiments, campaign)"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(PageData(ReadText(out))["expected_figures"], 9);
 }
 
 // The surfaces are the objective the campaign's optimizer searched: at the
