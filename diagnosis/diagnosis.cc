@@ -89,6 +89,7 @@ class DiagnosisRun {
     if (progress_.aborted()) return Interrupted("diagnosis");
     chosen = PlaceOnComponents(chosen);
     if (progress_.aborted()) return Interrupted("diagnosis");
+    KCRIG_RETURN_IF_ERROR(RefineChosen(chosen));
     StateVerdict(chosen, rules_, result_);
     KCRIG_RETURN_IF_ERROR(CharacteriseWhenUnexplained());
     result_->reason = scoring_note_ + result_->reason;
@@ -151,6 +152,9 @@ class DiagnosisRun {
     fit_options_.uncertainty = options_.estimator;
     fit_options_.uncertainty.adequacy = AdequacyTests();
     fit_options_.callback = progress_.Nested();
+    candidate_fit_options_ = fit_options_;
+    candidate_fit_options_.function_tolerance = std::max(
+        fit_options_.function_tolerance, options_.candidate_function_tolerance);
     return Status::Ok();
   }
 
@@ -541,7 +545,7 @@ class DiagnosisRun {
             }
             if (status.ok()) {
               status = FitEffectModel(*models[i], training_, start,
-                                      fit_options_, step_, fit);
+                                      candidate_fit_options_, step_, fit);
             }
             const int finished = ++done;
             Progress("candidate fits " + std::to_string(finished) + " (" +
@@ -584,12 +588,53 @@ class DiagnosisRun {
       ok_models.push_back(models[i]);
       ok_scores.push_back(&s);
     }
-    ScoreModels(ok_models, ok_scores);
-    for (CandidateScore* s : ok_scores) {
+    ScoreFitted(ok_models, ok_scores);
+  }
+
+  // Scores fitted models and the share of the nominal gap each closes.
+  void ScoreFitted(const std::vector<const EffectModel*>& models,
+                   const std::vector<CandidateScore*>& scores) {
+    ScoreModels(models, scores);
+    for (CandidateScore* s : scores) {
       s->gap_closed = s->ok && nominal_gap_ > 0
                           ? (result_->nominal.score - s->score) / nominal_gap_
                           : 0;
     }
+  }
+
+  // Stage 6b: the chosen candidate's fit refined from its values at the
+  // estimate's tolerance (DiagnosisOptions::fit) and scored again. A
+  // refinement that fails or ends higher leaves the candidate's fit.
+  Status RefineChosen(const CandidateScore* chosen) {
+    if (chosen == nullptr || candidate_fit_options_.function_tolerance <=
+                                 fit_options_.function_tolerance) {
+      return Status::Ok();
+    }
+    KCRIG_RETURN_IF_ERROR(Progress("refining " + chosen->model, 0.93));
+    CandidateScore& s = result_->ranking[chosen - result_->ranking.data()];
+    EffectModel model;
+    if (!EffectModel::CreateNamed(nominal_, s.model,
+                                  options_.estimator.lower_scale,
+                                  options_.estimator.upper_scale, &model)
+             .ok()) {
+      return Status::Ok();
+    }
+    std::vector<EffectFit> fits;
+    std::vector<Status> status;
+    RunFits(
+        1,
+        [&](int, EffectFit* fit) {
+          return FitEffectModel(model, training_, s.fit.values, fit_options_,
+                                step_, fit);
+        },
+        &fits, &status);
+    if (!status[0].ok() || fits[0].result.cost > s.fit.result.cost) {
+      return Status::Ok();
+    }
+    s.fit = fits[0];
+    s.at_far_bound = AtFarBound(model, s.fit.result);
+    ScoreFitted({&model}, {&s});
+    return Status::Ok();
   }
 
   // Whether an effect parameter of `fit` that measures the effect's size
@@ -1042,6 +1087,7 @@ class DiagnosisRun {
   EffectModel nominal_model_;
   std::vector<EffectModel> singles_;
   EffectFitOptions fit_options_;
+  EffectFitOptions candidate_fit_options_;  // DiagnosisOptions' tolerance
   ProgressReporter progress_;
   // The nominal fit's weighted training residuals and their count.
   std::vector<std::vector<Vec6<double>>> residuals_;
