@@ -13,6 +13,7 @@
 #include "apps/console_options.h"
 #include "apps/progress.h"
 #include "apps/sil_rig_options.h"
+#include "base/atomic_files.h"
 #include "campaign/campaign.h"
 #include "cluster/input_mirror.h"
 #include "cluster/rank_folder.h"

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "base/atomic_files.h"
 #include "hil/rig_config.h"
 #include "records/partial_file.h"
 #include "records/read_log.h"

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "CLI/CLI.hpp"
+#include "base/atomic_files.h"
 #include "base/status.h"
 #include "cluster/input_mirror.h"
 #include "estimator/experiment.h"

@@ -10,6 +10,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "base/atomic_files.h"
 #include "cluster/ranks.h"
 #include "designer/design_io.h"
 #include "designer/design_step.h"

@@ -9,6 +9,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "base/atomic_files.h"
 #include "cluster/ranks.h"
 #include "designer/discrimination.h"
 #include "diagnosis/diagnosis.h"

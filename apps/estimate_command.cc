@@ -7,6 +7,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "base/atomic_files.h"
 #include "estimator/estimate_io.h"
 #include "estimator/estimator.h"
 #include "estimator/profile_likelihood.h"

@@ -7,6 +7,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "base/atomic_files.h"
 #include "diagnosis/isolability.h"
 #include "records/run_log.h"
 #include "rt_core/model/model_config.h"

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "apps/cli_util.h"
+#include "base/atomic_files.h"
 #include "estimator/estimate_io.h"
 #include "estimator/experiment.h"
 #include "kc_sheet/kc_sheet.h"

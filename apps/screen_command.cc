@@ -7,6 +7,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "base/atomic_files.h"
 #include "estimator/screening.h"
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"

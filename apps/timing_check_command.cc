@@ -9,6 +9,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "base/atomic_files.h"
 #include "hil/rig_config.h"
 #include "hil/rig_factory.h"
 #include "hil/rig_session.h"

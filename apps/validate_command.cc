@@ -12,6 +12,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/progress.h"
+#include "base/atomic_files.h"
 #include "cluster/ranks.h"
 #include "records/batch_checkpoint.h"
 #include "records/run_log.h"

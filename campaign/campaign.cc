@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "Eigen/QR"
+#include "base/atomic_files.h"
 #include "base/json_reader.h"
 #include "designer/design_step.h"
 #include "designer/discrimination.h"

@@ -1,8 +1,11 @@
 #include "cluster/input_mirror.h"
 
 #include <filesystem>
-#include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
 
+#include "base/atomic_files.h"
 #include "base/byte_codec.h"
 #include "base/input_file.h"
 
@@ -66,7 +69,7 @@ Status Unpack(const std::string& bytes, const std::string& folder,
   if (error) {
     return Status::Error(folder + ": cannot create (" + error.message() + ")");
   }
-  std::string first;
+  std::vector<std::pair<std::string, std::string>> copies;
   for (std::uint64_t i = 0; i < count && i < (1u << 20); ++i) {
     std::string name, text;
     in.Get(&name);
@@ -77,19 +80,13 @@ Status Unpack(const std::string& bytes, const std::string& folder,
       in.Fail();
       break;
     }
-    // Whole or not at all: a copy is written beside and renamed.
-    const std::string copy = (fs::path(folder) / name).string();
-    const std::string partial = copy + ".partial";
-    std::ofstream out(partial, std::ios::binary);
-    out << text;
-    if (!out.flush()) return Status::Error(copy + ": cannot write");
-    out.close();
-    fs::rename(partial, copy, error);
-    if (error) return Status::Error(copy + ": cannot write");
-    if (i == 0) first = copy;
+    copies.emplace_back((fs::path(folder) / name).string(), std::move(text));
   }
   if (!in.ok()) return Status::Error(*path + ": corrupt when shared");
-  *path = kind == 2 ? folder : first;
+  KCRIG_RETURN_IF_ERROR(WriteFilesAtomically(copies));
+  *path = kind == 2        ? folder
+          : copies.empty() ? std::string()
+                           : copies.front().first;
   return Status::Ok();
 }
 

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "base/atomic_files.h"
 #include "hil/internal/run_logger.h"
 #include "nlohmann/json.hpp"
 #include "records/run_log.h"

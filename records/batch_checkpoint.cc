@@ -12,6 +12,7 @@
 #include <regex>
 #include <system_error>
 
+#include "base/atomic_files.h"
 #include "base/fnv1a.h"
 #include "base/input_file.h"
 #include "nlohmann/json.hpp"

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <vector>
 
+#include "base/atomic_files.h"
 #include "base/input_file.h"
 #include "nlohmann/json.hpp"
 #include "records/internal/mat5_check.h"

@@ -10,25 +10,6 @@
 
 namespace kcrig {
 
-Status CheckReplaceable(const std::string& path) {
-  std::error_code error;
-  const std::filesystem::file_status status =
-      std::filesystem::symlink_status(path, error);
-  if (error && error != std::errc::no_such_file_or_directory) {
-    return Status::Error(path + ": cannot inspect (" + error.message() + ")");
-  }
-  if (!std::filesystem::exists(status) ||
-      std::filesystem::is_regular_file(status)) {
-    return Status::Ok();
-  }
-  const char* what = std::filesystem::is_symlink(status) ? "a symbolic link"
-                     : std::filesystem::is_directory(status)
-                         ? "a directory"
-                         : "a device or FIFO";
-  return Status::Error(path + ": is " + what +
-                       ", not a regular file; kcrig never replaces it");
-}
-
 PartialFile::~PartialFile() {
   if (fd_ >= 0) close(fd_);
 }

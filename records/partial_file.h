@@ -12,14 +12,10 @@
 #include <string>
 #include <string_view>
 
+#include "base/atomic_files.h"
 #include "base/status.h"
 
 namespace kcrig {
-
-// Whether kcrig may put a file at `path`: nothing there, or a regular file
-// (replaced). A device, FIFO, directory or symbolic link is never replaced:
-// writing "est.json" over /dev/full or a link would destroy what is there.
-Status CheckReplaceable(const std::string& path);
 
 class PartialFile {
  public:

@@ -114,13 +114,6 @@ Status WriteRunLogSidecar(const std::string& csv_path, const RunLog& log,
 // it.
 Status ReadRunLog(const std::string& csv_path, RunLog* log);
 
-// Writes each (path, content) through a temporary in the same directory and
-// renames them all only when every temporary was written; on failure no
-// target is left half-written or newly created. Only nothing or a regular
-// file is replaced (CheckReplaceable).
-Status WriteFilesAtomically(
-    const std::vector<std::pair<std::string, std::string>>& files);
-
 }  // namespace kcrig
 
 #endif  // KCRIG_RECORDS_RUN_LOG_H_

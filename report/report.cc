@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "base/atomic_files.h"
 #include "base/json_reader.h"
 #include "base/json_writer.h"
 #include "campaign/campaign.h"
