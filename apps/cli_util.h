@@ -8,7 +8,6 @@
 #include <vector>
 
 #include "CLI/CLI.hpp"
-#include "base/atomic_files.h"
 #include "base/status.h"
 #include "cluster/input_mirror.h"
 #include "estimator/experiment.h"
@@ -67,7 +66,7 @@ class CommandError {
 };
 
 // Before any work: the file `out` (given with `option`; "" for none) may be
-// written (records' CheckReplaceable) and is none of `inputs`, nor a run
+// written (base's CheckReplaceable) and is none of `inputs`, nor a run
 // log's sidecar among them: writing it would destroy what is read.
 Status CheckOutput(const std::string& option, const std::string& out,
                    const std::vector<std::string>& inputs);

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <set>
 
 namespace kcrig {
 
@@ -56,7 +57,12 @@ void SyncParentFolders(
 
 Status WriteFilesAtomically(
     const std::vector<std::pair<std::string, std::string>>& files) {
+  // Two contents for one path would share one temporary.
+  std::set<std::string> paths;
   for (const auto& file : files) {
+    if (!paths.insert(file.first).second) {
+      return Status::Error(file.first + ": given twice to be written");
+    }
     KCRIG_RETURN_IF_ERROR(CheckReplaceable(file.first));
   }
   std::vector<std::string> temporaries;

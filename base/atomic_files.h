@@ -21,7 +21,7 @@ Status CheckReplaceable(const std::string& path);
 // Writes each (path, content) through a temporary in the same directory and
 // renames them all only when every temporary was written; on failure no
 // target is left half-written or newly created. Only nothing or a regular
-// file is replaced (CheckReplaceable).
+// file is replaced (CheckReplaceable); a path given twice is an error.
 Status WriteFilesAtomically(
     const std::vector<std::pair<std::string, std::string>>& files);
 

@@ -1,5 +1,6 @@
 #include "cluster/input_mirror.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
 #include <utility>
@@ -33,8 +34,13 @@ Status Pack(const std::string& path, const std::vector<std::string>& companions,
     }
   } else if (fs::is_regular_file(path, error)) {
     files.push_back(path);
+    // Each file once: a companion may name the file itself (the sidecar
+    // of a .json log is the log).
     for (const std::string& companion : companions) {
-      if (fs::is_regular_file(companion, error)) files.push_back(companion);
+      if (std::find(files.begin(), files.end(), companion) == files.end() &&
+          fs::is_regular_file(companion, error)) {
+        files.push_back(companion);
+      }
     }
   }
   ByteWriter out;

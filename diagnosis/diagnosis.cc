@@ -602,15 +602,17 @@ class DiagnosisRun {
     }
   }
 
-  // Stage 6b: the chosen candidate's fit refined from its values at the
-  // estimate's tolerance (DiagnosisOptions::fit) and scored again. A
-  // refinement that fails or ends higher leaves the candidate's fit.
+  // Stage 6b: the chosen candidate's fit refined from its values at
+  // DiagnosisOptions::fit's tolerance (the nominal fit's) and scored again.
+  // A refinement that fails, ends higher, or that the rules would refuse
+  // (a failed score, a far bound, a gap no longer explained) leaves the
+  // candidate's fit.
   Status RefineChosen(const CandidateScore* chosen) {
     if (chosen == nullptr || candidate_fit_options_.function_tolerance <=
                                  fit_options_.function_tolerance) {
       return Status::Ok();
     }
-    KCRIG_RETURN_IF_ERROR(Progress("refining " + chosen->model, 0.93));
+    KCRIG_RETURN_IF_ERROR(Progress("refining " + chosen->model, 0.995));
     CandidateScore& s = result_->ranking[chosen - result_->ranking.data()];
     EffectModel model;
     if (!EffectModel::CreateNamed(nominal_, s.model,
@@ -631,9 +633,14 @@ class DiagnosisRun {
     if (!status[0].ok() || fits[0].result.cost > s.fit.result.cost) {
       return Status::Ok();
     }
+    const CandidateScore candidate = s;
     s.fit = fits[0];
     s.at_far_bound = AtFarBound(model, s.fit.result);
     ScoreFitted({&model}, {&s});
+    if (!s.ok || s.at_far_bound ||
+        (rules_.Explains(candidate) && !rules_.Explains(s))) {
+      s = candidate;
+    }
     return Status::Ok();
   }
 

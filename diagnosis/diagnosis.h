@@ -54,7 +54,8 @@ struct DiagnosisOptions {
   // spares the fifth of a diagnosis spent creeping to the last digits;
   // the chosen candidate is then refined from its values at
   // fit.function_tolerance and scored again, so that its values and
-  // intervals are as precise as an estimate's.
+  // intervals are as precise as the nominal fit's. The alternatives of an
+  // ambiguous or unexplained verdict keep their candidates' fits.
   EffectFitOptions fit;
   double candidate_function_tolerance = 1e-6;
   // The candidate effects (names of kEffectNames, placed ones, or

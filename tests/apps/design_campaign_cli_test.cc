@@ -53,6 +53,26 @@ TEST_F(DesignCampaignCliTest, OptimizerComparisonPrintsTableOneColumns) {
             doc["runs"][0]["evaluations"].get<size_t>());
 }
 
+// The gradient-based and derivative-free NLopt searches on a small budget:
+// their callbacks and the stop at the budget (the comparison above, which
+// checks the optimum, is numbers: Release only in CI).
+TEST_F(DesignCampaignCliTest, NloptSearchesStopAtTheBudget) {
+  const CliResult r = RunKcrig(
+      "design --criterion A --optimizer nlopt:bobyqa,nlopt:slsqp,nlopt:mma "
+      "--budget 6 --out " +
+      Path("design.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json doc =
+      nlohmann::json::parse(std::ifstream(Path("design.json")));
+  ASSERT_EQ(doc["runs"].size(), 3u);
+  for (const nlohmann::json& run : doc["runs"]) {
+    EXPECT_LE(run["evaluations"].get<int>(), 6) << run.dump();
+    EXPECT_EQ(run["evaluated"].size(), run["evaluations"].get<size_t>());
+  }
+  EXPECT_LE(doc["optimal"]["value"].get<double>(),
+            doc["initial"]["value"].get<double>());
+}
+
 TEST_F(DesignCampaignCliTest, BadInputIsOneLineAndNoFile) {
   ExpectCleanFailure("design --budget 0", "--budget 0");
   ExpectCleanFailure("design --criterion Q", "--criterion Q");

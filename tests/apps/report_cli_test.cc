@@ -459,15 +459,21 @@ TEST_F(ReportCliTest, BadFoldersAreOneLineErrorsAndWriteNothing) {
   std::ofstream(summary) << doc.dump();
   ExpectRefused("--from " + copy, "campaign.json", out);
 
-  // Whole again, the copy renders: each refusal above was its breakage.
+  // Whole again, with a well-formed isolability matrix of its own, the copy
+  // renders: each refusal above was its breakage.
   fresh();
+  std::ofstream(copy + "/iteration_1/isolability.json")
+      << "{\"candidates\": [\"a\", \"b\"], \"min_share_left\": 0.2, "
+         "\"left\": [[null, 0.5], [0.1, null]]}";
   const CliResult r =
       RunKcrig("report --from " + copy + " --grid 2x2 --quiet --out " + out);
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("9 figures (2 experiments, campaign)"),
+  EXPECT_NE(r.output.find("10 figures (2 experiments, campaign)"),
             std::string::npos)
       << r.output;
-  EXPECT_EQ(PageData(ReadText(out))["expected_figures"], 9);
+  const Json data = PageData(ReadText(out));
+  EXPECT_EQ(data["expected_figures"], 10);
+  EXPECT_EQ(data["isolability"]["left"][1][0], 0.1);
 }
 
 // The surfaces are the objective the campaign's optimizer searched: at the
