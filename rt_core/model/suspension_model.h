@@ -338,6 +338,68 @@ class SuspensionModel {
                 damping * (s.u_body.cross(omega) - j.e_body)};
   }
 
+  // Evaluate's parts for element i in state s: its columns of the hook
+  // Jacobian; its terms of dQ/dq (r, theta) and dQ/dz at body velocity
+  // (v, omega), and what DifferentiateJacobians reuses in `point`
+  // (optional).
+  void AddHookColumns(int i, const ElementState& s,
+                      HookAndLoadJacobian* hook) const;
+  void AddElementJacobians(int i, const ElementState& s, const Vec3<T>& v,
+                           const Vec3<T>& omega, const Mat3<T>& rot,
+                           const Mat3<T>& rot_t, Mat6<T>* dq_dq, Mat6<T>* dq_dz,
+                           PointState* point) const;
+
+  // A direction w = (w_y, w_z) at a point as DifferentiateJacobians moves
+  // along it: d denotes the derivative along w; the rotation moves by
+  // dR = R [d_theta]x with the body-frame d_theta = G d(angles).
+  struct Direction {
+    Vec3<T> d_r;
+    Vec3<T> d_v;
+    Vec3<T> d_omega;
+    Vec3<T> d_theta;
+    Vec6<T> w_z;
+    Mat3<T> rot_t;
+  };
+  // The rank-one parts of dQ/dq's and dQ/dz's derivatives, summed over
+  // the elements after the loop as products of these columns: a, da, dm/dq,
+  // d(dm/dq) and the damped da.
+  struct RankOneColumns {
+    Mat6<T> a;
+    Mat6<T> d_a;
+    Mat6<T> dm_dq;
+    Mat6<T> d_dm_dq;
+    Mat6<T> damped_d_a;
+  };
+  // Element i's share of DifferentiateJacobians: its columns of the
+  // derivatives of the parameter and hook Jacobians and of the hard-point
+  // Jacobian (when requested), its rank-one columns and its m H term of
+  // d(dQ/dq).
+  void DifferentiateElement(
+      int i, const PointState& point, const Direction& along,
+      const DerivativeRequest& request, RankOneColumns* columns,
+      Mat6<T>* d_dq_dq,
+      JacobianDerivatives* out) const requires std::is_floating_point_v<T>;
+  // What HardPointJacobianOf's derivative needs of the element's state's
+  // derivative along the direction (DifferentiateElement).
+  struct ElementDerivative {
+    T d_m;
+    T d_tangent_stiffness;
+    Vec3<T> d_u;
+    Vec3<T> d_u_body;
+    Vec6<T> d_a;
+    Vec3<T> d_e_world;
+    Vec3<T> d_e_body;
+    T m_over_l;
+    T d_m_over_l;
+    Mat3<T> d_w_body_b;
+    Mat3<T> d_h12;
+    Mat3<T> d_w_over_l;  // d(m W / l)
+  };
+  // HardPointJacobianOf, differentiated term by term.
+  HardPointJacobian DifferentiateHardPointJacobian(
+      int i, const PointState& point, const Direction& along,
+      const ElementDerivative& d) const requires std::is_floating_point_v<T>;
+
   SuspensionParameters<T> parameters_;
   std::array<T, kNumElements> free_length_;
   std::array<Mat3<T>, kNumElements> skew_carrier_point_;
@@ -395,70 +457,20 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
   }
 
   for (int i = 0; i < kNumElements; ++i) {
-    const AxialElement<T>& e = Element(i);
-    const Vec3<T>& b = e.carrier_point;
     const ElementState element = StateOf(i, r, rot, rot_t, z);
-    const T& length = element.length;
-    const Vec3<T>& u = element.u;
-    const Vec3<T>& u_body = element.u_body;
-    const Vec6<T>& a = element.a;
-    const T& magnitude = element.magnitude;
-    const Vec3<T> w = omega.cross(b);  // carrier-point velocity, body frame
-    out->q += magnitude * a;
+    out->q += element.magnitude * element.a;
     if (parameter_jacobian != nullptr) {
-      parameter_jacobian->stiffness.col(i) = (length - free_length_[i]) * a;
-      parameter_jacobian->damping.col(i) = -a.dot(z) * a;
+      parameter_jacobian->stiffness.col(i) =
+          (element.length - free_length_[i]) * element.a;
+      parameter_jacobian->damping.col(i) = -element.a.dot(z) * element.a;
     }
     if (hook_jacobian != nullptr && i < kNumBushings) {
-      const T deflection = length - free_length_[i];
-      std::array<T, kStiffeningTerms> terms, slopes;
-      StiffeningTerms(deflection, &terms, &slopes);
-      for (int t = 0; t < kStiffeningTerms; ++t) {
-        hook_jacobian->stiffening[t].col(i) = terms[t] * a;
-      }
-      hook_jacobian->extra_force.col(i) = a;
-      hook_jacobian->extra_stiffness.col(i) =
-          (deflection - extra_.reference[i]) * a;
-      hook_jacobian->extra_reference.col(i) = -extra_.stiffness[i] * a;
+      AddHookColumns(i, element, hook_jacobian);
     }
-    if (!with_jacobians) continue;
-
-    const Vec3<T> point_velocity = v + rot * w;
-    const T u_dot_point_velocity = u.dot(point_velocity);
-    const Vec3<T> e_world =
-        (point_velocity - u * u_dot_point_velocity) / length;
-    const Vec3<T> e_body = rot_t * e_world;
-    Vec6<T> g;
-    g << e_world, b.cross(e_body) - w.cross(u_body);
-    const Vec6<T> dmagnitude_dq = e.damping * g - element.tangent_stiffness * a;
-    const Vec6<T> damped_a = e.damping * a;
-    // Rank-one updates as plain loops: Eigen's generic outer product costs
-    // several times more per Jet multiply.
-    for (int col = 0; col < 6; ++col) {
-      for (int row = 0; row < 6; ++row) {
-        dq_dq(row, col) += a(row) * dmagnitude_dq(col);
-        out->dq_dz(row, col) -= damped_a(row) * a(col);
-      }
+    if (with_jacobians) {
+      AddElementJacobians(i, element, v, omega, rot, rot_t, &dq_dq, &out->dq_dz,
+                          point);
     }
-
-    const Mat3<T>& skew_b = skew_carrier_point_[i];
-    const T m_over_l = magnitude / length;
-    // W_b B = B - u_b (u_b^T B), and u_b^T B = (u_b x b)^T.
-    const Vec3<T> u_body_cross_b = u_body.cross(b);
-    const Mat3<T> w_body_b = skew_b - u_body * u_body_cross_b.transpose();
-    if (point != nullptr) {
-      point->elements[i] = {
-          element, w,      point_velocity, u_dot_point_velocity,
-          e_world, e_body, dmagnitude_dq,  u_body_cross_b,
-          w_body_b};
-    }
-    const Mat3<T> h12 = (rot * w_body_b) * m_over_l;
-    dq_dq.template block<3, 3>(0, 0) -=
-        m_over_l * (Mat3<T>::Identity() - u * u.transpose());
-    dq_dq.template block<3, 3>(0, 3) += h12;
-    dq_dq.template block<3, 3>(3, 0) += h12.transpose();
-    dq_dq.template block<3, 3>(3, 3) +=
-        SkewTimes<T>(b, m_over_l * w_body_b + magnitude * Skew<T>(u_body));
   }
 
   // Gyroscopic moment of the body-frame Euler equations.
@@ -487,6 +499,68 @@ void SuspensionModel<T>::Evaluate(const RigLoad<T>& load, const Vec6<T>& y,
   out->dq_dy.template leftCols<3>() = dq_dq.template leftCols<3>();
   out->dq_dy.template rightCols<3>() =
       dq_dq.template rightCols<3>() * cardan.RateMatrix();
+}
+
+template <typename T>
+void SuspensionModel<T>::AddHookColumns(int i, const ElementState& s,
+                                        HookAndLoadJacobian* hook) const {
+  const T deflection = s.length - free_length_[i];
+  std::array<T, kStiffeningTerms> terms, slopes;
+  StiffeningTerms(deflection, &terms, &slopes);
+  for (int t = 0; t < kStiffeningTerms; ++t) {
+    hook->stiffening[t].col(i) = terms[t] * s.a;
+  }
+  hook->extra_force.col(i) = s.a;
+  hook->extra_stiffness.col(i) = (deflection - extra_.reference[i]) * s.a;
+  hook->extra_reference.col(i) = -extra_.stiffness[i] * s.a;
+}
+
+template <typename T>
+void SuspensionModel<T>::AddElementJacobians(
+    int i, const ElementState& s, const Vec3<T>& v, const Vec3<T>& omega,
+    const Mat3<T>& rot, const Mat3<T>& rot_t, Mat6<T>* dq_dq, Mat6<T>* dq_dz,
+    PointState* point) const {
+  const AxialElement<T>& e = Element(i);
+  const Vec3<T>& b = e.carrier_point;
+  const Vec3<T>& u = s.u;
+  const Vec3<T>& u_body = s.u_body;
+  const Vec6<T>& a = s.a;
+  const Vec3<T> w = omega.cross(b);  // carrier-point velocity, body frame
+  const Vec3<T> point_velocity = v + rot * w;
+  const T u_dot_point_velocity = u.dot(point_velocity);
+  const Vec3<T> e_world =
+      (point_velocity - u * u_dot_point_velocity) / s.length;
+  const Vec3<T> e_body = rot_t * e_world;
+  Vec6<T> g;
+  g << e_world, b.cross(e_body) - w.cross(u_body);
+  const Vec6<T> dmagnitude_dq = e.damping * g - s.tangent_stiffness * a;
+  const Vec6<T> damped_a = e.damping * a;
+  // Rank-one updates as plain loops: Eigen's generic outer product costs
+  // several times more per Jet multiply.
+  for (int col = 0; col < 6; ++col) {
+    for (int row = 0; row < 6; ++row) {
+      (*dq_dq)(row, col) += a(row) * dmagnitude_dq(col);
+      (*dq_dz)(row, col) -= damped_a(row) * a(col);
+    }
+  }
+
+  const Mat3<T>& skew_b = skew_carrier_point_[i];
+  const T m_over_l = s.magnitude / s.length;
+  // W_b B = B - u_b (u_b^T B), and u_b^T B = (u_b x b)^T.
+  const Vec3<T> u_body_cross_b = u_body.cross(b);
+  const Mat3<T> w_body_b = skew_b - u_body * u_body_cross_b.transpose();
+  if (point != nullptr) {
+    point->elements[i] = {s,       w,      point_velocity, u_dot_point_velocity,
+                          e_world, e_body, dmagnitude_dq,  u_body_cross_b,
+                          w_body_b};
+  }
+  const Mat3<T> h12 = (rot * w_body_b) * m_over_l;
+  dq_dq->template block<3, 3>(0, 0) -=
+      m_over_l * (Mat3<T>::Identity() - u * u.transpose());
+  dq_dq->template block<3, 3>(0, 3) += h12;
+  dq_dq->template block<3, 3>(3, 0) += h12.transpose();
+  dq_dq->template block<3, 3>(3, 3) +=
+      SkewTimes<T>(b, m_over_l * w_body_b + s.magnitude * Skew<T>(u_body));
 }
 
 // Element i's m a with d = c - r - R b and l0 = |c - b|: along a change
@@ -527,146 +601,38 @@ void SuspensionModel<T>::DifferentiateJacobians(
     const PointState& point, const Vec6<T>& w_y, const Vec6<T>& w_z,
     const DerivativeRequest& request,
     JacobianDerivatives* out) const requires std::is_floating_point_v<T> {
-  const bool with_hooks = request.hooks;
-  // d denotes the derivative along w; the rotation moves by
-  // dR = R [d_theta]x with the body-frame d_theta = G d(angles).
-  const Vec6<T>& z = point.z;
-  const Vec3<T> omega = z.template tail<3>();
-  const Vec3<T> d_r = w_y.template head<3>();
-  const Vec3<T> d_v = w_z.template head<3>();
-  const Vec3<T> d_omega = w_z.template tail<3>();
+  const Vec3<T> omega = point.z.template tail<3>();
   const Mat3<T>& rot = point.rotation;
-  const Mat3<T> rot_t = rot.transpose();
   const Mat3<T> rate = point.cardan.RateMatrix();
-  const Vec3<T> d_theta = rate * w_y.template tail<3>();
+  const Direction along = {w_y.template head<3>(),
+                           w_z.template head<3>(),
+                           w_z.template tail<3>(),
+                           rate * w_y.template tail<3>(),
+                           w_z,
+                           rot.transpose()};
+  const Vec3<T>& d_theta = along.d_theta;
 
   Mat6<T> d_dq_dq = Mat6<T>::Zero();  // with respect to (r, theta)
-  // The rank-one parts summed over the elements as products of these
-  // columns (a, da, dm/dq, d(dm/dq) and the damped da) after the loop.
-  Mat6<T> a_all, d_a_all, dm_dq_all, d_dm_dq_all, damped_d_a_all;
   const Vec3<T> d_load_body = -d_theta.cross(point.load_body);
   d_dq_dq.template block<3, 3>(3, 3) =
       SkewTimes<T>(point.load_point, Skew<T>(d_load_body));
-  if (with_hooks) {
+  if (request.hooks) {
     out->hooks.load_force << Mat3<T>::Zero(),
-        -SkewTimes<T>(point.load_point, Skew<T>(d_theta)) * rot_t;
+        -SkewTimes<T>(point.load_point, Skew<T>(d_theta)) * along.rot_t;
     out->hooks.load_point << Mat3<T>::Zero(), -Skew<T>(d_load_body);
   }
-
+  RankOneColumns columns;
   for (int i = 0; i < kNumElements; ++i) {
-    const AxialElement<T>& e = Element(i);
-    const Vec3<T>& b = e.carrier_point;
-    const ElementJacobianState& j = point.elements[i];
-    const ElementState& s = j.element;
-    const T& l = s.length;
-    const Vec3<T>& u = s.u;
-    const Vec3<T>& u_body = s.u_body;
-    const Vec6<T>& a = s.a;
-    const T deflection = l - free_length_[i];
-
-    // The element's state and its derivative along w.
-    const Vec3<T> d_vector = -d_r - rot * d_theta.cross(b);
-    const T d_l = u.dot(d_vector);
-    const Vec3<T> d_u = (d_vector - u * d_l) / l;
-    const Vec3<T> d_u_body = rot_t * d_u - d_theta.cross(u_body);
-    Vec6<T> d_a;
-    d_a << d_u, b.cross(d_u_body);
-    const T rate_along_a = a.dot(z);
-    const T d_rate_along_a = d_a.dot(z) + a.dot(w_z);
-    const T d_m = s.tangent_stiffness * d_l - e.damping * d_rate_along_a;
-    T d_tangent_stiffness = T(0);
-    std::array<T, kStiffeningTerms> terms{}, slopes{}, curvatures{};
-    if (i < kNumBushings) {
-      StiffeningTerms(deflection, &terms, &slopes, &curvatures);
-      for (int t = 0; t < kStiffeningTerms; ++t) {
-        d_tangent_stiffness += stiffening_[t][i] * curvatures[t] * d_l;
-      }
-    }
-
-    out->parameters.stiffness.col(i) = d_l * a + deflection * d_a;
-    out->parameters.damping.col(i) = -d_rate_along_a * a - rate_along_a * d_a;
-    if (with_hooks && i < kNumBushings) {
-      for (int t = 0; t < kStiffeningTerms; ++t) {
-        out->hooks.stiffening[t].col(i) = slopes[t] * d_l * a + terms[t] * d_a;
-      }
-      out->hooks.extra_force.col(i) = d_a;
-      out->hooks.extra_stiffness.col(i) =
-          d_l * a + (deflection - extra_.reference[i]) * d_a;
-      out->hooks.extra_reference.col(i) = -extra_.stiffness[i] * d_a;
-    }
-
-    // dQ/dz = -d a a^T, dQ/dq = a (d g - k a)^T + m H: the rank-one parts.
-    const Vec3<T> d_w = d_omega.cross(b);
-    const Vec3<T> d_point_velocity = d_v + rot * (d_theta.cross(j.w) + d_w);
-    const Vec3<T> d_e_world =
-        (d_point_velocity - d_u * j.u_dot_point_velocity -
-         u * (d_u.dot(j.point_velocity) + u.dot(d_point_velocity)) -
-         j.e_world * d_l) /
-        l;
-    const Vec3<T> d_e_body = rot_t * d_e_world - d_theta.cross(j.e_body);
-    Vec6<T> d_g;
-    d_g << d_e_world,
-        b.cross(d_e_body) - d_w.cross(u_body) - j.w.cross(d_u_body);
-    a_all.col(i) = a;
-    d_a_all.col(i) = d_a;
-    damped_d_a_all.col(i) = e.damping * d_a;
-    dm_dq_all.col(i) = j.dmagnitude_dq;
-    d_dm_dq_all.col(i) =
-        e.damping * d_g - d_tangent_stiffness * a - s.tangent_stiffness * d_a;
-
-    // Then m H.
-    const T m_over_l = s.magnitude / l;
-    const T d_m_over_l = (d_m - m_over_l * d_l) / l;
-    const Mat3<T> d_w_body_b = -d_u_body * j.u_body_cross_b.transpose() -
-                               u_body * d_u_body.cross(b).transpose();
-    const Mat3<T> d_h12 =
-        rot * (SkewTimes<T>(d_theta, j.w_body_b) * m_over_l +
-               d_w_body_b * m_over_l + j.w_body_b * d_m_over_l);
-    const Mat3<T> d_u_u = d_u * u.transpose();
-    const Mat3<T> d_w_over_l =  // d(m W / l)
-        d_m_over_l * (Mat3<T>::Identity() - u * u.transpose()) -
-        m_over_l * (d_u_u + d_u_u.transpose());
-    d_dq_dq.template block<3, 3>(0, 0) -= d_w_over_l;
-    d_dq_dq.template block<3, 3>(0, 3) += d_h12;
-    d_dq_dq.template block<3, 3>(3, 0) += d_h12.transpose();
-    d_dq_dq.template block<3, 3>(3, 3) += SkewTimes<T>(
-        b, d_m_over_l * j.w_body_b + m_over_l * d_w_body_b +
-               d_m * Skew<T>(u_body) + s.magnitude * Skew<T>(d_u_body));
-    if (!request.hard_points[i]) continue;
-
-    // HardPointJacobianOf, differentiated term by term.
-    const Vec3<T> n0 = FreeDirection(i);
-    const T& kappa = s.tangent_stiffness;
-    const HardPointForceGradients dm = ForceGradientsOf(j, i, omega);
-    HardPointJacobian& d_hard = out->hard_points[i];
-    d_hard.template leftCols<3>() =
-        d_a * dm.chassis.transpose() + a * (d_tangent_stiffness * (u - n0) +
-                                            kappa * d_u - e.damping * d_e_world)
-                                               .transpose();
-    d_hard.template rightCols<3>() =
-        d_a * dm.carrier.transpose() +
-        a * (d_tangent_stiffness * (n0 - u_body) - kappa * d_u_body -
-             e.damping *
-                 (d_u_body.cross(omega) + u_body.cross(d_omega) - d_e_body))
-                .transpose();
-    // W R moves by W R [d_theta]x as well.
-    d_hard.template block<3, 3>(0, 0) += d_w_over_l;
-    d_hard.template block<3, 3>(3, 0) -= d_h12.transpose();
-    d_hard.template block<3, 3>(0, 3) -=
-        d_w_over_l * rot +
-        m_over_l * ((rot - u * (u.transpose() * rot)) * Skew<T>(d_theta));
-    d_hard.template block<3, 3>(3, 3) += d_m_over_l * j.w_body_b.transpose() +
-                                         m_over_l * d_w_body_b.transpose() -
-                                         d_m * Skew<T>(u_body) -
-                                         s.magnitude * Skew<T>(d_u_body);
+    DifferentiateElement(i, point, along, request, &columns, &d_dq_dq, out);
   }
-  d_dq_dq.noalias() += d_a_all.lazyProduct(dm_dq_all.transpose());
-  d_dq_dq.noalias() += a_all.lazyProduct(d_dm_dq_all.transpose());
-  const Mat6<T> damped = damped_d_a_all.lazyProduct(a_all.transpose());
+  d_dq_dq.noalias() += columns.d_a.lazyProduct(columns.dm_dq.transpose());
+  d_dq_dq.noalias() += columns.a.lazyProduct(columns.d_dm_dq.transpose());
+  const Mat6<T> damped = columns.damped_d_a.lazyProduct(columns.a.transpose());
   Mat6<T>& d_dq_dz = out->dq_dz;
   d_dq_dz = -(damped + damped.transpose());
 
   // The gyroscopic moment's Jacobians.
+  const Vec3<T>& d_omega = along.d_omega;
   const Vec3<T>& inertia = parameters_.inertia;
   const Vec3<T> d_angular_momentum = inertia.cwiseProduct(d_omega);
   d_dq_dz.template block<3, 3>(3, 3) -=
@@ -686,6 +652,136 @@ void SuspensionModel<T>::DifferentiateJacobians(
       d_dq_dq.template rightCols<3>() * rate +
       point.dq_dtheta *
           point.cardan.RateMatrixDerivative(w_y.template tail<3>());
+}
+
+template <typename T>
+void SuspensionModel<T>::DifferentiateElement(
+    int i, const PointState& point, const Direction& along,
+    const DerivativeRequest& request, RankOneColumns* columns, Mat6<T>* d_dq_dq,
+    JacobianDerivatives* out) const requires std::is_floating_point_v<T> {
+  const AxialElement<T>& e = Element(i);
+  const Vec3<T>& b = e.carrier_point;
+  const ElementJacobianState& j = point.elements[i];
+  const ElementState& s = j.element;
+  const T& l = s.length;
+  const Vec3<T>& u = s.u;
+  const Vec3<T>& u_body = s.u_body;
+  const Vec6<T>& a = s.a;
+  const Mat3<T>& rot = point.rotation;
+  const Vec3<T>& d_theta = along.d_theta;
+  const T deflection = l - free_length_[i];
+
+  // The element's state and its derivative along w.
+  const Vec3<T> d_vector = -along.d_r - rot * d_theta.cross(b);
+  const T d_l = u.dot(d_vector);
+  const Vec3<T> d_u = (d_vector - u * d_l) / l;
+  const Vec3<T> d_u_body = along.rot_t * d_u - d_theta.cross(u_body);
+  Vec6<T> d_a;
+  d_a << d_u, b.cross(d_u_body);
+  const T rate_along_a = a.dot(point.z);
+  const T d_rate_along_a = d_a.dot(point.z) + a.dot(along.w_z);
+  const T d_m = s.tangent_stiffness * d_l - e.damping * d_rate_along_a;
+  T d_tangent_stiffness = T(0);
+  std::array<T, kStiffeningTerms> terms{}, slopes{}, curvatures{};
+  if (i < kNumBushings) {
+    StiffeningTerms(deflection, &terms, &slopes, &curvatures);
+    for (int t = 0; t < kStiffeningTerms; ++t) {
+      d_tangent_stiffness += stiffening_[t][i] * curvatures[t] * d_l;
+    }
+  }
+
+  out->parameters.stiffness.col(i) = d_l * a + deflection * d_a;
+  out->parameters.damping.col(i) = -d_rate_along_a * a - rate_along_a * d_a;
+  if (request.hooks && i < kNumBushings) {
+    for (int t = 0; t < kStiffeningTerms; ++t) {
+      out->hooks.stiffening[t].col(i) = slopes[t] * d_l * a + terms[t] * d_a;
+    }
+    out->hooks.extra_force.col(i) = d_a;
+    out->hooks.extra_stiffness.col(i) =
+        d_l * a + (deflection - extra_.reference[i]) * d_a;
+    out->hooks.extra_reference.col(i) = -extra_.stiffness[i] * d_a;
+  }
+
+  // dQ/dz = -d a a^T, dQ/dq = a (d g - k a)^T + m H: the rank-one parts,
+  const Vec3<T> d_w = along.d_omega.cross(b);
+  const Vec3<T> d_point_velocity = along.d_v + rot * (d_theta.cross(j.w) + d_w);
+  const Vec3<T> d_e_world =
+      (d_point_velocity - d_u * j.u_dot_point_velocity -
+       u * (d_u.dot(j.point_velocity) + u.dot(d_point_velocity)) -
+       j.e_world * d_l) /
+      l;
+  const Vec3<T> d_e_body = along.rot_t * d_e_world - d_theta.cross(j.e_body);
+  Vec6<T> d_g;
+  d_g << d_e_world, b.cross(d_e_body) - d_w.cross(u_body) - j.w.cross(d_u_body);
+  columns->a.col(i) = a;
+  columns->d_a.col(i) = d_a;
+  columns->damped_d_a.col(i) = e.damping * d_a;
+  columns->dm_dq.col(i) = j.dmagnitude_dq;
+  columns->d_dm_dq.col(i) =
+      e.damping * d_g - d_tangent_stiffness * a - s.tangent_stiffness * d_a;
+
+  // then m H.
+  const T m_over_l = s.magnitude / l;
+  const T d_m_over_l = (d_m - m_over_l * d_l) / l;
+  const Mat3<T> d_w_body_b = -d_u_body * j.u_body_cross_b.transpose() -
+                             u_body * d_u_body.cross(b).transpose();
+  const Mat3<T> d_h12 = rot * (SkewTimes<T>(d_theta, j.w_body_b) * m_over_l +
+                               d_w_body_b * m_over_l + j.w_body_b * d_m_over_l);
+  const Mat3<T> d_u_u = d_u * u.transpose();
+  const Mat3<T> d_w_over_l =  // d(m W / l)
+      d_m_over_l * (Mat3<T>::Identity() - u * u.transpose()) -
+      m_over_l * (d_u_u + d_u_u.transpose());
+  d_dq_dq->template block<3, 3>(0, 0) -= d_w_over_l;
+  d_dq_dq->template block<3, 3>(0, 3) += d_h12;
+  d_dq_dq->template block<3, 3>(3, 0) += d_h12.transpose();
+  d_dq_dq->template block<3, 3>(3, 3) += SkewTimes<T>(
+      b, d_m_over_l * j.w_body_b + m_over_l * d_w_body_b +
+             d_m * Skew<T>(u_body) + s.magnitude * Skew<T>(d_u_body));
+  if (request.hard_points[i]) {
+    out->hard_points[i] = DifferentiateHardPointJacobian(
+        i, point, along,
+        {d_m, d_tangent_stiffness, d_u, d_u_body, d_a, d_e_world, d_e_body,
+         m_over_l, d_m_over_l, d_w_body_b, d_h12, d_w_over_l});
+  }
+}
+
+template <typename T>
+typename SuspensionModel<T>::HardPointJacobian
+SuspensionModel<T>::DifferentiateHardPointJacobian(
+    int i, const PointState& point, const Direction& along,
+    const ElementDerivative& d) const requires std::is_floating_point_v<T> {
+  const ElementJacobianState& j = point.elements[i];
+  const ElementState& s = j.element;
+  const Vec3<T>& u = s.u;
+  const Vec3<T>& u_body = s.u_body;
+  const Mat3<T>& rot = point.rotation;
+  const Vec3<T> omega = point.z.template tail<3>();
+  const Vec3<T> n0 = FreeDirection(i);
+  const T& kappa = s.tangent_stiffness;
+  const T& damping = Element(i).damping;
+  const HardPointForceGradients dm = ForceGradientsOf(j, i, omega);
+  HardPointJacobian out;
+  out.template leftCols<3>() = d.d_a * dm.chassis.transpose() +
+                               s.a * (d.d_tangent_stiffness * (u - n0) +
+                                      kappa * d.d_u - damping * d.d_e_world)
+                                         .transpose();
+  out.template rightCols<3>() =
+      d.d_a * dm.carrier.transpose() +
+      s.a * (d.d_tangent_stiffness * (n0 - u_body) - kappa * d.d_u_body -
+             damping * (d.d_u_body.cross(omega) + u_body.cross(along.d_omega) -
+                        d.d_e_body))
+                .transpose();
+  // W R moves by W R [d_theta]x as well.
+  out.template block<3, 3>(0, 0) += d.d_w_over_l;
+  out.template block<3, 3>(3, 0) -= d.d_h12.transpose();
+  out.template block<3, 3>(0, 3) -=
+      d.d_w_over_l * rot +
+      d.m_over_l * ((rot - u * (u.transpose() * rot)) * Skew<T>(along.d_theta));
+  out.template block<3, 3>(3, 3) += d.d_m_over_l * j.w_body_b.transpose() +
+                                    d.m_over_l * d.d_w_body_b.transpose() -
+                                    d.d_m * Skew<T>(u_body) -
+                                    s.magnitude * Skew<T>(d.d_u_body);
+  return out;
 }
 
 // Compiled once (suspension_model.cc): the real-time loop and every tool

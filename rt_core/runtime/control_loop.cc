@@ -133,43 +133,53 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
                           CycleRecord* record) {
   const double t = cycle * options_.period;
   const RunPhase phase = profile_.Phase(t);
+  if (rig_ != nullptr && fresh) CheckMeasurement(cycle, phase);
+  CheckEvents(cycle, skipped, fresh);
+  const Vec3<double> command = Command(cycle, t, phase);
+  // Logged with the measurement it was checked against (time t).
+  for (int k = 0; k < 6; ++k) record->predicted[k] = state_.y(k);
+  Predict(fresh, command, skipped);
+  Record(cycle, fresh, phase, command, record);
+  if (tare_count_ > 0) result_.rest_pose = tare_sum_ / tare_count_;
+}
 
-  // Safety on what was measured.
+void ControlLoop::CheckMeasurement(std::int64_t cycle, RunPhase phase) {
+  safety_.FreshSample();
+  if (phase == RunPhase::kTare) {
+    tare_sum_ += measurement_.y;
+    ++tare_count_;
+  }
+  const Vec6<double> rest =
+      tare_count_ > 0 ? Vec6<double>(tare_sum_ / tare_count_) : measurement_.y;
+  // Travel and angle limits on the absolute pose; the error detector on
+  // the pose relative to the rest pose (the sensors' zero is the rig's),
+  // once the rest pose is known.
+  int channel = -1;
+  TripCause cause = safety_.CheckMeasurement(
+      measurement_.y, rest, state_.y, phase != RunPhase::kTare, &channel);
+  // The rig faulted, or stopped being enabled (local mode, e-stop).
+  if ((measurement_.status & kRigFault) ||
+      !(measurement_.status & kRigEnabled)) {
+    cause = TripCause::kRigFault;
+  }
+  int axis = -1;
+  if (cause == TripCause::kNone &&
+      safety_.ForceOffCommand(measurement_.force, &axis)) {
+    cause = TripCause::kForceTracking;
+    channel = axis;
+  }
+  if (cause != TripCause::kNone && safety_.state() == SafetyState::kNormal) {
+    result_.trip_channel = channel;
+    result_.rig_fault_code = measurement_.fault_code;
+    safety_.Trip(cause, cycle);
+  }
+}
+
+void ControlLoop::CheckEvents(std::int64_t cycle, std::int64_t skipped,
+                              bool fresh) {
   if (rig_ != nullptr) {
-    if (fresh) {
-      safety_.FreshSample();
-      if (phase == RunPhase::kTare) {
-        tare_sum_ += measurement_.y;
-        ++tare_count_;
-      }
-      const Vec6<double> rest = tare_count_ > 0
-                                    ? Vec6<double>(tare_sum_ / tare_count_)
-                                    : measurement_.y;
-      // Travel and angle limits on the absolute pose; the error detector on
-      // the pose relative to the rest pose (the sensors' zero is the rig's),
-      // once the rest pose is known.
-      int channel = -1;
-      TripCause cause = safety_.CheckMeasurement(
-          measurement_.y, rest, state_.y, phase != RunPhase::kTare, &channel);
-      // The rig faulted, or stopped being enabled (local mode, e-stop).
-      if ((measurement_.status & kRigFault) ||
-          !(measurement_.status & kRigEnabled)) {
-        cause = TripCause::kRigFault;
-      }
-      int axis = -1;
-      if (cause == TripCause::kNone &&
-          safety_.ForceOffCommand(measurement_.force, &axis)) {
-        cause = TripCause::kForceTracking;
-        channel = axis;
-      }
-      if (cause != TripCause::kNone &&
-          safety_.state() == SafetyState::kNormal) {
-        result_.trip_channel = channel;
-        result_.rig_fault_code = measurement_.fault_code;
-        safety_.Trip(cause, cycle);
-      }
-    } else if (safety_.MissedSamples(static_cast<int>(
-                   std::min<std::int64_t>(skipped + 1, 1 << 20)))) {
+    if (!fresh && safety_.MissedSamples(static_cast<int>(
+                      std::min<std::int64_t>(skipped + 1, 1 << 20)))) {
       safety_.Trip(TripCause::kWatchdog, cycle);
     }
     if (invalid_sample_) {
@@ -204,7 +214,10 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
     result_.cause = safety_.cause();
     result_.trip_cycle = safety_.trip_cycle();
   }
+}
 
+Vec3<double> ControlLoop::Command(std::int64_t cycle, double t,
+                                  RunPhase phase) {
   // Excitation through the safety limits.
   const Vec3<double> wanted = options_.excitation.fmax *
                               profile_.Level(t + options_.period) * direction_;
@@ -216,12 +229,13 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
   command_.sequence = static_cast<std::uint16_t>(cycle);
   command_.phase = static_cast<std::uint8_t>(1 + static_cast<int>(phase));
   command_.safety = static_cast<std::uint8_t>(safety_.state());
+  return command;
+}
 
-  // Logged with the measurement it was checked against (time t).
-  for (int k = 0; k < 6; ++k) record->predicted[k] = state_.y(k);
-
-  // The live prediction: the model under the measured force (the command
-  // when no sample arrived), over the cycles skipped too (bounded).
+void ControlLoop::Predict(bool fresh, const Vec3<double>& command,
+                          std::int64_t skipped) {
+  // The model under the measured force (the command when no sample
+  // arrived), over the cycles skipped too (bounded).
   RigLoad<double> load;
   load.force = fresh ? measurement_.force : command;
   load.point << 0.0, 0.0, options_.excitation.z_a;
@@ -229,7 +243,11 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
   for (std::int64_t s = 0; s < steps; ++s) {
     SemiImplicitEulerStep(model_, load, options_.period, &state_);
   }
+}
 
+void ControlLoop::Record(std::int64_t cycle, bool fresh, RunPhase phase,
+                         const Vec3<double>& command,
+                         CycleRecord* record) const {
   record->cycle = cycle;
   record->rig_sample = measurement_.sample;
   record->rig_status = measurement_.status;
@@ -249,7 +267,6 @@ void ControlLoop::Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
     record->commanded[k] = command(k);
   }
   for (int k = 0; k < 6; ++k) record->y[k] = measurement_.y(k);
-  if (tare_count_ > 0) result_.rest_pose = tare_sum_ / tare_count_;
 }
 
 }  // namespace kcrig

@@ -131,8 +131,17 @@ class ControlLoop {
   const LoopTiming& timing() const { return timing_; }
 
  private:
+  // The cycle's work after the sample is read, in its stages: safety on
+  // what was measured and on the events since the last cycle, the command
+  // through the safety limits, the live prediction, the log row.
   void Compute(std::int64_t cycle, std::int64_t skipped, bool fresh,
                CycleRecord* record);
+  void CheckMeasurement(std::int64_t cycle, RunPhase phase);
+  void CheckEvents(std::int64_t cycle, std::int64_t skipped, bool fresh);
+  Vec3<double> Command(std::int64_t cycle, double t, RunPhase phase);
+  void Predict(bool fresh, const Vec3<double>& command, std::int64_t skipped);
+  void Record(std::int64_t cycle, bool fresh, RunPhase phase,
+              const Vec3<double>& command, CycleRecord* record) const;
   // A sample with a non-finite value: replaced by the last good one.
   bool Valid(const RigMeasurement& m) const;
   void CountSampleGap(std::uint32_t step, std::int64_t cycles);
