@@ -8,9 +8,9 @@
 // Everything is templated on the scalar so the same code runs with double in
 // the real-time loop and with ceres::Jet for exact discrete sensitivities.
 // dQ/dy and dQ/dz are analytic (the chain rule through each element's length
-// and direction, see Evaluate) and are themselves differentiable by Jet, which
-// is what exact sensitivities of the semi-implicit step need. Nothing here
-// allocates.
+// and direction, see Evaluate and AddElementJacobians) and are themselves
+// differentiable by Jet, which is what exact sensitivities of the
+// semi-implicit step need. Nothing here allocates.
 #ifndef KCRIG_RT_CORE_MODEL_SUSPENSION_MODEL_H_
 #define KCRIG_RT_CORE_MODEL_SUSPENSION_MODEL_H_
 
@@ -702,7 +702,7 @@ void SuspensionModel<T>::DifferentiateElement(
     out->hooks.extra_reference.col(i) = -extra_.stiffness[i] * d_a;
   }
 
-  // dQ/dz = -d a a^T, dQ/dq = a (d g - k a)^T + m H: the rank-one parts,
+  // dQ/dz = -d a a^T, dQ/dq = a (d g - k a)^T + m H: the rank-one parts.
   const Vec3<T> d_w = along.d_omega.cross(b);
   const Vec3<T> d_point_velocity = along.d_v + rot * (d_theta.cross(j.w) + d_w);
   const Vec3<T> d_e_world =
@@ -720,7 +720,7 @@ void SuspensionModel<T>::DifferentiateElement(
   columns->d_dm_dq.col(i) =
       e.damping * d_g - d_tangent_stiffness * a - s.tangent_stiffness * d_a;
 
-  // then m H.
+  // Then m H.
   const T m_over_l = s.magnitude / l;
   const T d_m_over_l = (d_m - m_over_l * d_l) / l;
   const Mat3<T> d_w_body_b = -d_u_body * j.u_body_cross_b.transpose() -

@@ -81,7 +81,7 @@ bool ControlLoop::Cycle(std::int64_t cycle, std::int64_t skipped) {
     if (read == IoResult::kForeign) foreign_master_ = true;
     if (fresh && !Valid(measurement_)) {
       // Never let a NaN reach the model or the log: keep the last good
-      // sample and trip (in Compute).
+      // sample and trip (in CheckEvents).
       measurement_ = last_good_;
       invalid_sample_ = true;
       fresh = false;
