@@ -370,15 +370,18 @@ class SuspensionModel {
     Mat6<T> d_dm_dq;
     Mat6<T> damped_d_a;
   };
+  // DifferentiateJacobians' parts, unconstrained: clang 14 instantiates a
+  // constrained member of an explicitly instantiated Jet model all the
+  // same, and a constrained callee would not resolve there.
   // Element i's share of DifferentiateJacobians: its columns of the
   // derivatives of the parameter and hook Jacobians and of the hard-point
   // Jacobian (when requested), its rank-one columns and its m H term of
   // d(dQ/dq).
-  void DifferentiateElement(
-      int i, const PointState& point, const Direction& along,
-      const DerivativeRequest& request, RankOneColumns* columns,
-      Mat6<T>* d_dq_dq,
-      JacobianDerivatives* out) const requires std::is_floating_point_v<T>;
+  void DifferentiateElement(int i, const PointState& point,
+                            const Direction& along,
+                            const DerivativeRequest& request,
+                            RankOneColumns* columns, Mat6<T>* d_dq_dq,
+                            JacobianDerivatives* out) const;
   // What HardPointJacobianOf's derivative needs of the element's state's
   // derivative along the direction (DifferentiateElement).
   struct ElementDerivative {
@@ -398,7 +401,7 @@ class SuspensionModel {
   // HardPointJacobianOf, differentiated term by term.
   HardPointJacobian DifferentiateHardPointJacobian(
       int i, const PointState& point, const Direction& along,
-      const ElementDerivative& d) const requires std::is_floating_point_v<T>;
+      const ElementDerivative& d) const;
 
   SuspensionParameters<T> parameters_;
   std::array<T, kNumElements> free_length_;
@@ -655,10 +658,12 @@ void SuspensionModel<T>::DifferentiateJacobians(
 }
 
 template <typename T>
-void SuspensionModel<T>::DifferentiateElement(
-    int i, const PointState& point, const Direction& along,
-    const DerivativeRequest& request, RankOneColumns* columns, Mat6<T>* d_dq_dq,
-    JacobianDerivatives* out) const requires std::is_floating_point_v<T> {
+void SuspensionModel<T>::DifferentiateElement(int i, const PointState& point,
+                                              const Direction& along,
+                                              const DerivativeRequest& request,
+                                              RankOneColumns* columns,
+                                              Mat6<T>* d_dq_dq,
+                                              JacobianDerivatives* out) const {
   const AxialElement<T>& e = Element(i);
   const Vec3<T>& b = e.carrier_point;
   const ElementJacobianState& j = point.elements[i];
@@ -749,7 +754,7 @@ template <typename T>
 typename SuspensionModel<T>::HardPointJacobian
 SuspensionModel<T>::DifferentiateHardPointJacobian(
     int i, const PointState& point, const Direction& along,
-    const ElementDerivative& d) const requires std::is_floating_point_v<T> {
+    const ElementDerivative& d) const {
   const ElementJacobianState& j = point.elements[i];
   const ElementState& s = j.element;
   const Vec3<T>& u = s.u;
