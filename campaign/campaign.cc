@@ -41,46 +41,9 @@ nlohmann::ordered_json ParametersJson(const EstimationResult& estimate,
                                       size_t begin, size_t end) {
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
   for (size_t i = begin; i < end; ++i) {
-    const ParameterEstimate& p = estimate.parameters[i];
-    const bool finite = std::isfinite(p.log10_inverse_information);
-    list.push_back(
-        {{"name", p.name},
-         {"unit", p.unit},
-         {"value", p.value},
-         {"ci95", p.identifiable
-                      ? nlohmann::ordered_json{p.ci95_low, p.ci95_high}
-                      : nlohmann::ordered_json()},
-         {"discretisation_bias", p.discretisation_bias},
-         {"log10_diag_inv_jtj",
-          finite ? nlohmann::ordered_json(p.log10_inverse_information)
-                 : nlohmann::ordered_json()}});
+    list.push_back(ParameterEstimateToJson(estimate.parameters[i]));
   }
   return list;
-}
-
-// One parameter of campaign.json's iteration `where`: name and value
-// required; unit, interval and log10 diag((J^T J)^-1) as written (null for
-// what did not exist).
-Status ReadParameter(const nlohmann::json& node, const std::string& where,
-                     ParameterEstimate* p) {
-  for (Status s : {ReadField(node, "name", where, &p->name),
-                   ReadField(node, "value", where, &p->value)}) {
-    if (!s.ok()) return s;
-  }
-  p->unit = node.value("unit", "");
-  const nlohmann::json ci95 = node.value("ci95", nlohmann::json());
-  p->identifiable = ci95.is_array() && ci95.size() == 2 &&
-                    ci95[0].is_number() && ci95[1].is_number();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  p->ci95_low = p->identifiable ? ci95[0].get<double>() : nan;
-  p->ci95_high = p->identifiable ? ci95[1].get<double>() : nan;
-  const nlohmann::json bias =
-      node.value("discretisation_bias", nlohmann::json());
-  p->discretisation_bias = bias.is_number() ? bias.get<double>() : 0.0;
-  const nlohmann::json log10 =
-      node.value("log10_diag_inv_jtj", nlohmann::json());
-  p->log10_inverse_information = log10.is_number() ? log10.get<double>() : nan;
-  return Status::Ok();
 }
 
 Status ReadIteration(const nlohmann::json& node, const std::string& where,
@@ -128,12 +91,24 @@ Status ReadIteration(const nlohmann::json& node, const std::string& where,
     it->action = diagnosis.value("action", "");
     it->rejected_adoption = diagnosis.value("rejected_adoption", "");
   }
+  // The stiffnesses, then an adopted effect's parameters (as `estimate`
+  // holds them).
   for (size_t i = 0; i < parameters.size(); ++i) {
-    KCRIG_RETURN_IF_ERROR(ReadParameter(
+    KCRIG_RETURN_IF_ERROR(ReadParameterEstimate(
         parameters[i], where + ".parameters[" + std::to_string(i) + "]",
         &it->estimate.parameters.emplace_back()));
   }
-  return Status::Ok();
+  auto read_list = [&](const char* key, EstimationResult* estimate) {
+    const nlohmann::json list = node.value(key, nlohmann::json::array());
+    for (size_t i = 0; i < list.size(); ++i) {
+      KCRIG_RETURN_IF_ERROR(ReadParameterEstimate(
+          list[i], where + "." + key + "[" + std::to_string(i) + "]",
+          &estimate->parameters.emplace_back()));
+    }
+    return Status::Ok();
+  };
+  KCRIG_RETURN_IF_ERROR(read_list("effect_parameters", &it->estimate));
+  return read_list("nominal_parameters", &it->nominal_estimate);
 }
 
 Status ReadCampaignJson(const std::string& out_dir, Criterion* criterion,
@@ -693,9 +668,7 @@ nlohmann::ordered_json IsolabilityCounts(const CampaignIteration& it) {
 nlohmann::ordered_json IterationEntry(const CampaignIteration& it) {
   // The stiffnesses (the campaign's parameters) apart from an adopted
   // effect's, so that every iteration lists the same `parameters`.
-  const size_t stiffnesses = it.model == "nominal"
-                                 ? it.estimate.parameters.size()
-                                 : it.nominal_estimate.parameters.size();
+  const size_t stiffnesses = CampaignParameterCount(it);
   nlohmann::ordered_json entry = {
       {"iteration", it.index},
       {"logs", it.logs},
@@ -780,6 +753,13 @@ std::string CampaignIterationDir(const std::string& out_dir, int index) {
   return (std::filesystem::path(out_dir) /
           ("iteration_" + std::to_string(index)))
       .string();
+}
+
+size_t CampaignParameterCount(const CampaignIteration& it) {
+  const size_t all = it.estimate.parameters.size();
+  const size_t nominal = it.nominal_estimate.parameters.size();
+  // A file without the nominal model's parameters has no effect's either.
+  return it.model == "nominal" || nominal == 0 ? all : std::min(nominal, all);
 }
 
 Status ReadCampaign(const std::string& out_dir, Criterion* criterion,

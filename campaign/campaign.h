@@ -159,9 +159,15 @@ std::string CampaignIterationDir(const std::string& out_dir, int index);
 // I_cc - I_ce I_ee^+ I_ec, in the scaled parameters the designer uses.
 Eigen::MatrixXd StiffnessInformation(const Eigen::MatrixXd& information, int n);
 
+// How many of `it.estimate`'s parameters are the campaign's own (the
+// stiffnesses, as many as the nominal model's beside an adopted effect);
+// the effect's follow them.
+size_t CampaignParameterCount(const CampaignIteration& it);
+
 // Reads a campaign folder back: campaign.json (criterion; per iteration the
 // index, logs, experiment, estimates with intervals and log10
-// diag((J^T J)^-1), criterion of the data, whether it designed) and, for
+// diag((J^T J)^-1), an adopted effect's after them and the nominal model's
+// beside them, criterion of the data, whether it designed) and, for
 // each iteration that designed, its design.json into `design`. Errors name
 // the file and the field.
 Status ReadCampaign(const std::string& out_dir, Criterion* criterion,

@@ -1,6 +1,8 @@
 #include "diagnosis/diagnosis_io.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 
 #include "base/json_reader.h"
@@ -55,17 +57,12 @@ Json SliceJson(const GapSlice& s) {
           {"rms", PerChannel(s.rms)}};
 }
 
-Json ParametersJson(const EstimationResult& r) {
+// Parameters [begin, end) of a fit (all of them by default).
+Json ParametersJson(const EstimationResult& r, size_t begin = 0,
+                    size_t end = SIZE_MAX) {
   Json list = Json::array();
-  for (const ParameterEstimate& p : r.parameters) {
-    list.push_back(
-        {{"name", p.name},
-         {"unit", p.unit},
-         {"value", p.value},
-         {"standard_error", FiniteOrNull(p.standard_error)},
-         {"ci95", {FiniteOrNull(p.ci95_low), FiniteOrNull(p.ci95_high)}},
-         {"identifiable", p.identifiable},
-         {"at_bound", p.at_bound}});
+  for (size_t i = begin; i < std::min(end, r.parameters.size()); ++i) {
+    list.push_back(ParameterEstimateToJson(r.parameters[i]));
   }
   return list;
 }
@@ -113,12 +110,12 @@ Status ReadCandidate(const nlohmann::json& node, const std::string& where,
   const nlohmann::json& parameters =
       node.value("parameters", nlohmann::json::array());
   for (size_t i = 0; i < parameters.size(); ++i) {
-    double value = 0;
-    KCRIG_RETURN_IF_ERROR(ReadField(
-        parameters[i], "value",
+    ParameterEstimate& p = s->fit.result.parameters.emplace_back();
+    KCRIG_RETURN_IF_ERROR(ReadParameterEstimate(
+        parameters[i],
         where + ": " + s->model + ".parameters[" + std::to_string(i) + "]",
-        &value));
-    s->fit.values.push_back(value);
+        &p));
+    s->fit.values.push_back(p.value);
   }
   return Status::Ok();
 }
@@ -282,15 +279,7 @@ Json QuantificationJson(const DiagnosisResult& r,
          {"after_standard_error", FiniteOrNull(after.standard_error)},
          {"bias", before.value - after.value}});
   }
-  Json effect = Json::array();
-  for (size_t i = kNumBushings; i < chosen.fit.result.parameters.size(); ++i) {
-    const ParameterEstimate& p = chosen.fit.result.parameters[i];
-    effect.push_back(
-        {{"name", p.name},
-         {"unit", p.unit},
-         {"value", p.value},
-         {"ci95", {FiniteOrNull(p.ci95_low), FiniteOrNull(p.ci95_high)}}});
-  }
+  const Json effect = ParametersJson(chosen.fit.result, kNumBushings);
   return {{"model", chosen.model},
           {"scored_on", r.scoring},
           {"rms_before", r.nominal.heldout ? PerChannel(r.nominal.heldout_rms)

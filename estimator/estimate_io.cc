@@ -194,18 +194,7 @@ std::string EstimationResultToJson(
   doc["logs"] = logs;
   nlohmann::ordered_json parameters = nlohmann::ordered_json::array();
   for (const ParameterEstimate& p : result.parameters) {
-    parameters.push_back(
-        {{"name", p.name},
-         {"unit", p.unit},
-         {"nominal", p.nominal},
-         {"initial", p.initial},
-         {"value", p.value},
-         {"standard_error", FiniteOrNull(p.standard_error)},
-         {"ci95", {FiniteOrNull(p.ci95_low), FiniteOrNull(p.ci95_high)}},
-         {"discretisation_bias", p.discretisation_bias},
-         {"log10_diag_inv_jtj", FiniteOrNull(p.log10_inverse_information)},
-         {"identifiable", p.identifiable},
-         {"at_bound", p.at_bound}});
+    parameters.push_back(ParameterEstimateToJson(p));
   }
   doc["parameters"] = parameters;
   doc["covariance"] = Matrix(result.covariance);
@@ -513,6 +502,56 @@ Status ReadLogsAndInitialStates(const nlohmann::json& doc,
 
 }  // namespace
 
+nlohmann::ordered_json ParameterEstimateToJson(const ParameterEstimate& p) {
+  return {{"name", p.name},
+          {"unit", p.unit},
+          {"nominal", FiniteOrNull(p.nominal)},
+          {"initial", FiniteOrNull(p.initial)},
+          {"value", FiniteOrNull(p.value)},
+          {"standard_error", FiniteOrNull(p.standard_error)},
+          {"ci95", {FiniteOrNull(p.ci95_low), FiniteOrNull(p.ci95_high)}},
+          {"discretisation_bias", FiniteOrNull(p.discretisation_bias)},
+          {"log10_diag_inv_jtj", FiniteOrNull(p.log10_inverse_information)},
+          {"identifiable", p.identifiable},
+          {"at_bound", p.at_bound}};
+}
+
+Status ReadParameterEstimate(const nlohmann::json& node,
+                             const std::string& where, ParameterEstimate* p) {
+  *p = ParameterEstimate();
+  KCRIG_RETURN_IF_ERROR(ReadField(node, "name", where, &p->name));
+  KCRIG_RETURN_IF_ERROR(ReadField(node, "value", where, &p->value));
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // A field of another type reads as not given, as a missing one does.
+  auto field = [&node](const char* key) {
+    return node.contains(key) ? node[key] : nlohmann::json();
+  };
+  auto number = [&](const char* key) {
+    const nlohmann::json value = field(key);
+    return value.is_number() ? value.get<double>() : nan;
+  };
+  auto flag = [&](const char* key, bool otherwise) {
+    const nlohmann::json value = field(key);
+    return value.is_boolean() ? value.get<bool>() : otherwise;
+  };
+  const nlohmann::json unit = field("unit");
+  p->unit = unit.is_string() ? unit.get<std::string>() : "";
+  p->nominal = number("nominal");
+  p->initial = number("initial");
+  p->standard_error = number("standard_error");
+  const nlohmann::json ci95 = field("ci95");
+  const bool interval = ci95.is_array() && ci95.size() == 2 &&
+                        ci95[0].is_number() && ci95[1].is_number();
+  p->ci95_low = interval ? ci95[0].get<double>() : nan;
+  p->ci95_high = interval ? ci95[1].get<double>() : nan;
+  const double bias = number("discretisation_bias");
+  p->discretisation_bias = std::isfinite(bias) ? bias : 0.0;
+  p->log10_inverse_information = number("log10_diag_inv_jtj");
+  p->identifiable = flag("identifiable", interval);
+  p->at_bound = flag("at_bound", false);
+  return Status::Ok();
+}
+
 Status ReadEstimateFile(const std::string& path, EstimateFile* estimate) {
   nlohmann::json doc;
   KCRIG_RETURN_IF_ERROR(ReadJsonFile(path, &doc));
@@ -529,17 +568,12 @@ Status ReadEstimateFile(const std::string& path, EstimateFile* estimate) {
   }
   *estimate = EstimateFile();
   for (size_t i = 0; i < doc["parameters"].size(); ++i) {
-    const nlohmann::json& p = doc["parameters"][i];
-    const std::string field = "parameters[" + std::to_string(i) + "]";
-    if (!p.is_object() || !p.contains("name") || !p["name"].is_string()) {
-      return error(field + ".name", "missing");
-    }
-    if (!p.contains("value") || !p["value"].is_number() ||
-        !std::isfinite(p["value"].get<double>())) {
-      return error(field + ".value", "missing or not a finite number");
-    }
-    estimate->names.push_back(p["name"].get<std::string>());
-    estimate->values.push_back(p["value"].get<double>());
+    ParameterEstimate p;
+    KCRIG_RETURN_IF_ERROR(ReadParameterEstimate(
+        doc["parameters"][i], path + ": parameters[" + std::to_string(i) + "]",
+        &p));
+    estimate->names.push_back(p.name);
+    estimate->values.push_back(p.value);
   }
   const int n = static_cast<int>(estimate->names.size());
   // An n x n matrix of numbers, when the file has `field`; with

@@ -9,8 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "base/status.h"
 #include "estimator/estimator.h"
 #include "estimator/profile_likelihood.h"
+#include "nlohmann/json_fwd.hpp"
 
 namespace kcrig {
 
@@ -18,6 +20,21 @@ namespace kcrig {
 // from SI to the displayed unit, and that unit.
 double DisplayScale(const ParameterEstimate& p);
 std::string DisplayUnit(const ParameterEstimate& p);
+
+// One parameter estimate as every result file writes it (est.json's
+// parameters, each iteration's in campaign.json, each candidate's and the
+// attribution's in diag.json), in SI units: name, unit, nominal, initial,
+// value, standard_error, ci95 [low, high], discretisation_bias,
+// log10_diag_inv_jtj, identifiable, at_bound; null for what is not finite.
+nlohmann::ordered_json ParameterEstimateToJson(const ParameterEstimate& p);
+
+// Reads one that ParameterEstimateToJson wrote: the name and a finite value
+// required, the rest as written (missing or null: not given, so NaN for the
+// standard error, interval and log10 diag, 0 for the bias; identifiable
+// when the interval is given, unless `identifiable` says otherwise).
+// Errors lead with `where` (file and field path).
+Status ReadParameterEstimate(const nlohmann::json& node,
+                             const std::string& where, ParameterEstimate* p);
 
 // Logs a fit has not seen, predicted with its estimate (kcrig estimate
 // --holdout). Without logs there is none.

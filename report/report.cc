@@ -156,9 +156,11 @@ Json EstimatesJson(const std::vector<CampaignIteration>& iterations) {
   Json names = Json::array(), units = Json::array(), labels = Json::array(),
        log10 = Json::array(), value = Json::array(), low = Json::array(),
        high = Json::array();
-  for (const ParameterEstimate& p : iterations[0].estimate.parameters) {
-    names.push_back(p.name);
-    units.push_back(PageUnit(p.unit).first);
+  const std::vector<ParameterEstimate>& first =
+      iterations[0].estimate.parameters;
+  for (size_t k = 0; k < CampaignParameterCount(iterations[0]); ++k) {
+    names.push_back(first[k].name);
+    units.push_back(PageUnit(first[k].unit).first);
   }
   for (const CampaignIteration& it : iterations) {
     labels.push_back("iteration " + std::to_string(it.index) + " (" +
@@ -168,7 +170,10 @@ Json EstimatesJson(const std::vector<CampaignIteration>& iterations) {
                      (it.action.empty() ? "" : ", " + it.action) + ")");
     Json l = Json::array(), v = Json::array(), lo = Json::array(),
          hi = Json::array();
-    for (const ParameterEstimate& p : it.estimate.parameters) {
+    // The stiffnesses (an adopted effect's parameters follow them).
+    for (size_t k = 0; k < std::min(names.size(), CampaignParameterCount(it));
+         ++k) {
+      const ParameterEstimate& p = it.estimate.parameters[k];
       const double scale = PageUnit(p.unit).second;
       l.push_back(FiniteOrNull<Json>(p.log10_inverse_information));
       v.push_back(p.value * scale);
@@ -187,6 +192,37 @@ Json EstimatesJson(const std::vector<CampaignIteration>& iterations) {
           {"ci95_low", low},
           {"ci95_high", high},
           {"units", units}};
+}
+
+// The campaign's outcome for the page's summary: the final estimate (every
+// parameter, the adopted effect's too, in the page's units; null bounds
+// where no interval is given), whether its model explains the logs, and
+// each iteration's model, checks and action.
+Json CampaignSummaryJson(const std::vector<CampaignIteration>& iterations) {
+  const CampaignIteration& last = iterations.back();
+  Json estimates = Json::array(), rows = Json::array();
+  for (const ParameterEstimate& p : last.estimate.parameters) {
+    const auto [unit, scale] = PageUnit(p.unit);
+    estimates.push_back({{"name", p.name},
+                         {"unit", unit},
+                         {"value", FiniteOrNull<Json>(p.value * scale)},
+                         {"ci95_low", FiniteOrNull<Json>(p.ci95_low * scale)},
+                         {"ci95_high", FiniteOrNull<Json>(p.ci95_high * scale)},
+                         {"at_bound", p.at_bound}});
+  }
+  for (const CampaignIteration& it : iterations) {
+    rows.push_back({{"index", it.index},
+                    {"logs", it.logs.size()},
+                    {"model", it.model},
+                    {"checks", it.failed_checks},
+                    {"action", it.action}});
+  }
+  const Adequacy& adequacy = last.estimate.adequacy;
+  return {{"model", last.model},
+          {"adequate", adequacy.adequate},
+          {"adequacy_reason", adequacy.reason},
+          {"estimates", estimates},
+          {"iterations", rows}};
 }
 
 // A design run as the page draws it: the evaluated designs and the path.
@@ -566,6 +602,7 @@ Status CampaignJson(const KcrigConfig& config, const fs::path& root,
   summary->campaign = true;
   (*data)["criterion"] = CriterionName(criterion);
   (*data)["estimates"] = EstimatesJson(iterations);
+  (*data)["campaign_summary"] = CampaignSummaryJson(iterations);
   KCRIG_RETURN_IF_ERROR(
       InitialStatesJson(root, iterations, &(*data)["initial_states"]));
   Json experiments = Json::array();

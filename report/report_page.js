@@ -135,6 +135,66 @@
     note(parent, 'residual RMS: ' + rms.join(', '));
   }
 
+  // One screen first: what the work concluded (the final estimates, the
+  // checks and the adopted model, the diagnoses' verdicts, the K&C sheet's
+  // agreement, the loop's budget), before the figures that show why.
+  function diagnosisLine(d) {
+    return d.verdict + (d.model !== d.verdict && d.components.length ?
+                        ' in ' + d.components.join(' and ') : '') +
+           (d.confidence ? ' (confidence ' + d.confidence + ')' : '') +
+           ' \u2014 ' + d.reason;
+  }
+  function campaignSummary(s, c) {
+    var n = c.iterations.length;
+    s.appendChild(el('div', {class: 'verdict'}, 'Campaign: ' + n +
+        ' iteration' + (n === 1 ? '' : 's') + '; final model: ' +
+        (c.model === 'nominal' ? 'nominal' : 'nominal + ' + c.model) +
+        ' \u2014 ' + (c.adequate ? 'explains the logs down to the sensor noise' :
+                      'does not explain the logs: ' + c.adequacy_reason)));
+    s.appendChild(el('h3', {}, 'Final estimates'));
+    var estimates = el('table');
+    row(estimates, ['parameter', 'value', '95 % interval', 'unit'], true);
+    c.estimates.forEach(function (p) {
+      var interval = p.ci95_low === null || p.ci95_high === null ?
+                     'not given' : fmt(p.ci95_low, 5) + ' \u2026 ' + fmt(p.ci95_high, 5);
+      row(estimates, [p.name, fmt(p.value, 5) + (p.at_bound ? ' (on its bound)' : ''),
+                      interval, p.unit]);
+    });
+    s.appendChild(estimates);
+    s.appendChild(el('h3', {}, 'Checks and actions per iteration'));
+    var checks = el('table');
+    row(checks, ['iteration', 'logs', 'model', 'checks', 'action'], true);
+    c.iterations.forEach(function (r) {
+      row(checks, [String(r.index), String(r.logs), r.model, r.checks,
+                   r.action || '']);
+    });
+    s.appendChild(checks);
+  }
+  guarded('summary', function () {
+    var c = data.campaign_summary, diagnoses = data.diagnoses || [];
+    var timings = data.timings || [];
+    if (!c && !diagnoses.length && !data.kc && !timings.length) return;
+    var s = section('summary', 'Summary');
+    if (c) campaignSummary(s, c);
+    var lines = el('ul');
+    diagnoses.forEach(function (d) {
+      lines.appendChild(el('li', {}, 'Diagnosis (' + d.file + '): ' + diagnosisLine(d)));
+    });
+    if (data.kc) {
+      var differ = data.kc.sheet.differing_channels;
+      lines.appendChild(el('li', {}, 'K&C sheet: ' + (differ.length ?
+          'model and rig differ on ' + differ.join(', ') :
+          'model and rig agree on every channel')));
+    }
+    timings.forEach(function (t) {
+      lines.appendChild(el('li', {}, 'Loop timing (' + t.source + '): ' +
+          t.overruns + ' overruns, ' + t.skipped_cycles + ' skipped cycles; budget ' +
+          (t.within_budget === null ? 'not checked' :
+           (t.within_budget ? 'met' : 'VIOLATED'))));
+    });
+    if (lines.children.length) s.appendChild(lines);
+  });
+
   guarded('experiments', function () { if (data.experiments) {
     var s = section('experiments', 'Experiments: measured vs model');
     note(s, 'Each experiment against the ' + data.model_label +
@@ -446,11 +506,7 @@
     var s5 = section('diagnosis', 'Sim-to-real gap diagnosis');
     data.diagnoses.forEach(function (d) {
       s5.appendChild(el('h3', {}, d.file));
-      s5.appendChild(el('div', {class: 'verdict'}, 'verdict: ' + d.verdict +
-                        (d.model !== d.verdict && d.components.length ?
-                         ' in ' + d.components.join(' and ') : '') +
-                        (d.confidence ? ' (confidence ' + d.confidence + ')' : '') +
-                        ' \u2014 ' + d.reason));
+      s5.appendChild(el('div', {class: 'verdict'}, 'verdict: ' + diagnosisLine(d)));
       // Each cell's value written on it (plotly 2.6 heatmaps have no
       // texttemplate).
       var cells = [];

@@ -122,6 +122,21 @@ TEST_F(ReportBrowserTest, EveryFigureRendersInHeadlessChromium) {
   EXPECT_EQ(Attribute(dom, "data-expected"), "19");
   EXPECT_EQ(Attribute(dom, "data-figures"), "19");
   EXPECT_EQ(Attribute(dom, "data-rendered"), "19");
+  // The page opens with its summary: the campaign's outcome, its final
+  // estimates and checks, the diagnosis' verdict, the K&C sheet's agreement
+  // and the loop's budget, before the first time history.
+  const size_t summary = dom.find("<h2>Summary</h2>");
+  ASSERT_NE(summary, std::string::npos);
+  EXPECT_LT(summary, dom.find("<h2>Experiments: measured vs model</h2>"));
+  EXPECT_EQ(dom.find("<section"), dom.find("<section id=\"summary\">"));
+  for (const char* line :
+       {"Campaign: 2 iterations; final model: ", ">Final estimates</h3>",
+        ">Checks and actions per iteration</h3>", "Diagnosis (",
+        "K&amp;C sheet: model and rig", "Loop timing ("}) {
+    const size_t at = dom.find(line, summary);
+    EXPECT_NE(at, std::string::npos) << line;
+    EXPECT_LT(at, dom.find("<h2>Experiments: measured vs model</h2>")) << line;
+  }
   // The K&C sheet's tables: per run the channels, the standard figures and
   // the compliance matrix.
   EXPECT_NE(dom.find(">K&amp;C sheet</h2>"), std::string::npos);

@@ -158,6 +158,27 @@ TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
       EXPECT_GT(estimates["ci95_high"][i][p].get<double>(), v);
     }
   }
+  // The summary the page opens with: the final estimate as the last
+  // iteration's row above, the checks and action of each iteration as
+  // campaign.json wrote them.
+  const Json& outcome = data["campaign_summary"];
+  EXPECT_EQ(outcome["model"], summary["iterations"][1]["model"]);
+  ASSERT_EQ(outcome["estimates"].size(), 5u);
+  for (int p = 0; p < 5; ++p) {
+    const Json& e = outcome["estimates"][p];
+    EXPECT_EQ(e["name"], estimates["parameters"][p]);
+    EXPECT_EQ(e["unit"], "N/mm");
+    EXPECT_EQ(e["value"], estimates["value"][1][p]);
+    EXPECT_EQ(e["ci95_low"], estimates["ci95_low"][1][p]);
+    EXPECT_EQ(e["ci95_high"], estimates["ci95_high"][1][p]);
+  }
+  ASSERT_EQ(outcome["iterations"].size(), 2u);
+  for (int i = 0; i < 2; ++i) {
+    const Json& row = outcome["iterations"][i];
+    EXPECT_EQ(row["index"], i);
+    EXPECT_EQ(row["logs"], i + 1);
+    EXPECT_EQ(row["checks"], summary["iterations"][i]["check"]) << row;
+  }
   // The designed experiment lowers log10 diag((J^T J)^-1) of every
   // parameter (more information).
   for (int p = 0; p < 5; ++p) {
