@@ -73,6 +73,10 @@ Status ReadIteration(const nlohmann::json& node, const std::string& where,
   const nlohmann::json adequacy = node.value("adequacy", nlohmann::json());
   it->estimate.adequacy.adequate =
       !adequacy.is_object() || adequacy.value("verdict", "") == "adequate";
+  if (adequacy.is_object() && adequacy.contains("reason") &&
+      adequacy["reason"].is_string()) {
+    it->estimate.adequacy.reason = adequacy["reason"].get<std::string>();
+  }
   const nlohmann::json prediction = node.value("prediction", nlohmann::json());
   it->prediction.assessed = prediction.is_object();
   it->prediction.adequate =
@@ -100,6 +104,9 @@ Status ReadIteration(const nlohmann::json& node, const std::string& where,
   }
   auto read_list = [&](const char* key, EstimationResult* estimate) {
     const nlohmann::json list = node.value(key, nlohmann::json::array());
+    if (!list.is_array()) {
+      return Status::Error(where + "." + key + ": not a list");
+    }
     for (size_t i = 0; i < list.size(); ++i) {
       KCRIG_RETURN_IF_ERROR(ReadParameterEstimate(
           list[i], where + "." + key + "[" + std::to_string(i) + "]",

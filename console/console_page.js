@@ -308,7 +308,11 @@
   function estimateText(p) {
     const n = p.unit === "N/m" ? 1e-3 : 1;
     const unit = p.unit === "N/m" ? "N/mm" : p.unit;
-    const half = p.ci95 ? 0.5 * (p.ci95[1] - p.ci95[0]) * n : null;
+    // No interval where the estimate gives none: not identifiable, or its
+    // bounds not finite (null).
+    const given = p.ci95 && p.identifiable !== false && p.ci95[0] !== null &&
+        p.ci95[1] !== null;
+    const half = given ? 0.5 * (p.ci95[1] - p.ci95[0]) * n : null;
     return p.name + " " + fmt(p.value * n, 2) +
         (half === null ? " (no interval)" : " ± " + fmt(half, 2)) + " " + unit;
   }

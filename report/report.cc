@@ -151,6 +151,12 @@ std::string IterationName(const fs::path& root, int index) {
       .string();
 }
 
+// An interval's bound as the page shows it: null where the estimate gives
+// none (a parameter the logs do not determine, as the terminal's table).
+Json IntervalBound(const ParameterEstimate& p, double bound) {
+  return p.identifiable ? FiniteOrNull<Json>(bound) : Json(nullptr);
+}
+
 // Per-iteration sensitivities and estimates, in the page's units.
 Json EstimatesJson(const std::vector<CampaignIteration>& iterations) {
   Json names = Json::array(), units = Json::array(), labels = Json::array(),
@@ -177,8 +183,8 @@ Json EstimatesJson(const std::vector<CampaignIteration>& iterations) {
       const double scale = PageUnit(p.unit).second;
       l.push_back(FiniteOrNull<Json>(p.log10_inverse_information));
       v.push_back(p.value * scale);
-      lo.push_back(FiniteOrNull<Json>(p.ci95_low * scale));
-      hi.push_back(FiniteOrNull<Json>(p.ci95_high * scale));
+      lo.push_back(IntervalBound(p, p.ci95_low * scale));
+      hi.push_back(IntervalBound(p, p.ci95_high * scale));
     }
     log10.push_back(l);
     value.push_back(v);
@@ -196,8 +202,9 @@ Json EstimatesJson(const std::vector<CampaignIteration>& iterations) {
 
 // The campaign's outcome for the page's summary: the final estimate (every
 // parameter, the adopted effect's too, in the page's units; null bounds
-// where no interval is given), whether its model explains the logs, and
-// each iteration's model, checks and action.
+// where no interval is given), the checks of its final estimate as the
+// campaign judged them (CampaignCheck: "ok" or what fails) and whether it
+// stopped, and each iteration's model, checks and action.
 Json CampaignSummaryJson(const std::vector<CampaignIteration>& iterations) {
   const CampaignIteration& last = iterations.back();
   Json estimates = Json::array(), rows = Json::array();
@@ -206,8 +213,8 @@ Json CampaignSummaryJson(const std::vector<CampaignIteration>& iterations) {
     estimates.push_back({{"name", p.name},
                          {"unit", unit},
                          {"value", FiniteOrNull<Json>(p.value * scale)},
-                         {"ci95_low", FiniteOrNull<Json>(p.ci95_low * scale)},
-                         {"ci95_high", FiniteOrNull<Json>(p.ci95_high * scale)},
+                         {"ci95_low", IntervalBound(p, p.ci95_low * scale)},
+                         {"ci95_high", IntervalBound(p, p.ci95_high * scale)},
                          {"at_bound", p.at_bound}});
   }
   for (const CampaignIteration& it : iterations) {
@@ -217,10 +224,10 @@ Json CampaignSummaryJson(const std::vector<CampaignIteration>& iterations) {
                     {"checks", it.failed_checks},
                     {"action", it.action}});
   }
-  const Adequacy& adequacy = last.estimate.adequacy;
   return {{"model", last.model},
-          {"adequate", adequacy.adequate},
-          {"adequacy_reason", adequacy.reason},
+          {"check", CampaignCheck(last)},
+          {"action", last.action},
+          {"adequacy_reason", last.estimate.adequacy.reason},
           {"estimates", estimates},
           {"iterations", rows}};
 }

@@ -149,8 +149,12 @@
     s.appendChild(el('div', {class: 'verdict'}, 'Campaign: ' + n +
         ' iteration' + (n === 1 ? '' : 's') + '; final model: ' +
         (c.model === 'nominal' ? 'nominal' : 'nominal + ' + c.model) +
-        ' \u2014 ' + (c.adequate ? 'explains the logs down to the sensor noise' :
-                      'does not explain the logs: ' + c.adequacy_reason)));
+        ' \u2014 ' + (c.check === 'ok' ?
+                      'the final estimates pass every check (fit, prediction, ' +
+                      'consistency)' :
+                      'the final estimates are NOT to be trusted: ' + c.check +
+                      (c.adequacy_reason ? ' (' + c.adequacy_reason + ')' : '') +
+                      (c.action === 'stopped' ? '; the campaign stopped' : ''))));
     s.appendChild(el('h3', {}, 'Final estimates'));
     var estimates = el('table');
     row(estimates, ['parameter', 'value', '95 % interval', 'unit'], true);

@@ -191,7 +191,8 @@ Outcome ReadOutcome(const std::string& dir) {
   for (int i = 0; i < kNumBushings; ++i) {
     const nlohmann::json& p = last["parameters"][i];
     // No interval (a parameter the logs do not determine) covers nothing.
-    const bool interval = p["ci95"].is_array() && p["ci95"][0].is_number() &&
+    const bool interval = p.value("identifiable", true) &&
+                          p["ci95"].is_array() && p["ci95"][0].is_number() &&
                           p["ci95"][1].is_number();
     o.value[i] = p["value"].is_number() ? p["value"].get<double>() : NAN;
     o.low[i] = interval ? p["ci95"][0].get<double>() : NAN;

@@ -163,6 +163,9 @@ TEST_F(ReportCliTest, CampaignReportCarriesEveryFiguresDataInEngineersUnits) {
   // campaign.json wrote them.
   const Json& outcome = data["campaign_summary"];
   EXPECT_EQ(outcome["model"], summary["iterations"][1]["model"]);
+  // The final estimate passes the fit, prediction and consistency checks
+  // (its residual is the noise, above).
+  EXPECT_EQ(outcome["check"], "ok") << outcome;
   ASSERT_EQ(outcome["estimates"].size(), 5u);
   for (int p = 0; p < 5; ++p) {
     const Json& e = outcome["estimates"][p];
