@@ -36,16 +36,6 @@ bool WithinTarget(const EstimationResult& estimate, size_t count,
   return true;
 }
 
-// Parameters [begin, end) of an estimate for campaign.json.
-nlohmann::ordered_json ParametersJson(const EstimationResult& estimate,
-                                      size_t begin, size_t end) {
-  nlohmann::ordered_json list = nlohmann::ordered_json::array();
-  for (size_t i = begin; i < end; ++i) {
-    list.push_back(ParameterEstimateToJson(estimate.parameters[i]));
-  }
-  return list;
-}
-
 Status ReadIteration(const nlohmann::json& node, const std::string& where,
                      CampaignIteration* it) {
   nlohmann::json experiment;
@@ -684,12 +674,12 @@ nlohmann::ordered_json IterationEntry(const CampaignIteration& it) {
       {"model", it.model},
       {"model_step_s", it.model_step > 0 ? nlohmann::ordered_json(it.model_step)
                                          : nlohmann::ordered_json()},
-      {"parameters", ParametersJson(it.estimate, 0, stiffnesses)},
+      {"parameters",
+       ParameterEstimatesToJson(it.estimate.parameters, 0, stiffnesses)},
       {"effect_parameters",
-       ParametersJson(it.estimate, stiffnesses, it.estimate.parameters.size())},
+       ParameterEstimatesToJson(it.estimate.parameters, stiffnesses)},
       {"nominal_parameters",
-       ParametersJson(it.nominal_estimate, 0,
-                      it.nominal_estimate.parameters.size())},
+       ParameterEstimatesToJson(it.nominal_estimate.parameters)},
       {"check", it.failed_checks},
       {"adequacy",
        nlohmann::ordered_json::parse(AdequacyToJson(it.estimate.adequacy))},

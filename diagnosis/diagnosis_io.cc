@@ -1,8 +1,6 @@
 #include "diagnosis/diagnosis_io.h"
 
-#include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <cstdio>
 
 #include "base/json_reader.h"
@@ -57,23 +55,13 @@ Json SliceJson(const GapSlice& s) {
           {"rms", PerChannel(s.rms)}};
 }
 
-// Parameters [begin, end) of a fit (all of them by default).
-Json ParametersJson(const EstimationResult& r, size_t begin = 0,
-                    size_t end = SIZE_MAX) {
-  Json list = Json::array();
-  for (size_t i = begin; i < std::min(end, r.parameters.size()); ++i) {
-    list.push_back(ParameterEstimateToJson(r.parameters[i]));
-  }
-  return list;
-}
-
 Json CandidateJson(const CandidateScore& s) {
   Json out = {{"model", s.model}, {"ok", s.ok}};
   if (!s.ok) {
     out["error"] = s.error;
     return out;
   }
-  out["parameters"] = ParametersJson(s.fit.result);
+  out["parameters"] = ParameterEstimatesToJson(s.fit.result.parameters);
   out["residual_correlation"] = FiniteOrNull(s.fit.result.residual_correlation);
   out["interval_widening"] = FiniteOrNull(s.fit.result.interval_widening);
   out["num_parameters"] = s.num_parameters;
@@ -279,7 +267,8 @@ Json QuantificationJson(const DiagnosisResult& r,
          {"after_standard_error", FiniteOrNull(after.standard_error)},
          {"bias", before.value - after.value}});
   }
-  const Json effect = ParametersJson(chosen.fit.result, kNumBushings);
+  const Json effect =
+      ParameterEstimatesToJson(chosen.fit.result.parameters, kNumBushings);
   return {{"model", chosen.model},
           {"scored_on", r.scoring},
           {"rms_before", r.nominal.heldout ? PerChannel(r.nominal.heldout_rms)

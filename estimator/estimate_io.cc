@@ -192,11 +192,7 @@ std::string EstimationResultToJson(
   nlohmann::ordered_json doc;
   doc["format"] = "kcrig estimate 1";
   doc["logs"] = logs;
-  nlohmann::ordered_json parameters = nlohmann::ordered_json::array();
-  for (const ParameterEstimate& p : result.parameters) {
-    parameters.push_back(ParameterEstimateToJson(p));
-  }
-  doc["parameters"] = parameters;
+  doc["parameters"] = ParameterEstimatesToJson(result.parameters);
   doc["covariance"] = Matrix(result.covariance);
   doc["correlation"] = Matrix(result.correlation);
   doc["information_matrix"] = Matrix(result.information);
@@ -514,6 +510,15 @@ nlohmann::ordered_json ParameterEstimateToJson(const ParameterEstimate& p) {
           {"log10_diag_inv_jtj", FiniteOrNull(p.log10_inverse_information)},
           {"identifiable", p.identifiable},
           {"at_bound", p.at_bound}};
+}
+
+nlohmann::ordered_json ParameterEstimatesToJson(
+    const std::vector<ParameterEstimate>& all, size_t begin, size_t end) {
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  for (size_t i = begin; i < std::min(end, all.size()); ++i) {
+    list.push_back(ParameterEstimateToJson(all[i]));
+  }
+  return list;
 }
 
 Status ReadParameterEstimate(const nlohmann::json& node,

@@ -6,6 +6,8 @@
 #ifndef KCRIG_ESTIMATOR_ESTIMATE_IO_H_
 #define KCRIG_ESTIMATOR_ESTIMATE_IO_H_
 
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -27,6 +29,10 @@ std::string DisplayUnit(const ParameterEstimate& p);
 // value, standard_error, ci95 [low, high], discretisation_bias,
 // log10_diag_inv_jtj, identifiable, at_bound; null for what is not finite.
 nlohmann::ordered_json ParameterEstimateToJson(const ParameterEstimate& p);
+// Parameters [begin, end) of `all` (to its end at most), each as above.
+nlohmann::ordered_json ParameterEstimatesToJson(
+    const std::vector<ParameterEstimate>& all, size_t begin = 0,
+    size_t end = SIZE_MAX);
 
 // Reads one that ParameterEstimateToJson wrote: the name and a finite value
 // required, the rest as written (missing or null: not given, so NaN for the

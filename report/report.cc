@@ -177,8 +177,8 @@ Json EstimatesJson(const std::vector<CampaignIteration>& iterations) {
     Json l = Json::array(), v = Json::array(), lo = Json::array(),
          hi = Json::array();
     // The stiffnesses (an adopted effect's parameters follow them).
-    for (size_t k = 0; k < std::min(names.size(), CampaignParameterCount(it));
-         ++k) {
+    const size_t count = std::min(names.size(), CampaignParameterCount(it));
+    for (size_t k = 0; k < count; ++k) {
       const ParameterEstimate& p = it.estimate.parameters[k];
       const double scale = PageUnit(p.unit).second;
       l.push_back(FiniteOrNull<Json>(p.log10_inverse_information));

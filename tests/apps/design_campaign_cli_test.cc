@@ -17,6 +17,13 @@ namespace fs = std::filesystem;
 
 class DesignCampaignCliTest : public TempDirTest {
  protected:
+  // `kcrig design` with `options`, writing design.json, and what it wrote.
+  CliResult RunDesign(const std::string& options) const {
+    return RunKcrig("design " + options + " --out " + Path("design.json"));
+  }
+  nlohmann::json DesignJson() const {
+    return nlohmann::json::parse(std::ifstream(Path("design.json")));
+  }
   void ExpectCleanFailure(const std::string& arguments,
                           const std::string& expected) {
     const CliResult r = RunKcrig(arguments + " --out " + Path("design.json"));
@@ -28,10 +35,8 @@ class DesignCampaignCliTest : public TempDirTest {
 };
 
 TEST_F(DesignCampaignCliTest, OptimizerComparisonPrintsTableOneColumns) {
-  const CliResult r = RunKcrig(
-      "design --criterion D --optimizer kriging,nlopt:bobyqa --budget 40 "
-      "--out " +
-      Path("design.json"));
+  const CliResult r =
+      RunDesign("--criterion D --optimizer kriging,nlopt:bobyqa --budget 40");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   for (const char* column : {"criterion", "Phi(v0)", "algorithm", "Phi(v*)",
                              "nEv", "wall [s]", "phi [deg]", "z_a [m]"}) {
@@ -39,8 +44,7 @@ TEST_F(DesignCampaignCliTest, OptimizerComparisonPrintsTableOneColumns) {
   }
   EXPECT_NE(r.output.find("kriging"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("nlopt:bobyqa"), std::string::npos) << r.output;
-  const nlohmann::json doc =
-      nlohmann::json::parse(std::ifstream(Path("design.json")));
+  const nlohmann::json doc = DesignJson();
   EXPECT_EQ(doc["criterion"], "D");
   ASSERT_EQ(doc["runs"].size(), 2u);
   const double initial = doc["initial"]["value"];
@@ -57,13 +61,11 @@ TEST_F(DesignCampaignCliTest, OptimizerComparisonPrintsTableOneColumns) {
 // their callbacks and the stop at the budget (the comparison above, which
 // checks the optimum, is numbers: Release only in CI).
 TEST_F(DesignCampaignCliTest, NloptSearchesStopAtTheBudget) {
-  const CliResult r = RunKcrig(
-      "design --criterion A --optimizer nlopt:bobyqa,nlopt:slsqp,nlopt:mma "
-      "--budget 6 --out " +
-      Path("design.json"));
+  const CliResult r = RunDesign(
+      "--criterion A --optimizer nlopt:bobyqa,nlopt:slsqp,nlopt:mma "
+      "--budget 6");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  const nlohmann::json doc =
-      nlohmann::json::parse(std::ifstream(Path("design.json")));
+  const nlohmann::json doc = DesignJson();
   ASSERT_EQ(doc["runs"].size(), 3u);
   for (const nlohmann::json& run : doc["runs"]) {
     EXPECT_LE(run["evaluations"].get<int>(), 6) << run.dump();
